@@ -195,8 +195,8 @@ def arc_from_tip(
     x, y, z = tip[..., 0], tip[..., 1], tip[..., 2]
     rho = np.hypot(x, y)
     phi = np.where(rho == 0.0, 0.0, np.arctan2(y, x)) + 0.0
-    # Candidate 1: the closed form, exact for points on the surface.
-    theta = 2.0 * np.arctan2(rho, z)
+    # Candidate 1: the closed form, exact for points on the surface (θ > π is outside the model).
+    theta = np.minimum(2.0 * np.arctan2(rho, z), np.pi)
     best = _in_plane_distance(theta, rho, z, length)
     # Candidates 2 and 3: for points off the surface, the nearest arc lies in the plane through
     # the point and +Z0, on the point's side (φ) or the opposite side (φ + π, in-plane ρ < 0).
