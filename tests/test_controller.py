@@ -28,11 +28,13 @@ def test_ik_controller_reaches_every_goal_below_a_micrometre(
         reached_at = None
         for t in range(steps_allowed):
             obs, _, _, truncated, info = env.step(controller(obs))
-            if info["distance"] < 1e-6 and reached_at is None:
+            if info["distance"] < 1e-6:
                 reached_at = t + 1
+                break
         assert reached_at is not None, f"seed {seed}: {info['distance']} m left"
-        # ... and it holds the goal once there
-        assert info["distance"] < 1e-6
+        for _ in range(5):  # ... and it holds the goal once there
+            obs, _, _, _, info = env.step(controller(obs))
+            assert info["distance"] < 1e-6
 
 
 def test_controller_predict_matches_sb3_signature_and_batches():
