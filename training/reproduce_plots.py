@@ -1,0 +1,311 @@
+"""Figures of ``python -m training.reproduce`` (matplotlib, Agg, PNG; mm, N and degrees).
+
+Every figure is built on a bare :class:`matplotlib.figure.Figure` (no pyplot state), has a title,
+axis labels with units and a legend, and is written at ``dpi`` (100 by default, a few tens of kB).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from cdcr_gym import kinematics as K
+from cdcr_gym import statics
+
+__all__ = ["make_figures"]
+
+MM = 1e3
+AXIS_COLOURS = {"X": "tab:red", "Y": "tab:green", "Z": "tab:blue"}
+PAPER_SIM_MEAN_MM = 4.95  # the paper's mean CCKA-vs-SolidWorks error
+
+
+def _figure(w: float, h: float, dpi: int):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(w, h), dpi=dpi, layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _save(fig, path: Path, dpi: int) -> Path:
+    fig.savefig(path, dpi=dpi)
+    return path
+
+
+def make_figures(res, out: Path, *, dpi: int = 100) -> dict[str, Path]:
+    """Draw every figure of the study into ``out``; return {key: path}."""
+    out = Path(out)
+    paths = {
+        "fig06": fig06_ccka_sweep(res, out / "fig06_ccka_cable_sweep.png", dpi),
+        "fig07": fig07_ccka_shapes(res, out / "fig07_ccka_shapes.png", dpi),
+        "fig05": fig05_sim_tip(res, out / "fig05_sim_tip_vs_force.png", dpi),
+        "fig10": fig10_sim_vs_ccka(res, out / "fig10_sim_vs_ccka.png", dpi),
+    }
+    ymax = 1.1 * MM * max(float(np.abs(s.error).max()) for s in (res.gravity_off, res.gravity_on))
+    ymax = max(ymax, 1.15 * MM * res.config.threshold_pct / 100.0 * res.config.params.length)
+    paths["fig11"] = fig_error(res, res.gravity_off, out / "fig11_error_gravity_off.png", dpi,
+                               "Fig. 11 analogue — CCKA vs simulation, gravity off", ymax)
+    paths["fig12"] = fig_error(res, res.gravity_on, out / "fig12_error_gravity_on.png", dpi,
+                               "Fig. 12 analogue — CCKA vs simulation, gravity on (upright)", ymax)
+    if len(res.payload) > 1:
+        paths["payload"] = fig_payload(res, out / "fig_payload_error.png", dpi)
+    paths["shapes"] = fig_shapes(res, out / "fig_shapes_vs_arc.png", dpi)
+    if res.resolution_disks or res.resolution_links:
+        paths["resolution"] = fig_resolution(res, out / "fig_resolution.png", dpi)
+    return paths
+
+
+# ---------------------------------------------------------------------------------------------
+def fig06_ccka_sweep(res, path: Path, dpi: int) -> Path:
+    c = res.ccka
+    ell = res.config.params.length
+    fig = _figure(11, 4, dpi)
+    a, b = fig.subplots(1, 2)
+    dl = c.dl * MM
+    a.plot(dl, c.lengths[:, 0] * MM, color="tab:red", label="l1 = ℓ − Δl (cable 1)")
+    a.plot(dl, c.lengths[:, 1] * MM, color="tab:green", label="l2 = ℓ + Δl/2 (cable 2)")
+    a.plot(dl, c.lengths[:, 2] * MM, color="tab:blue", ls="--", label="l3 = ℓ + Δl/2 (cable 3)")
+    a.axhline(ell * MM, color="0.5", lw=0.8, ls=":", label=f"ℓ = {ell * MM:g} mm")
+    a.set(xlabel="Δl (mm)", ylabel="cable length (mm)", title="(a) input: cable lengths")
+    a.legend(fontsize=8)
+    for i, ax_name in enumerate("XYZ"):
+        b.plot(dl, c.tip[:, i] * MM, color=AXIS_COLOURS[ax_name], label=f"tip {ax_name}")
+    top = b.secondary_xaxis("top", functions=(lambda x: np.degrees(x / (res.config.params.cable_radius * MM)),
+                                              lambda d: np.radians(d) * res.config.params.cable_radius * MM))
+    top.set_xlabel("bending angle θ = Δl/r (degrees)")
+    b.set(xlabel="Δl (mm)", ylabel="tip position (mm)", title="(b) output: CCKA tip (eq. 5)")
+    b.legend(fontsize=8)
+    for ax in (a, b):
+        ax.grid(alpha=0.3)
+    fig.suptitle("Fig. 6 analogue — CCKA alone: l1 = ℓ − Δl, l2 = l3 = ℓ + Δl/2")
+    return _save(fig, path, dpi)
+
+
+def fig07_ccka_shapes(res, path: Path, dpi: int) -> Path:
+    import matplotlib as mpl
+
+    c = res.ccka
+    p = res.config.params
+    fig = _figure(11, 5, dpi)
+    a = fig.add_subplot(1, 2, 1, projection="3d")
+    b = fig.add_subplot(1, 2, 2)
+    cmap = mpl.colormaps["viridis"]
+    n = len(c.shape_dl)
+    for k, (dl, pts) in enumerate(zip(c.shape_dl, c.shapes)):
+        colour = cmap(k / max(n - 1, 1))
+        theta = dl / p.cable_radius
+        label = f"Δl = {dl * MM:.1f} mm (θ = {math.degrees(theta):.0f}°)"
+        q = pts * MM
+        a.plot(q[:, 0], q[:, 1], q[:, 2], color=colour, lw=2, label=label)
+        b.plot(q[:, 0], q[:, 2], color=colour, lw=2, label=label)
+        th, ph, _ = K.arc_from_lengths(
+            np.array([p.length - dl, p.length + dl / 2, p.length + dl / 2]), p.cable_radius)
+        disks = K.backbone_points(th, ph, p.length, n=p.n_disks + 1) * MM
+        a.scatter(disks[:, 0], disks[:, 1], disks[:, 2], color=colour, s=8)
+        b.scatter(disks[:, 0], disks[:, 2], color=colour, s=10)
+    reach = p.length * MM
+    a.set_xlim(0, reach)
+    a.set_ylim(-reach / 2, reach / 2)
+    a.set_zlim(0, reach)
+    a.set_xlabel("X0 (mm)")
+    a.set_ylabel("Y0 (mm)")
+    a.set_zlabel("Z0 (mm)")
+    a.set_title("(a) backbones in 3-D (dots: disks)")
+    a.view_init(elev=20, azim=-60)
+    b.set_aspect("equal")
+    b.set(xlabel="X0 (mm)", ylabel="Z0 (mm)", title="(b) in the bending plane (φ = 0)")
+    b.grid(alpha=0.3)
+    b.legend(fontsize=8, loc="lower right")
+    fig.suptitle("Fig. 7 analogue — CCKA backbone shapes for a few Δl")
+    return _save(fig, path, dpi)
+
+
+def _elastica_tips(res, forces: np.ndarray) -> np.ndarray:
+    p = res.config.params
+    t = np.zeros((forces.size, 3))
+    t[:, 0] = forces
+    theta, phi = statics.arc_from_tensions(t, p)
+    return K.tip_from_arc(theta, phi, p.length)
+
+
+def fig05_sim_tip(res, path: Path, dpi: int) -> Path:
+    off, on = res.gravity_off, res.gravity_on
+    fig = _figure(12, 4, dpi)
+    axes = fig.subplots(1, 3, sharex=True)
+    fine = np.linspace(0.0, float(off.forces[-1]), 101)
+    el = _elastica_tips(res, fine)
+    for i, (ax, name) in enumerate(zip(axes, "XYZ")):
+        ax.plot(off.forces, off.tip_sim[:, i] * MM, "o-", ms=3, color="tab:blue",
+                label="pybullet, gravity off")
+        ax.plot(on.forces, on.tip_sim[:, i] * MM, "s--", ms=3, color="tab:orange",
+                label="pybullet, gravity on")
+        ax.plot(fine, el[:, i] * MM, ":", color="k", label="elastica θ = T·r·ℓ/EI")
+        ax.set(xlabel="tension on cable 1 (N)", ylabel=f"tip {name} (mm)", title=f"tip {name}")
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    fig.suptitle("Fig. 5 analogue — physics alone: settled tip vs tension on cable 1")
+    return _save(fig, path, dpi)
+
+
+def fig10_sim_vs_ccka(res, path: Path, dpi: int) -> Path:
+    off, on = res.gravity_off, res.gravity_on
+    fig = _figure(12, 4, dpi)
+    axes = fig.subplots(1, 3, sharex=True)
+    for i, (ax, name) in enumerate(zip(axes, "XYZ")):
+        ax.plot(off.forces, off.tip_sim[:, i] * MM, "-", color="tab:blue",
+                label="simulation, gravity off")
+        ax.plot(off.forces, off.tip_ccka[:, i] * MM, "o", mfc="none", color="tab:blue",
+                label="CCKA from sensed lengths, gravity off")
+        ax.plot(on.forces, on.tip_sim[:, i] * MM, "--", color="tab:orange",
+                label="simulation, gravity on")
+        ax.plot(on.forces, on.tip_ccka[:, i] * MM, "x", color="tab:orange",
+                label="CCKA from sensed lengths, gravity on")
+        ax.set(xlabel="tension on cable 1 (N)", ylabel=f"tip {name} (mm)", title=f"tip {name}")
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=7)
+    fig.suptitle("Fig. 10 analogue — simulated tip vs CCKA tip from the simulated cable lengths")
+    return _save(fig, path, dpi)
+
+
+def fig_error(res, s, path: Path, dpi: int, title: str, ymax: float) -> Path:
+    ell = res.config.params.length
+    thr = res.config.threshold_pct / 100.0 * ell * MM
+    fig = _figure(8, 4.5, dpi)
+    ax = fig.subplots()
+    err = np.abs(s.error) * MM
+    for i, name in enumerate("XYZ"):
+        ax.plot(s.forces, err[:, i], "o-", ms=3, color=AXIS_COLOURS[name], label=f"|error {name}|")
+    ax.plot(s.forces, s.error_norm * MM, "k-", lw=2, label="Euclidean error")
+    ax.axhline(thr, color="0.4", ls="--", lw=1,
+               label=f"{res.config.threshold_pct:g} % of ℓ = {thr:.2f} mm")
+    ax.axhline(PAPER_SIM_MEAN_MM, color="tab:purple", ls=":", lw=1.2,
+               label=f"paper: mean CCKA vs SolidWorks = {PAPER_SIM_MEAN_MM} mm")
+    ax.set(xlabel="tension on cable 1 (N)", ylabel="CCKA − simulation (mm)", title=title,
+           ylim=(0, ymax))
+    sec = ax.secondary_yaxis("right", functions=(lambda v: 100 * v / (ell * MM),
+                                                  lambda q: q * ell * MM / 100))
+    sec.set_ylabel("error (% of ℓ)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="upper left")
+    return _save(fig, path, dpi)
+
+
+def fig_payload(res, path: Path, dpi: int) -> Path:
+    import matplotlib as mpl
+
+    ell = res.config.params.length
+    thr = res.config.threshold_pct / 100.0 * ell * MM
+    fig = _figure(12, 4.5, dpi)
+    a, b = fig.subplots(1, 2)
+    cmap = mpl.colormaps["plasma"]
+    n = len(res.payload)
+    for k, s in enumerate(res.payload):
+        a.plot(s.forces, s.error_norm * MM, "o-", ms=3, color=cmap(0.85 * k / max(n - 1, 1)),
+               label=f"payload {s.payload * MM:g} g")
+    a.axhline(thr, color="0.4", ls="--", lw=1, label=f"{res.config.threshold_pct:g} % of ℓ")
+    a.set(xlabel="tension on cable 1 (N)", ylabel="Euclidean CCKA error (mm)",
+          title="(a) error vs tension, per tip payload (gravity on)")
+    a.grid(alpha=0.3)
+    a.legend(fontsize=8)
+    g = np.array([s.payload for s in res.payload]) * MM
+    mean = np.array([s.error_norm.mean() for s in res.payload]) * MM
+    mx = np.array([s.error_norm.max() for s in res.payload]) * MM
+    b.plot(g, mean, "o-", color="tab:blue", label="mean over 0–%g N" % res.payload[0].forces[-1])
+    b.plot(g, mx, "s-", color="tab:red", label="max over the sweep")
+    b.axhline(thr, color="0.4", ls="--", lw=1, label=f"{res.config.threshold_pct:g} % of ℓ")
+    b.axhline(PAPER_SIM_MEAN_MM, color="tab:purple", ls=":", lw=1.2,
+              label=f"paper: mean vs SolidWorks ({PAPER_SIM_MEAN_MM} mm)")
+    b.set(xlabel="tip payload (g)", ylabel="Euclidean CCKA error (mm)",
+          title="(b) error vs tip payload")
+    sec = b.secondary_yaxis("right", functions=(lambda v: 100 * v / (ell * MM),
+                                                 lambda q: q * ell * MM / 100))
+    sec.set_ylabel("error (% of ℓ)")
+    b.grid(alpha=0.3)
+    b.legend(fontsize=8)
+    fig.suptitle("Beyond the paper — CCKA error with a tip payload")
+    return _save(fig, path, dpi)
+
+
+def _plane_coords(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(in-plane horizontal X0, Z0) for drawing: the study bends in the X0–Z0 plane (φ = 0)."""
+    return points[:, 0], points[:, 2]
+
+
+def fig_shapes(res, path: Path, dpi: int) -> Path:
+    p = res.config.params
+    panels = [("(a) upright base", [res.gravity_off, res.gravity_on,
+                                    *(res.payload[-1:] if res.payload[-1].payload > 0 else [])])]
+    if res.horizontal is not None:
+        panels.append(("(b) horizontal base (gravity along +X0 of the robot's frame)",
+                       [res.horizontal]))
+    fig = _figure(6 * len(panels), 5.5, dpi)
+    axes = np.atleast_1d(fig.subplots(1, len(panels)))
+    colours = ["tab:blue", "tab:orange", "tab:red", "tab:green", "tab:purple"]
+    for ax, (title, sweeps) in zip(axes, panels):
+        k = 0
+        for s in sweeps:
+            for force, pts in sorted(s.shapes.items()):
+                if len(sweeps) > 1 and force != max(s.shapes):
+                    continue
+                colour = colours[k % len(colours)]
+                k += 1
+                i = int(np.argmin(np.abs(s.forces - force)))
+                th, ph, _ = K.arc_from_lengths(s.lengths[i], p.cable_radius)
+                arc = K.backbone_points(th, ph, s.lengths[i].mean(), n=60)
+                x, z = _plane_coords(pts * MM)
+                ax.plot(x, z, "-", color=colour, lw=2,
+                        label=f"{s.label}, {force:g} N: simulation")
+                xa, za = _plane_coords(arc * MM)
+                ax.plot(xa, za, "--", color=colour, lw=1.2,
+                        label=f"CCKA arc (error {1e3 * s.error_norm[i]:.1f} mm)")
+        ax.set_aspect("equal")
+        ax.set(xlabel="X0 (mm)", ylabel="Z0 (mm)", title=title)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7, loc="lower right" if len(sweeps) > 1 else "best")
+    fig.suptitle("Simulated backbones vs the CCKA arcs from their sensed cable lengths")
+    return _save(fig, path, dpi)
+
+
+def fig_resolution(res, path: Path, dpi: int) -> Path:
+    p = res.config.params
+    fig = _figure(12, 4.5, dpi)
+    a, b = fig.subplots(1, 2)
+    series = [
+        ("more disks (1 link per span)", res.resolution_disks, "o-", "tab:blue"),
+        (f"{p.n_disks} disks, more links per span", res.resolution_links, "s--", "tab:orange"),
+    ]
+    theta_el = None
+    for label, sweeps, style, colour in series:
+        if not sweeps:
+            continue
+        links = np.array([s.n_disks * s.links_per_span for s in sweeps])
+        mean = np.array([s.error_norm.mean() for s in sweeps]) * MM
+        mx = np.array([s.error_norm.max() for s in sweeps]) * MM
+        a.plot(links, mx, style, color=colour, label=f"{label}: max")
+        a.plot(links, mean, style, color=colour, alpha=0.5, label=f"{label}: mean")
+        theta = np.degrees([s.theta_sim[-1] for s in sweeps])
+        b.plot(links, theta, style, color=colour, label=label)
+        for s, x, y in zip(sweeps, links, theta):
+            b.annotate(f"{s.n_disks}×{s.links_per_span}", (x, y), textcoords="offset points",
+                       xytext=(3, 4), fontsize=7, color=colour)
+        f_top = float(sweeps[0].forces[-1])
+        theta_el = math.degrees(
+            float(statics.arc_from_tensions(np.array([f_top, 0.0, 0.0]), p)[0]))
+    a.set_xscale("log", base=2)
+    a.set(xlabel="number of links (disks × links per span)",
+          ylabel="Euclidean CCKA error (mm)", title="(a) CCKA error, gravity off")
+    a.grid(alpha=0.3, which="both")
+    a.legend(fontsize=7)
+    if theta_el is not None:
+        b.axhline(theta_el, color="k", ls=":", label=f"continuous elastica ({theta_el:.1f}°)")
+    b.set_xscale("log", base=2)
+    f_top = float((res.resolution_disks or res.resolution_links)[0].forces[-1])
+    b.set(xlabel="number of links (disks × links per span)", ylabel="bending angle θ (degrees)",
+          title=f"(b) bending angle at {f_top:g} N (from the tip)")
+    b.grid(alpha=0.3, which="both")
+    b.legend(fontsize=7)
+    fig.suptitle("Beyond the paper — model resolution (gravity off)")
+    return _save(fig, path, dpi)
