@@ -34,6 +34,13 @@ def test_gymnasium_and_sb3_check_env_pass_without_warnings(mode, goal_conditione
     env.close()
 
 
+def test_check_env_with_rgb_array_rendering():
+    env = gym.make(ENV_ID, render_mode="rgb_array")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        gym_check_env(env.unwrapped)
+
+
 def test_module_colon_id_works_in_a_fresh_interpreter():
     code = (
         "import gymnasium as gym, sys\n"
