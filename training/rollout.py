@@ -1,0 +1,234 @@
+"""Fixed-goal evaluation episodes, run in lockstep over many envs, for any policy.
+
+Used by the periodic evaluation during training (``training.train``) and by
+``training.evaluate``. A *policy* here is a function from a batch of observations (b, obs_dim)
+to a batch of actions (b, 3): a PPO model behind its VecNormalize statistics
+(:class:`PPOPolicy`) or the analytic-IK controller (``cdcr_gym.controllers``), so both run on
+exactly the same goals and starting shapes.
+
+Episode specs (goal, starting tensions) are drawn by resetting a CCKA env with seeds
+``seed, seed + 1, ...``: the goal and start sampling depends only on the robot parameters and the
+seed, not on the backend, so the same specs serve every backend, and the IK controller and the
+policy are put on them with ``reset(options={"goal": ..., "initial_tensions": ...})``.
+"""
+
+from __future__ import annotations
+
+import pickle
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from cdcr_gym.backends.analytic import AnalyticBackend
+from cdcr_gym.envs.reach import ReachEnv
+
+__all__ = [
+    "EpisodeSpecs",
+    "Rollouts",
+    "PPOPolicy",
+    "make_specs",
+    "make_env",
+    "run_episodes",
+    "error_stats",
+    "summarize",
+]
+
+PolicyFn = Callable[[np.ndarray], np.ndarray]
+
+
+@dataclass
+class EpisodeSpecs:
+    """Goals (n, 3) m and starting tensions (n, 3) N of n evaluation episodes."""
+
+    goals: np.ndarray
+    initial_tensions: np.ndarray
+    initial_state: str
+    seed: int
+
+    def __len__(self) -> int:
+        return len(self.goals)
+
+
+@dataclass
+class Rollouts:
+    """What happened in n episodes of ``horizon`` steps (arrays float64, SI units)."""
+
+    distances: np.ndarray  # (n, horizon + 1) tip-to-goal distance after reset and each step, m
+    final_tip: np.ndarray  # (n, 3) m
+    final_tensions: np.ndarray  # (n, 3) N
+    final_lengths: np.ndarray  # (n, 3) m
+    returns: np.ndarray  # (n,) sum of rewards
+    episode_length: np.ndarray  # (n,) steps actually taken (< horizon if terminated)
+    goals: np.ndarray  # (n, 3) m
+    trajectories: list[np.ndarray] | None = None  # tips (steps + 1, 3) per episode, if recorded
+
+    @property
+    def final_distance(self) -> np.ndarray:
+        """(n,) final tip error, m."""
+        return self.distances[:, -1]
+
+
+def make_specs(
+    n: int, seed: int, initial_state: str = "straight", params: Any = None
+) -> EpisodeSpecs:
+    """Goals and starting tensions of ``n`` episodes, drawn with reset seeds seed + i."""
+    env = ReachEnv(AnalyticBackend(params), initial_state=initial_state)
+    goals = np.empty((n, 3))
+    starts = np.empty((n, 3))
+    for i in range(n):
+        _, info = env.reset(seed=seed + i)
+        goals[i] = info["goal"]
+        starts[i] = info["tensions"]
+    env.close()
+    return EpisodeSpecs(goals, starts, initial_state, seed)
+
+
+def make_env(
+    env_id: str,
+    env_kwargs: dict[str, Any] | None = None,
+    max_episode_steps: int | None = None,
+    render_mode: str | None = None,
+) -> gym.Env:
+    """``gymnasium.make(env_id, **env_kwargs)`` with an optional episode length and render mode.
+
+    A ``params`` entry given as a mapping (from YAML) becomes a ``RobotParams``.
+    """
+    kwargs = dict(env_kwargs or {})
+    if isinstance(kwargs.get("params"), dict):
+        from cdcr_gym.params import RobotParams
+
+        kwargs["params"] = RobotParams(**kwargs["params"])
+    if render_mode is not None:
+        kwargs["render_mode"] = render_mode
+    if max_episode_steps is not None:
+        kwargs["max_episode_steps"] = max_episode_steps
+    return gym.make(env_id, **kwargs)
+
+
+class PPOPolicy:
+    """A saved PPO model and its VecNormalize statistics as a batched, deterministic policy.
+
+    Args:
+        model_path: the ``.zip`` saved by stable-baselines3.
+        vecnormalize_path: the pickled ``VecNormalize`` of the run (None: no normalisation).
+        device: torch device.
+    """
+
+    def __init__(
+        self, model_path: str | Path, vecnormalize_path: str | Path | None, device: str = "cpu"
+    ) -> None:
+        from stable_baselines3 import PPO
+
+        # The schedules are not needed to act; replacing them avoids unpickling closures.
+        custom = {"learning_rate": 0.0, "lr_schedule": lambda _: 0.0, "clip_range": lambda _: 0.0}
+        self.model = PPO.load(str(model_path), device=device, custom_objects=custom)
+        self.obs_normalizer = None
+        if vecnormalize_path is not None:
+            with open(vecnormalize_path, "rb") as f:
+                vecnorm = pickle.load(f)
+            vecnorm.training = False
+            self.obs_normalizer = vecnorm
+
+    @classmethod
+    def from_model(cls, model: Any, vecnorm: Any | None) -> PPOPolicy:
+        """Wrap a live model (and its live VecNormalize, whose current statistics are used)."""
+        self = cls.__new__(cls)
+        self.model = model
+        self.obs_normalizer = vecnorm
+        return self
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        if self.obs_normalizer is not None:
+            obs = self.obs_normalizer.normalize_obs(obs)
+        action, _ = self.model.predict(obs, deterministic=True)
+        return action
+
+
+def run_episodes(
+    env_fn: Callable[[], gym.Env],
+    policy: PolicyFn,
+    specs: EpisodeSpecs,
+    horizon: int,
+    batch_size: int = 50,
+    record_trajectories: bool = False,
+) -> Rollouts:
+    """Run one episode per spec, ``horizon`` steps each, ``batch_size`` envs in lockstep.
+
+    ``env_fn`` makes one env (its own TimeLimit must not be shorter than ``horizon``). An
+    episode that terminates (``terminate_on_success``) keeps its terminal state from then on.
+    """
+    n = len(specs)
+    distances = np.empty((n, horizon + 1))
+    final_tip = np.empty((n, 3))
+    final_tensions = np.empty((n, 3))
+    final_lengths = np.empty((n, 3))
+    returns = np.zeros(n)
+    lengths = np.full(n, horizon)
+    trajectories: list[np.ndarray] | None = [] if record_trajectories else None
+    envs = [env_fn() for _ in range(min(batch_size, n))]
+    try:
+        for start in range(0, n, len(envs)):
+            idx = np.arange(start, min(start + len(envs), n))
+            obs_list, infos = [], []
+            for env, i in zip(envs, idx, strict=False):
+                obs, info = env.reset(
+                    options={"goal": specs.goals[i], "initial_tensions": specs.initial_tensions[i]}
+                )
+                obs_list.append(obs)
+                infos.append(info)
+            obs = np.stack(obs_list)
+            alive = np.ones(len(idx), dtype=bool)
+            tips = [[info["tip"]] for info in infos]
+            distances[idx, 0] = [info["distance"] for info in infos]
+            for t in range(1, horizon + 1):
+                actions = np.asarray(policy(obs))
+                for k, (env, i) in enumerate(zip(envs, idx, strict=False)):
+                    if alive[k]:
+                        o, reward, terminated, truncated, info = env.step(actions[k])
+                        obs[k] = o
+                        infos[k] = info
+                        returns[i] += reward
+                        if terminated or (truncated and t < horizon):
+                            alive[k] = False
+                            lengths[i] = t
+                    distances[i, t] = infos[k]["distance"]
+                    if record_trajectories and alive[k]:
+                        tips[k].append(infos[k]["tip"])
+            for k, i in enumerate(idx):
+                final_tip[i] = infos[k]["tip"]
+                final_tensions[i] = infos[k]["tensions"]
+                final_lengths[i] = infos[k]["cable_lengths"]
+                if trajectories is not None:
+                    trajectories.append(np.asarray(tips[k]))
+    finally:
+        for env in envs:
+            env.close()
+    return Rollouts(
+        distances, final_tip, final_tensions, final_lengths, returns, lengths,
+        specs.goals.copy(), trajectories,
+    )
+
+
+def error_stats(values: np.ndarray, scale: float = 1.0) -> dict[str, float]:
+    """``mean``, ``median``, ``p95``, ``max`` of ``values`` × ``scale``."""
+    v = np.asarray(values, dtype=np.float64) * scale
+    return {
+        "mean": float(np.mean(v)),
+        "median": float(np.median(v)),
+        "p95": float(np.percentile(v, 95)),
+        "max": float(np.max(v)),
+    }
+
+
+def summarize(final_distance: np.ndarray, threshold: float) -> dict[str, Any]:
+    """Success rate (at ``threshold`` m), fraction within 1 mm and error statistics in mm."""
+    d = np.asarray(final_distance, dtype=np.float64)
+    return {
+        "success_rate": float(np.mean(d <= threshold)),
+        "within_1mm": float(np.mean(d <= 0.001)),
+        "error_mm": error_stats(d, 1000.0),
+    }
