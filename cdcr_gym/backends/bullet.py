@@ -1,0 +1,1027 @@
+"""pybullet multibody backend: the backbone as a chain of rigid links with elastic 2-DOF joints.
+
+The model (derivations and measured numbers in ``docs/bullet_backend.md``)
+=========================================================================
+
+Discretisation and joint placement
+    The backbone of length ℓ carries a fixed base disk at s = 0 and ``n_disks`` spacer disks at
+    s_k = k·h (h = ℓ/n_disks, the last at the tip). Each disk span is cut into ``links_per_span``
+    = m pieces of length Δs = h/m, so there are n = n_disks·m *rod stations* s_j = j·Δs,
+    j = 0..n (every m-th station carries a disk). The joints sit **half-way between stations**,
+    at s = (j − ½)·Δs, j = 1..n; rigid link j runs from joint j to joint j+1 and is centred on
+    station j. The base body holds the half link [0, Δs/2] (clamped), the tip link is the half
+    link [ℓ − Δs/2, ℓ] with the tip disk at its end. Why this placement (a staggered grid):
+
+    * every disk sits at the middle of a straight link, so for a bent backbone it lies on the
+      arc and is normal to the arc's tangent there to O(α²) (α = κΔs, the joint angle); joints
+      at the disks would tilt each disk by α/2 (first order);
+    * every joint's share of the rod (its Voronoi cell) is exactly Δs, end joints included, so
+      one stiffness EI/Δs serves all joints and a pure moment M bends the chain through exactly
+      θ = M·ℓ/EI for any n;
+    * a joint never coincides with a pinhole, so exactly one straight segment of each cable
+      crosses each joint: its generalized force is one cross product (below);
+    * convergence: with the cable straight between pinholes, a joint at fraction u of a disk
+      span sees the moment arm r + (h²κ/2)·u(1−u) + h²κ/(8m²) (the arc's sagitta plus the
+      polygon vertex's excess over the arc). Averaged over the m joints of a span this is
+      r + (h²κ/12)·(1 + 2/m²): as m → ∞ the model converges (O(1/m²)) to a continuous rod with
+      discrete disks (span-mean arm r + h²κ/12, the physical discrete-routing effect), and as
+      n_disks → ∞ (h → 0) to the elastica θ = T·r·ℓ/EI. With m = 1 the discrete-routing excess
+      is 3× the physical one; joints at the disks would instead give the factor (1 − 1/m²),
+      i.e. no discrete-routing effect at all at m = 1, plus the disk tilt above.
+
+2-DOF joints without twist or extension
+    Each joint is a Cardan (universal) joint: a revolute joint about the parent's X axis into a
+    massless intermediate link at the same point, then a revolute joint about that link's Y
+    axis into the real link. Two revolute coordinates per joint keep the generalized
+    coordinates linear (no quaternions), so the joint stiffness is the diagonal matrix
+    K = EI/Δs·I and the cable Jacobians are single cross products; the joint cannot twist
+    about the backbone or extend along it.
+
+Cable loads
+    Cable i is frictionless and anchored at the tip disk, so its tension T_i is uniform and its
+    potential is T_i·l_i(q) with l_i the sum of straight pinhole-to-pinhole segment lengths.
+    The backend applies the generalized forces τ = −Σ_i T_i ∂l_i/∂q. For joint j (axes a, point
+    o, world frame) inside disk span k the only segment of cable i that depends on q_j is the
+    one from pinhole p_k to p_{k+1}; with u its unit vector,
+    ∂l_i/∂q_j = u·(a × (p_{k+1} − o)) = a·((p_{k+1} − o) × u), so
+    τ_j = −Σ_i T_i·a·((p_{k+1,i} − o) × u_{k,i}). This equals the virtual work of the point
+    forces ∓T_i·u at the two pinholes of every segment (forces on joints proximal to both
+    pinholes cancel because they are collinear); tests check it by finite differences.
+
+Implicit spring–damper integration
+    pybullet has no joint springs. The default motors are switched off and every physics step
+    applies a joint torque. The joint stiffness is stiff (9 links: highest mode ≈ 1 840 rad/s,
+    so an explicit spring diverges above h ≈ 2/ω ≈ 1 ms), so stiffness and damping are treated
+    by backward Euler: with M = ``calculateMassMatrix(q)`` and b(q, q̇) =
+    ``calculateInverseDynamics(q, q̇, 0)`` (gravity + Coriolis),
+    (M + hD + h²K)·Δq̇ = h·(τ_cable − b − K·q − (D + hK)·q̇),   q̇⁺ = q̇ + Δq̇,
+    and the torque sent to pybullet is τ = τ_cable − K·(q + h·q̇⁺) − D·q̇⁺. pybullet's own
+    semi-implicit Euler step (q̇⁺ = q̇ + h·M⁻¹(τ − b), q⁺ = q + h·q̇⁺) then reproduces the
+    backward-Euler update exactly, which is unconditionally stable for the linear spring and
+    damper. Cable and gravity loads stay explicit; their stiffness (≲ 3·T·Δs/4 per joint for
+    the cables, m·g·L for gravity) is a fraction of EI/Δs, which keeps the step stable.
+    A state at rest is an equilibrium of the update iff K·q = τ_cable(q) − b(q, 0): the
+    settled state is the static solution, independent of h.
+
+Damping
+    Per-joint, stiffness-proportional (Kelvin–Voigt material damping of the rod): D = β·K with
+    β = 2ζ/ω₁, where ω₁ is the first bending mode of the linearised chain at the straight pose
+    (generalized eigenproblem K·v = ω²·M·v, computed at construction) and ζ = ``damping_ratio``.
+    Higher modes are over-damped and relax at ≈ 1/β = ω₁/(2ζ); the default ζ = 0.7 balances the
+    first mode (decay ζω₁) against those, for the fastest settling (numbers in the docs).
+
+Masses
+    Rod: linear density ``params.backbone_linear_density`` (solid cylinder of diameter d).
+    Disks: solid disks of ``disk_mass``, radius ``disk_radius``, thickness ``disk_thickness``
+    (the pinholes and centre bore are neglected). Each link carries its rod piece, its disk
+    (if its station is a disk station) and, at the tip, ``tip_payload`` as a point mass. The
+    base body's half link and base disk are clamped and carry no dynamics.
+
+Frames
+    The base frame R0 is the base disk centre with the backbone along +Z0 and cable 1 at +X0.
+    ``base_orientation`` places R0 in the world (pybullet's frame, gravity −Z_world). Every
+    position this backend returns (:attr:`tip`, :meth:`backbone_points`) is expressed in R0
+    unless stated otherwise (:attr:`tip_world`, ``backbone_points(frame="world")``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import math
+import os
+import sys
+import time
+import weakref
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from cdcr_gym.backends.base import Backend
+from cdcr_gym.params import CABLE_ANGLES, RobotParams
+
+__all__ = ["BulletBackend", "SimulationDivergedError"]
+
+#: A joint whose angle exceeds this (rad) or whose rate exceeds ``_MAX_JOINT_RATE`` (rad/s) is
+#: taken as a diverged simulation (a real spacer-disk span never kinks by 90°).
+_MAX_JOINT_ANGLE = 0.5 * math.pi
+_MAX_JOINT_RATE = 1.0e3
+_GRAVITY = 9.81
+
+
+class SimulationDivergedError(RuntimeError):
+    """The simulation produced a non-finite or exploding state.
+
+    Attributes:
+        state: dict with the offending ``joint_positions`` (rad), ``joint_velocities`` (rad/s),
+            ``tensions`` (N) and simulated ``time`` (s), as numpy arrays / float.
+    """
+
+    def __init__(self, message: str, state: dict):
+        super().__init__(message)
+        self.state = state
+
+
+# --------------------------------------------------------------------------------------------
+# pybullet import and connection without start-up banners
+# --------------------------------------------------------------------------------------------
+
+
+@contextlib.contextmanager
+def _silenced_stdio() -> Iterator[None]:
+    """Redirect the C-level file descriptors 1 and 2 to /dev/null for the duration.
+
+    pybullet prints banners from C (``pybullet build time`` at import, GL/thread information
+    at connect) straight to the process's stdout/stderr, bypassing ``sys.stdout``. We flush
+    Python's and C's buffers, point fds 1 and 2 at /dev/null, and restore them afterwards.
+    Output written by other threads in that short window is lost as well.
+    """
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
+    libc = _libc()
+    if libc is not None:
+        libc.fflush(None)
+    saved = []
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+    except OSError:  # pragma: no cover - no /dev/null: just run unsilenced
+        yield
+        return
+    try:
+        for fd in (1, 2):
+            try:
+                saved.append((fd, os.dup(fd)))
+                os.dup2(devnull, fd)
+            except OSError:  # pragma: no cover - fd not open
+                pass
+        yield
+    finally:
+        if libc is not None:
+            libc.fflush(None)
+        for fd, copy in saved:
+            os.dup2(copy, fd)
+            os.close(copy)
+        os.close(devnull)
+
+
+_LIBC: ctypes.CDLL | None | bool = False
+
+
+def _libc() -> ctypes.CDLL | None:
+    global _LIBC
+    if _LIBC is False:
+        try:
+            _LIBC = ctypes.CDLL(None)
+        except OSError:  # pragma: no cover
+            _LIBC = None
+    return _LIBC  # type: ignore[return-value]
+
+
+_PYBULLET = None
+
+
+def _pybullet():
+    """Import pybullet once, silently (its import prints a build-time banner from C)."""
+    global _PYBULLET
+    if _PYBULLET is None:
+        if "pybullet" in sys.modules:
+            import pybullet
+        else:
+            with _silenced_stdio():
+                import pybullet
+        _PYBULLET = pybullet
+    return _PYBULLET
+
+
+def _disconnect(client: int) -> None:
+    """Disconnect a pybullet client if it is still connected (finalizer; never raises)."""
+    pb = _PYBULLET
+    if pb is None:  # pragma: no cover
+        return
+    with contextlib.suppress(Exception):
+        if pb.getConnectionInfo(physicsClientId=client)["isConnected"]:
+            pb.disconnect(physicsClientId=client)
+
+
+# --------------------------------------------------------------------------------------------
+# small numerics
+# --------------------------------------------------------------------------------------------
+
+
+def _quat_to_matrix(quat: np.ndarray) -> np.ndarray:
+    """Rotation matrices (..., 3, 3) from unit quaternions (..., 4) in pybullet's xyzw order."""
+    x, y, z, w = quat[..., 0], quat[..., 1], quat[..., 2], quat[..., 3]
+    xx, yy, zz = x * x, y * y, z * z
+    xy, xz, yz = x * y, x * z, y * z
+    wx, wy, wz = w * x, w * y, w * z
+    rot = np.empty(quat.shape[:-1] + (3, 3))
+    rot[..., 0, 0] = 1.0 - 2.0 * (yy + zz)
+    rot[..., 0, 1] = 2.0 * (xy - wz)
+    rot[..., 0, 2] = 2.0 * (xz + wy)
+    rot[..., 1, 0] = 2.0 * (xy + wz)
+    rot[..., 1, 1] = 1.0 - 2.0 * (xx + zz)
+    rot[..., 1, 2] = 2.0 * (yz - wx)
+    rot[..., 2, 0] = 2.0 * (xz - wy)
+    rot[..., 2, 1] = 2.0 * (yz + wx)
+    rot[..., 2, 2] = 1.0 - 2.0 * (xx + yy)
+    return rot
+
+
+_LEVI_CIVITA = np.zeros((3, 3, 3))
+_LEVI_CIVITA[0, 1, 2] = _LEVI_CIVITA[1, 2, 0] = _LEVI_CIVITA[2, 0, 1] = 1.0
+_LEVI_CIVITA[0, 2, 1] = _LEVI_CIVITA[2, 1, 0] = _LEVI_CIVITA[1, 0, 2] = -1.0
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Cross product over the last axis (one einsum: faster than np.cross for small arrays)."""
+    return np.einsum("ijk,...j,...k->...i", _LEVI_CIVITA, a, b)
+
+
+@dataclass
+class _Kinematics:
+    """The state and world-frame geometry at one instant (cached between steps)."""
+
+    q: np.ndarray  # (2n,) joint angles, rad: [a_1, b_1, a_2, b_2, ...]
+    qd: np.ndarray  # (2n,) joint rates, rad/s
+    joint_points: np.ndarray  # (n, 3) joint centres o_j, world, m
+    joint_axes: np.ndarray  # (n, 2, 3) world axes of the X and Y revolute joint of each joint
+    link_rot: np.ndarray  # (n, 3, 3) orientation of the real links in world
+    stations: np.ndarray  # (n+1, 3) rod stations s_j = jΔs, world, m (0 = base)
+    pinholes: np.ndarray  # (n_disks+1, 3, 3) [disk, cable, xyz] world, m
+
+
+# --------------------------------------------------------------------------------------------
+# the backend
+# --------------------------------------------------------------------------------------------
+
+
+def _check_bool(name: str, value) -> bool:
+    if not isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name} must be a bool, got {value!r}")
+    return bool(value)
+
+
+def _check_positive(name: str, value, unit: str) -> float:
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ValueError(f"{name} must be a real number ({unit}), got {value!r}")
+    value = float(value)
+    if not math.isfinite(value) or value <= 0.0:
+        raise ValueError(f"{name} must be finite and > 0 {unit}, got {value!r}")
+    return value
+
+
+class BulletBackend(Backend):
+    """The CDCR backbone simulated as a pybullet multibody (see the module docstring).
+
+    Args:
+        params: the robot (:class:`~cdcr_gym.params.RobotParams`; default: the paper's Table 1).
+        gravity: ``True`` (default) applies −9.81 m/s² along −Z_world; ``False`` switches
+            gravity off (the paper's simulation and the pure-moment statics have none).
+        links_per_span: rigid links per disk span, m >= 1 (default 1): the chain has
+            ``n_disks·m`` links and twice as many revolute joints. Larger m converges to a
+            continuous rod between the disks (the span-mean cable moment-arm excess is
+            (1 + 2/m²) times the physical one, see the module docstring) at a cost in speed:
+            per step roughly linear in m for the pybullet calls, cubic for the linear solve.
+        control_timestep: simulated time (s) that one :meth:`apply_tensions` advances
+            (default 0.02 s, i.e. 50 Hz control).
+        physics_timestep: pybullet step h (s), must divide ``control_timestep`` (default
+            0.01 s: two physics steps per control step). The implicit spring–damper treatment
+            is stable for any h up to ``control_timestep``; h only changes the transient
+            (backward Euler adds numerical damping ≈ h·ω/2 to a mode of frequency ω), never
+            the settled equilibrium.
+        base_orientation: unit quaternion (x, y, z, w) of the base frame R0 in the world
+            (default (0, 0, 0, 1): upright, backbone along +Z_world, against gravity). E.g.
+            ``(0, sin 45°, 0, cos 45°)`` turns the backbone to +X_world (a horizontal
+            cantilever). Returned positions stay in R0.
+        tip_payload: point mass (kg, >= 0) at the tip disk centre (default 0.0).
+        gui: open the pybullet GUI (``render_mode="human"``) instead of a headless client
+            (default ``False``). pybullet allows one GUI client per process.
+        damping_ratio: damping ratio ζ > 0 of the first bending mode (default 0.7); the joint
+            damping is D = (2ζ/ω₁)·K. Larger values settle the first mode without overshoot
+            but slow the higher modes (rate ω₁/(2ζ)).
+
+    Raises:
+        ValueError: naming the argument and the value, for any invalid argument.
+    """
+
+    supports_length_control = False
+
+    def __init__(
+        self,
+        params: RobotParams = RobotParams(),  # noqa: B008 (frozen, immutable)
+        *,
+        gravity: bool = True,
+        links_per_span: int = 1,
+        control_timestep: float = 0.02,
+        physics_timestep: float = 0.01,
+        base_orientation: Sequence[float] = (0.0, 0.0, 0.0, 1.0),
+        tip_payload: float = 0.0,
+        gui: bool = False,
+        damping_ratio: float = 0.7,
+    ) -> None:
+        if not isinstance(params, RobotParams):
+            raise ValueError(f"params must be a cdcr_gym.params.RobotParams, got {params!r}")
+        self.params = params
+        self.gravity = _check_bool("gravity", gravity)
+        self.gui = _check_bool("gui", gui)
+        if (
+            isinstance(links_per_span, (bool, np.bool_))
+            or not isinstance(links_per_span, (int, np.integer))
+            or links_per_span < 1
+        ):
+            raise ValueError(f"links_per_span must be an integer >= 1, got {links_per_span!r}")
+        self.links_per_span = int(links_per_span)
+        self.control_timestep = _check_positive("control_timestep", control_timestep, "s")
+        self.physics_timestep = _check_positive("physics_timestep", physics_timestep, "s")
+        ratio = self.control_timestep / self.physics_timestep
+        n_sub = round(ratio)
+        if n_sub < 1 or abs(ratio - n_sub) > 1e-9 * max(1.0, ratio):
+            raise ValueError(
+                f"physics_timestep ({physics_timestep!r} s) must divide control_timestep "
+                f"({control_timestep!r} s) into a whole number of steps"
+            )
+        self.n_substeps = int(n_sub)
+        try:
+            quat = np.asarray(base_orientation, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(
+                f"base_orientation must be 4 numbers (x, y, z, w), got {base_orientation!r}"
+            ) from None
+        if quat.shape != (4,) or not np.all(np.isfinite(quat)) or abs(np.linalg.norm(quat) - 1.0) > 1e-6:
+            raise ValueError(
+                "base_orientation must be a finite unit quaternion (x, y, z, w) with norm 1 "
+                f"(±1e-6), got {base_orientation!r}"
+            )
+        self.base_orientation = tuple(float(v) for v in quat / np.linalg.norm(quat))
+        if (
+            isinstance(tip_payload, (bool, np.bool_))
+            or not isinstance(tip_payload, (int, float, np.integer, np.floating))
+            or not math.isfinite(float(tip_payload))
+            or float(tip_payload) < 0.0
+        ):
+            raise ValueError(f"tip_payload must be finite and >= 0 kg, got {tip_payload!r}")
+        self.tip_payload = float(tip_payload)
+        self.damping_ratio = _check_positive("damping_ratio", damping_ratio, "")
+
+        p = params
+        self.n_links = p.n_disks * self.links_per_span  # real links = 2-DOF joints
+        self.n_dof = 2 * self.n_links
+        self.segment_length = p.length / self.n_links  # Δs, m
+        self._base_rot = _quat_to_matrix(np.asarray(self.base_orientation))
+        beta = np.asarray(CABLE_ANGLES)
+        self._pinhole_local = p.cable_radius * np.stack(
+            [np.cos(beta), np.sin(beta), np.zeros(3)], axis=-1
+        )  # (3 cables, 3)
+        # disk span of each joint: joint j (1-based) at (j − ½)Δs lies in span (j − 1) // m
+        self._joint_span = np.arange(self.n_links) // self.links_per_span
+        # real-link index (0-based) carrying disk k = 1..n_disks, and the base disk's pinholes
+        self._disk_links = np.arange(1, p.n_disks + 1) * self.links_per_span - 1
+        self._base_pinholes = self._pinhole_local @ self._base_rot.T
+        self._base_rot_flat = self._base_rot.reshape(9)
+        #: Joint stiffness EI/Δs (N·m/rad), the same for all 2n revolute coordinates.
+        self.joint_stiffness = p.bending_stiffness / self.segment_length
+        self._tensions = np.zeros(3)
+        self._kin: _Kinematics | None = None
+        self._q: np.ndarray | None = None
+        self._qd: np.ndarray | None = None
+        self.time = 0.0
+        self._last_human_render = None
+        self._goal_world = None
+
+        self._pb = _pybullet()
+        pb = self._pb
+        with _silenced_stdio():
+            self._client = pb.connect(pb.GUI if self.gui else pb.DIRECT)
+        if self._client < 0:
+            raise RuntimeError("pybullet could not connect (a GUI may already be open)")
+        self._finalizer = weakref.finalize(self, _disconnect, self._client)
+        try:
+            self._build()
+        except BaseException:
+            self.close()
+            raise
+        self.reset(np.zeros(3))
+
+    # ---------------------------------------------------------------- construction
+
+    def _link_inertia(self, j: int) -> tuple[float, float, float, float]:
+        """Mass (kg), COM height (m, in the link frame) and principal inertias (kg·m²) of link j.
+
+        Link j (1-based) runs from its joint at z = 0 along +z; full links are Δs long, the tip
+        link Δs/2; its station (and disk, if any) sits at z = Δs/2.
+        """
+        p = self.params
+        ds = self.segment_length
+        length = ds if j < self.n_links else 0.5 * ds
+        a = 0.5 * p.backbone_diameter
+        parts = []  # (mass, z, Ixx about own COM, Izz)
+        m_rod = p.backbone_linear_density * length
+        parts.append((m_rod, 0.5 * length, m_rod * (3 * a * a + length**2) / 12.0, 0.5 * m_rod * a * a))
+        if j % self.links_per_span == 0:
+            m_d, rad, t = p.disk_mass, p.disk_radius, p.disk_thickness
+            parts.append((m_d, 0.5 * ds, m_d * (3 * rad * rad + t * t) / 12.0, 0.5 * m_d * rad * rad))
+        if j == self.n_links and self.tip_payload > 0.0:
+            parts.append((self.tip_payload, 0.5 * ds, 0.0, 0.0))
+        mass = sum(m for m, _, _, _ in parts)
+        z_c = sum(m * z for m, z, _, _ in parts) / mass
+        ixx = sum(i + m * (z - z_c) ** 2 for m, z, i, _ in parts)
+        izz = sum(i for _, _, _, i in parts)
+        return mass, z_c, ixx, izz
+
+    def _build(self) -> None:
+        pb, cid = self._pb, self._client
+        ds = self.segment_length
+        pb.setPhysicsEngineParameter(
+            fixedTimeStep=self.physics_timestep,
+            numSubSteps=0,
+            deterministicOverlappingPairs=1,
+            physicsClientId=cid,
+        )
+        pb.setGravity(0.0, 0.0, -_GRAVITY if self.gravity else 0.0, physicsClientId=cid)
+        if self.gui:
+            pb.configureDebugVisualizer(pb.COV_ENABLE_GUI, 0, physicsClientId=cid)
+
+        vis = self._make_visuals()
+        masses, vis_idx, pos, inertial_pos, parents, axes = [], [], [], [], [], []
+        self._link_mass = np.zeros(self.n_links)
+        self._link_inertia_diag = []
+        for j in range(1, self.n_links + 1):
+            mass, z_c, ixx, izz = self._link_inertia(j)
+            self._link_mass[j - 1] = mass
+            self._link_inertia_diag.append((ixx, ixx, izz))
+            # X joint into the massless intermediate link
+            masses.append(0.0)
+            vis_idx.append(-1)
+            pos.append((0.0, 0.0, 0.5 * ds if j == 1 else ds))
+            inertial_pos.append((0.0, 0.0, 0.0))
+            parents.append(len(parents))
+            axes.append((1.0, 0.0, 0.0))
+            # Y joint into the real link
+            masses.append(mass)
+            vis_idx.append(vis["tip"] if j == self.n_links else (vis["disk"] if j % self.links_per_span == 0 else vis["rod"]))
+            pos.append((0.0, 0.0, 0.0))
+            inertial_pos.append((0.0, 0.0, z_c))
+            parents.append(len(parents))
+            axes.append((0.0, 1.0, 0.0))
+        n2 = self.n_dof
+        self._body = pb.createMultiBody(
+            baseMass=0.0,
+            baseCollisionShapeIndex=-1,
+            baseVisualShapeIndex=vis["base"],
+            basePosition=(0.0, 0.0, 0.0),
+            baseOrientation=self.base_orientation,
+            linkMasses=masses,
+            linkCollisionShapeIndices=[-1] * n2,
+            linkVisualShapeIndices=vis_idx,
+            linkPositions=pos,
+            linkOrientations=[(0.0, 0.0, 0.0, 1.0)] * n2,
+            linkInertialFramePositions=inertial_pos,
+            linkInertialFrameOrientations=[(0.0, 0.0, 0.0, 1.0)] * n2,
+            linkParentIndices=parents,
+            linkJointTypes=[pb.JOINT_REVOLUTE] * n2,
+            linkJointAxis=axes,
+            physicsClientId=cid,
+        )
+        body = self._body
+        # No collision shapes, so pybullet would give the links zero inertia: set it. No
+        # built-in velocity damping, no velocity clamp below our divergence limit, no sleeping.
+        pb.changeDynamics(body, -1, linearDamping=0.0, angularDamping=0.0, physicsClientId=cid)
+        for i in range(n2):
+            kw = dict(
+                linearDamping=0.0,
+                angularDamping=0.0,
+                jointDamping=0.0,
+                maxJointVelocity=10.0 * _MAX_JOINT_RATE,
+                activationState=pb.ACTIVATION_STATE_DISABLE_SLEEPING,
+                physicsClientId=cid,
+            )
+            pb.changeDynamics(body, i, **kw)
+            if i % 2 == 1:
+                # a separate call: combined with the damping keywords above, pybullet 3.2.7
+                # silently ignores localInertiaDiagonal
+                pb.changeDynamics(
+                    body,
+                    i,
+                    localInertiaDiagonal=self._link_inertia_diag[i // 2],
+                    physicsClientId=cid,
+                )
+        self._joint_ids = list(range(n2))
+        for i in range(1, n2, 2):
+            info = pb.getDynamicsInfo(body, i, physicsClientId=cid)
+            if not np.allclose(info[2], self._link_inertia_diag[i // 2], rtol=1e-9, atol=0.0):
+                raise RuntimeError(f"pybullet did not take the inertia of link {i}: {info[2]}")
+        # default joint motors off (they would act as velocity dampers)
+        pb.setJointMotorControlArray(
+            body, self._joint_ids, pb.VELOCITY_CONTROL, forces=[0.0] * n2, physicsClientId=cid
+        )
+        self._zeros_list = [0.0] * n2
+        self._goal_body = pb.createMultiBody(
+            baseMass=0.0,
+            baseVisualShapeIndex=vis["goal"],
+            basePosition=(0.0, 0.0, -100.0),
+            physicsClientId=cid,
+        )
+
+        grey, orange = (0.55, 0.57, 0.62, 1.0), (0.95, 0.55, 0.1, 1.0)
+        for link in range(-1, n2):
+            colour = orange if link == n2 - 1 else grey
+            pb.changeVisualShape(body, link, rgbaColor=colour, physicsClientId=cid)
+
+        # stiffness and damping
+        self._K = np.full(n2, self.joint_stiffness)
+        mass0 = np.asarray(pb.calculateMassMatrix(body, self._zeros_list, physicsClientId=cid))
+        # first bending mode of the linearised chain: K v = ω² M v
+        eig = np.linalg.eigvals(np.linalg.solve(mass0, np.diag(self._K)))
+        eig = np.sort(np.real(eig))
+        #: Angular frequency ω₁ (rad/s) of the first bending mode at the straight pose, and of
+        #: the highest mode ω_max (what an explicit integrator would have to resolve).
+        self.first_mode_frequency = float(math.sqrt(eig[0]))
+        self.highest_mode_frequency = float(math.sqrt(eig[-1]))
+        #: Stiffness-proportional damping time β = 2ζ/ω₁ (s): D = β·K.
+        self.damping_time = 2.0 * self.damping_ratio / self.first_mode_frequency
+        self._D = self.damping_time * self._K
+        h = self.physics_timestep
+        self._A_diag = h * self._D + h * h * self._K
+        self._h_k = h * self._K
+        self._diag_idx = np.diag_indices(n2)
+
+    def _make_visuals(self) -> dict:
+        pb, cid, p = self._pb, self._client, self.params
+        ds = self.segment_length
+        rod_r = max(0.5 * p.backbone_diameter, 0.003)  # drawn a little thicker to be visible
+
+        def shape(kind, rgba, **kw):
+            return pb.createVisualShape(kind, rgbaColor=rgba, physicsClientId=cid, **kw)
+
+        def array(parts):
+            return pb.createVisualShapeArray(
+                shapeTypes=[k for k, _, _ in parts],
+                radii=[r for _, r, _ in parts],
+                lengths=[ln for _, _, (ln, _) in parts],
+                visualFramePositions=[pos for _, _, (_, pos) in parts],
+                physicsClientId=cid,
+            )
+
+        cyl, sph = pb.GEOM_CYLINDER, pb.GEOM_SPHERE
+        rod = (cyl, rod_r, (ds, (0.0, 0.0, 0.5 * ds)))
+        disk = (cyl, p.disk_radius, (p.disk_thickness, (0.0, 0.0, 0.5 * ds)))
+        tip_rod = (cyl, rod_r, (0.5 * ds, (0.0, 0.0, 0.25 * ds)))
+        holes = [
+            (sph, 0.004, (0.0, (float(x), float(y), 0.5 * ds + 0.5 * p.disk_thickness)))
+            for x, y, _ in self._pinhole_local
+        ]
+        base_rod = (cyl, rod_r, (0.5 * ds, (0.0, 0.0, 0.25 * ds)))
+        base_disk = (cyl, p.disk_radius, (p.disk_thickness, (0.0, 0.0, 0.0)))
+        out = {
+            "rod": array([rod]),
+            "disk": array([rod, disk]),
+            "tip": array([tip_rod, disk] + holes),
+            "base": array([base_rod, base_disk]),
+            "goal": shape(sph, (0.55, 0.1, 0.75, 1.0), radius=0.012),
+        }
+        return out
+
+    # ---------------------------------------------------------------- state access
+
+    def _check_open(self) -> None:
+        if self._client is None:
+            raise RuntimeError("this BulletBackend is closed")
+
+    def _state(self) -> tuple[np.ndarray, np.ndarray]:
+        """Joint angles q (2n,) rad and rates q̇ (2n,) rad/s from pybullet (cached until a step)."""
+        if self._q is None:
+            js = self._pb.getJointStates(self._body, self._joint_ids, physicsClientId=self._client)
+            qqd = np.array([s[:2] for s in js])
+            self._q, self._qd = qqd[:, 0].copy(), qqd[:, 1].copy()
+        return self._q, self._qd
+
+    def _read(self) -> _Kinematics:
+        """Joint state and world geometry of the current pybullet state (cached until a step).
+
+        The link frames are computed here by forward kinematics in float64, because pybullet's
+        ``getLinkState`` returns positions rounded to single precision (~1e-8 m), too coarse for
+        the finite-difference checks and the static solver; a test checks this FK against
+        ``getLinkState``.
+        """
+        if self._kin is None:
+            q, qd = self._state()
+            self._kin = self._geometry(q, qd)
+        return self._kin
+
+    def _geometry(self, q: np.ndarray, qd: np.ndarray) -> _Kinematics:
+        """World geometry of the chain at joint angles ``q`` (pure numpy forward kinematics).
+
+        Link j's orientation is R_j = R_base·Rx(a_1)·Ry(b_1)·…·Rx(a_j)·Ry(b_j); joint 1 sits
+        Δs/2 above the base, each further joint Δs along the previous link, station j Δs/2
+        along link j. Written for few numpy calls (it runs every physics step).
+        """
+        n, ds = self.n_links, self.segment_length
+        c, s = np.cos(q), np.sin(q)
+        ca, sa, cb, sb = c[0::2], s[0::2], c[1::2], s[1::2]
+        rot = np.empty((n + 1, 9))  # [R_base, Rx(a_1)·Ry(b_1), …] flattened row-major
+        rot[0] = self._base_rot_flat
+        rot[1:, 0] = cb
+        rot[1:, 1] = 0.0
+        rot[1:, 2] = sb
+        rot[1:, 3] = sa * sb
+        rot[1:, 4] = ca
+        rot[1:, 5] = -sa * cb
+        rot[1:, 6] = -ca * sb
+        rot[1:, 7] = sa
+        rot[1:, 8] = ca * cb
+        rot = rot.reshape(n + 1, 3, 3)
+        # prefix products by a log-depth (Hillis–Steele) scan: ⌈log2(n+1)⌉ batched matmuls
+        d = 1
+        while d <= n:
+            rot[d:] = np.matmul(rot[:-d], rot[d:])
+            d *= 2
+        prev, link_rot = rot[:-1], rot[1:]  # parent orientation of joint j, orientation of link j
+        axes = np.empty((n, 2, 3))
+        axes[:, 0] = prev[:, :, 0]  # X joint: the parent's X axis
+        # Y joint: the intermediate frame's Y axis, parent·Rx(a)·e_y = parent·(0, cos a, sin a)
+        axes[:, 1] = prev[:, :, 1] * ca[:, None] + prev[:, :, 2] * sa[:, None]
+        tangent = rot[:, :, 2] * ds  # (n+1, 3): base and link directions × Δs
+        joint_points = np.cumsum(tangent[:-1], axis=0)
+        joint_points -= 0.5 * tangent[0]
+        stations = np.empty((n + 1, 3))
+        stations[0] = 0.0
+        np.add(joint_points, 0.5 * tangent[1:], out=stations[1:])
+        pin = np.empty((self.params.n_disks + 1, 3, 3))
+        pin[0] = self._base_pinholes
+        dl = self._disk_links
+        np.add(
+            stations[dl + 1][:, None, :],
+            np.matmul(self._pinhole_local, link_rot[dl].transpose(0, 2, 1)),
+            out=pin[1:],
+        )
+        return _Kinematics(q, qd, joint_points, axes, link_rot, stations, pin)
+
+    def _pybullet_link_frames(self) -> tuple[np.ndarray, np.ndarray]:
+        """pybullet's own link-frame positions (2n, 3) and rotations (2n, 3, 3), world (for tests)."""
+        self._check_open()
+        ls = self._pb.getLinkStates(
+            self._body, self._joint_ids, computeForwardKinematics=1, physicsClientId=self._client
+        )
+        frames = np.array([s[4] + s[5] for s in ls])
+        return frames[:, :3], _quat_to_matrix(frames[:, 3:])
+
+    def _cable_loads(self, q: np.ndarray, tensions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Generalized cable forces τ = −Σ_i T_i ∂l_i/∂q (2n,) N·m and cable lengths (3,) m.
+
+        Evaluated span by span in the frame of the span's proximal disk (generalized forces
+        and segment lengths are frame-invariant), so no global forward kinematics is needed:
+        the segment of cable i across disk span k runs from the pinhole p_a (fixed in the
+        proximal disk's frame) to p_b on the distal disk, which the span's m joints move. For
+        joint j of that span (point o, axis a), ∂l_i/∂q_j = a·((p_b − o) × u) with u the unit
+        segment vector, so τ_j = a·(o × F − G) with F = Σ_i T_i u_i and G = Σ_i T_i p_b,i × u_i.
+        Vectorised over the spans; a Python loop over the m joints of a span.
+        """
+        n_span, m, half = self.params.n_disks, self.links_per_span, 0.5 * self.segment_length
+        c, s = np.cos(q).reshape(n_span, m, 2), np.sin(q).reshape(n_span, m, 2)
+        points = np.empty((n_span, m, 3))  # joint points o in the span frame
+        axes = np.empty((n_span, m, 2, 3))  # X and Y joint axes in the span frame
+        rot = None
+        pos = None
+        for i in range(m):
+            ca, sa, cb, sb = c[:, i, 0], s[:, i, 0], c[:, i, 1], s[:, i, 1]
+            local = np.empty((n_span, 9))  # Rx(a)·Ry(b), row-major
+            local[:, 0] = cb
+            local[:, 1] = 0.0
+            local[:, 2] = sb
+            local[:, 3] = sa * sb
+            local[:, 4] = ca
+            local[:, 5] = -sa * cb
+            local[:, 6] = -ca * sb
+            local[:, 7] = sa
+            local[:, 8] = ca * cb
+            local = local.reshape(n_span, 3, 3)
+            if rot is None:  # first joint: the span frame itself, joint Δs/2 up its axis
+                points[:, 0] = (0.0, 0.0, half)
+                axes[:, 0, 0] = (1.0, 0.0, 0.0)
+                axes[:, 0, 1, 0] = 0.0
+                axes[:, 0, 1, 1] = ca
+                axes[:, 0, 1, 2] = sa
+                rot = local
+            else:
+                points[:, i] = pos + half * rot[:, :, 2]
+                axes[:, i, 0] = rot[:, :, 0]
+                axes[:, i, 1] = rot[:, :, 1] * ca[:, None] + rot[:, :, 2] * sa[:, None]
+                rot = np.matmul(rot, local)
+            pos = points[:, i] + half * rot[:, :, 2]  # the next station
+        p_b = pos[:, None, :] + np.matmul(self._pinhole_local, rot.transpose(0, 2, 1))
+        seg = p_b - self._pinhole_local  # (n_span, 3 cables, 3)
+        seg_len = np.sqrt((seg * seg).sum(axis=-1))  # (n_span, 3)
+        tu = seg * (tensions / seg_len)[..., None]  # T_i·u_i
+        force = tu.sum(axis=1)  # F (n_span, 3)
+        couple = _cross(p_b, tu).sum(axis=1)  # G (n_span, 3)
+        moment = _cross(points, force[:, None, :]) - couple[:, None, :]  # (n_span, m, 3)
+        tau = (axes * moment[:, :, None, :]).sum(axis=-1).reshape(-1)
+        return tau, seg_len.sum(axis=0)
+
+    @staticmethod
+    def _lengths(kin: _Kinematics) -> np.ndarray:
+        seg = kin.pinholes[1:] - kin.pinholes[:-1]
+        return np.sqrt(np.einsum("dci,dci->dc", seg, seg)).sum(axis=0)
+
+    def _to_base(self, points_world: np.ndarray) -> np.ndarray:
+        return points_world @ self._base_rot  # R0 = Rᵀ·world (base at the origin)
+
+    def _set_state(self, q: np.ndarray, qd: np.ndarray) -> None:
+        self._pb.resetJointStatesMultiDof(
+            self._body,
+            self._joint_ids,
+            [[float(v)] for v in q],
+            targetVelocities=[[float(v)] for v in qd],
+            physicsClientId=self._client,
+        )
+        self._q = self._qd = self._kin = None
+
+    def _diverged(self, message: str, q: np.ndarray, qd: np.ndarray, t: np.ndarray) -> SimulationDivergedError:
+        state = {"joint_positions": q.copy(), "joint_velocities": qd.copy(), "tensions": t.copy(), "time": self.time}
+        return SimulationDivergedError(
+            f"{message} (t = {self.time:.4f} s, tensions {t.tolist()} N, "
+            f"max |q| = {np.max(np.abs(q))} rad, max |q̇| = {np.max(np.abs(qd))} rad/s)",
+            state,
+        )
+
+    # ---------------------------------------------------------------- Backend API
+
+    def _check_tensions(self, tensions) -> np.ndarray:
+        t = np.array(tensions, dtype=np.float64)  # a copy
+        if t.shape != (3,):
+            raise ValueError(f"tensions must have shape (3,) (N), got {tensions!r}")
+        lo, hi = t.min(), t.max()
+        if not (0.0 <= lo and hi <= self.params.max_tension):  # also catches NaN
+            raise ValueError(
+                f"tensions must be finite and in [0, max_tension={self.params.max_tension}] N, "
+                f"got {tensions!r}"
+            )
+        return t
+
+    def _gravity_bias(self, q: np.ndarray) -> np.ndarray:
+        """b(q, 0): the joint torques that hold the chain still against gravity (N·m)."""
+        zeros = self._zeros_list
+        return np.array(
+            self._pb.calculateInverseDynamics(
+                self._body, q.tolist(), zeros, zeros, physicsClientId=self._client
+            )
+        )
+
+    def static_equilibrium(self, tensions: np.ndarray) -> np.ndarray:
+        """Joint angles q (2n,) rad of the static equilibrium under ``tensions`` (3,) N.
+
+        Solves K·q = τ_cable(q) − b(q, 0) (b from pybullet's inverse dynamics: gravity) by the
+        fixed-point iteration q ← K⁻¹·(τ_cable(q) − b(q, 0)) from the straight pose, to
+        max |Δq| < 1e-14 rad. It converges because the cable and gravity load stiffnesses are
+        small against K (contraction factor ≈ 0.1–0.3 at the maximum tension); the limit is the
+        stable equilibrium the dynamics settle to. Does not change the simulation state.
+
+        Raises:
+            SimulationDivergedError: if the iteration does not converge in 1000 steps.
+        """
+        self._check_open()
+        t = self._check_tensions(tensions)
+        q = np.zeros(self.n_dof)
+        for _ in range(1000):
+            tau, _ = self._cable_loads(q, t)
+            q_new = (tau - self._gravity_bias(q)) / self._K
+            step = np.max(np.abs(q_new - q))
+            q = q_new
+            if not step < _MAX_JOINT_ANGLE or not np.max(np.abs(q)) <= _MAX_JOINT_ANGLE:
+                break
+            if step < 1e-14:
+                return q
+        raise self._diverged("the static equilibrium did not converge", q, np.zeros(self.n_dof), t)
+
+    def reset(self, tensions: np.ndarray) -> None:
+        """Put the chain at rest in its static equilibrium under ``tensions`` (3,) N.
+
+        Sets q = :meth:`static_equilibrium` (tensions) and q̇ = 0 and the simulated
+        :attr:`time` to 0. The result depends only on ``tensions`` and the constructor
+        arguments (the solver always starts from the straight pose), so the same call gives
+        bit-identical state whatever happened before; :meth:`apply_tensions` with the same
+        tensions then leaves the chain at rest.
+
+        Raises:
+            ValueError: if ``tensions`` is not 3 finite values in [0, max_tension].
+            SimulationDivergedError: if no equilibrium is found.
+        """
+        self._check_open()
+        t = self._check_tensions(tensions)
+        q = self.static_equilibrium(t)
+        self._set_state(q, np.zeros(self.n_dof))
+        self._tensions = t
+        self.time = 0.0
+
+    def apply_tensions(self, tensions: np.ndarray) -> None:
+        """Hold ``tensions`` (3,) N for one control step (``n_substeps`` physics steps).
+
+        Each physics step: read q, q̇; τ_cable(q); M(q) and b(q, q̇) from pybullet; solve the
+        backward-Euler system for q̇⁺; send τ = τ_cable − K(q + h q̇⁺) − D q̇⁺; step.
+
+        Raises:
+            ValueError: if ``tensions`` is not 3 finite values in [0, max_tension].
+            SimulationDivergedError: if the state becomes non-finite, a joint bends beyond
+                90° or turns faster than 1000 rad/s.
+        """
+        self._check_open()
+        t = self._check_tensions(tensions)
+        self._tensions = t
+        pb, cid, body, ids = self._pb, self._client, self._body, self._joint_ids
+        h = self.physics_timestep
+        K, D, h_k = self._K, self._D, self._h_k
+        torque_mode = pb.TORQUE_CONTROL
+        for _ in range(self.n_substeps):
+            q, qd = self._state()
+            ql = q.tolist()
+            tau_c, _ = self._cable_loads(q, t)
+            mass = np.array(pb.calculateMassMatrix(body, ql, physicsClientId=cid))
+            bias = np.array(
+                pb.calculateInverseDynamics(body, ql, qd.tolist(), self._zeros_list, physicsClientId=cid)
+            )
+            mass[self._diag_idx] += self._A_diag  # M + hD + h²K
+            qd_new = qd + np.linalg.solve(mass, h * (tau_c - bias - K * q - (D + h_k) * qd))
+            torque = tau_c - K * (q + h * qd_new) - D * qd_new
+            # TORQUE_CONTROL torques accumulate until the next step: exactly one call per step
+            pb.setJointMotorControlArray(body, ids, torque_mode, forces=torque.tolist(), physicsClientId=cid)
+            pb.stepSimulation(physicsClientId=cid)
+            self._q = self._qd = self._kin = None
+            self.time += h
+        q, qd = self._state()
+        # NaN fails every comparison, so "not (x <= limit)" also catches non-finite values
+        if not (np.max(np.abs(q)) <= _MAX_JOINT_ANGLE and np.max(np.abs(qd)) <= _MAX_JOINT_RATE):
+            raise self._diverged("the simulation diverged", q, qd, t)
+
+    @property
+    def tip(self) -> np.ndarray:
+        """Tip-disk centre in R0, shape (3,), m."""
+        return self._to_base(self.tip_world)
+
+    @property
+    def tip_world(self) -> np.ndarray:
+        """Tip-disk centre in the world frame, shape (3,), m (= :attr:`tip` when upright)."""
+        self._check_open()
+        return self._read().stations[-1].copy()
+
+    @property
+    def cable_lengths(self) -> np.ndarray:
+        """Sensed cable lengths (3,), m: summed pinhole-to-pinhole segment lengths, base → tip disk."""
+        self._check_open()
+        return self._lengths(self._read())
+
+    @property
+    def tensions(self) -> np.ndarray:
+        """Cable tensions currently applied, (3,), N."""
+        return self._tensions.copy()
+
+    @property
+    def joint_positions(self) -> np.ndarray:
+        """Joint angles q (2n,), rad, ordered [a_1, b_1, a_2, b_2, ...] (X then Y per joint)."""
+        self._check_open()
+        return self._state()[0].copy()
+
+    @property
+    def joint_velocities(self) -> np.ndarray:
+        """Joint rates q̇ (2n,), rad/s, ordered like :attr:`joint_positions`."""
+        self._check_open()
+        return self._state()[1].copy()
+
+    @property
+    def stiffness(self) -> np.ndarray:
+        """Diagonal joint stiffness K (2n,), N·m/rad (EI/Δs each)."""
+        return self._K.copy()
+
+    @property
+    def damping(self) -> np.ndarray:
+        """Diagonal joint damping D (2n,), N·m·s/rad."""
+        return self._D.copy()
+
+    def set_joint_state(self, q: np.ndarray, qd: np.ndarray | None = None) -> None:
+        """Low-level: set the joint angles ``q`` (2n,) rad and rates ``qd`` (2n,) rad/s.
+
+        For tests and analysis (virtual-work checks at arbitrary poses); the env never calls it.
+        """
+        self._check_open()
+        q = np.asarray(q, dtype=np.float64)
+        qd = np.zeros(self.n_dof) if qd is None else np.asarray(qd, dtype=np.float64)
+        if q.shape != (self.n_dof,) or qd.shape != (self.n_dof,):
+            raise ValueError(f"q and qd must have shape ({self.n_dof},), got {q.shape}, {qd.shape}")
+        if not (np.all(np.isfinite(q)) and np.all(np.isfinite(qd))):
+            raise ValueError("q and qd must be finite")
+        self._set_state(q, qd)
+
+    def cable_generalized_forces(self, tensions: np.ndarray | None = None) -> np.ndarray:
+        """The generalized joint forces τ = −Σ_i T_i ∂l_i/∂q (2n,), N·m, at the current pose.
+
+        ``tensions`` (3,) N defaults to the tensions currently applied.
+        """
+        self._check_open()
+        t = self._tensions if tensions is None else self._check_tensions(tensions)
+        return self._cable_loads(self._state()[0], t)[0]
+
+    def gravity_generalized_forces(self) -> np.ndarray:
+        """Generalized gravity forces (2n,), N·m, at the current pose (pybullet inverse dynamics)."""
+        self._check_open()
+        return -self._gravity_bias(self._state()[0])
+
+    def mass_matrix(self) -> np.ndarray:
+        """Joint-space mass matrix M(q) (2n, 2n) at the current pose, from pybullet."""
+        self._check_open()
+        return np.asarray(
+            self._pb.calculateMassMatrix(self._body, self._state()[0].tolist(), physicsClientId=self._client)
+        )
+
+    def backbone_points(self, frame: str = "base") -> np.ndarray:
+        """Backbone polyline (2n+1, 3), m: base, then per link its joint and its station, tip last.
+
+        Every disk station is a point (the disks sit at the link centres; the tip disk is the
+        last point). ``frame="base"`` (default) gives R0 coordinates, ``"world"`` pybullet's.
+        """
+        if frame not in ("base", "world"):
+            raise ValueError(f"frame must be 'base' or 'world', got {frame!r}")
+        self._check_open()
+        kin = self._read()
+        pts = np.empty((2 * self.n_links + 1, 3))
+        pts[0] = 0.0
+        pts[1::2] = kin.joint_points
+        pts[2::2] = kin.stations[1:]
+        return pts if frame == "world" else self._to_base(pts)
+
+    def pinhole_positions(self, frame: str = "base") -> np.ndarray:
+        """Cable pinholes (n_disks+1, 3, 3), m: [disk (base first), cable, xyz], in R0 or world."""
+        if frame not in ("base", "world"):
+            raise ValueError(f"frame must be 'base' or 'world', got {frame!r}")
+        self._check_open()
+        pins = self._read().pinholes.copy()
+        return pins if frame == "world" else self._to_base(pins)
+
+    # ---------------------------------------------------------------- rendering
+
+    def _place_goal(self, goal) -> None:
+        pb = self._pb
+        if goal is None:
+            pos = (0.0, 0.0, -100.0)
+        else:
+            g = np.asarray(goal, dtype=np.float64)
+            if g.shape != (3,) or not np.all(np.isfinite(g)):
+                raise ValueError(f"goal must be 3 finite numbers (m, R0) or None, got {goal!r}")
+            pos = tuple(float(v) for v in self._base_rot @ g)
+        pb.resetBasePositionAndOrientation(self._goal_body, pos, (0, 0, 0, 1), physicsClientId=self._client)
+
+    def render_rgb(self, goal: np.ndarray | None, width: int, height: int) -> np.ndarray:
+        """Image (height, width, 3) uint8 from pybullet's headless TinyRenderer.
+
+        The camera is fixed in the world (Z_world up; pybullet yaw 30°, pitch −20°, distance 1.9ℓ),
+        aimed at the middle of the robot's workspace; the goal is a purple sphere and the tip
+        link orange.
+        """
+        self._check_open()
+        for name, v in (("width", width), ("height", height)):
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+                raise ValueError(f"{name} must be a positive integer (pixels), got {v!r}")
+        pb, cid = self._pb, self._client
+        self._place_goal(goal)
+        ell = self.params.length
+        target = self._base_rot @ np.array([0.0, 0.0, 0.4 * ell])
+        view = pb.computeViewMatrixFromYawPitchRoll(
+            target.tolist(), 1.9 * ell, 30.0, -20.0, 0.0, 2, physicsClientId=cid
+        )
+        proj = pb.computeProjectionMatrixFOV(45.0, width / height, 0.01, 10.0 * ell, physicsClientId=cid)
+        _, _, rgba, _, _ = pb.getCameraImage(
+            int(width),
+            int(height),
+            view,
+            proj,
+            renderer=pb.ER_TINY_RENDERER,
+            flags=pb.ER_NO_SEGMENTATION_MASK,
+            physicsClientId=cid,
+        )
+        img = np.asarray(rgba, dtype=np.uint8).reshape(int(height), int(width), 4)
+        return np.ascontiguousarray(img[:, :, :3])
+
+    def render_human(self, goal: np.ndarray | None) -> None:
+        """With ``gui=True``: move the goal marker and pace the GUI to real time.
+
+        Without the GUI, falls back to the matplotlib window of the base class.
+        """
+        self._check_open()
+        if not self.gui:
+            super().render_human(goal)
+            return
+        self._place_goal(goal)
+        now = time.perf_counter()
+        if self._last_human_render is not None:
+            wait = self.control_timestep - (now - self._last_human_render)
+            if wait > 0:
+                time.sleep(wait)
+        self._last_human_render = time.perf_counter()
+
+    def close(self) -> None:
+        """Disconnect the pybullet client. Safe to call more than once."""
+        if getattr(self, "_client", None) is None:
+            return
+        self._finalizer()
+        self._client = None
+        self._q = self._qd = self._kin = None
