@@ -3,50 +3,22 @@
 The model (derivations and measured numbers in ``docs/bullet_backend.md``)
 =========================================================================
 
-Discretisation and joint placement
-    The backbone of length ℓ carries a fixed base disk at s = 0 and ``n_disks`` spacer disks at
-    s_k = k·h (h = ℓ/n_disks, the last at the tip). Each disk span is cut into ``links_per_span``
-    = m pieces of length Δs = h/m, so there are n = n_disks·m *rod stations* s_j = j·Δs,
-    j = 0..n (every m-th station carries a disk). The joints sit **half-way between stations**,
-    at s = (j − ½)·Δs, j = 1..n; rigid link j runs from joint j to joint j+1 and is centred on
-    station j. The base body holds the half link [0, Δs/2] (clamped), the tip link is the half
-    link [ℓ − Δs/2, ℓ] with the tip disk at its end. Why this placement (a staggered grid):
+The discretised backbone (``cdcr_gym.backends.bullet_chain.DiscreteBackbone``)
+    Rigid links between the disks (``links_per_span`` per disk span) joined by Cardan joints
+    (two revolutes, X then Y: bending without twist or extension) that sit half-way between
+    the rod stations, so that every disk is centred on a link and every joint owns exactly Δs
+    of rod: stiffness EI/Δs for all joints. Cable loads are the generalized forces
+    τ = −Σ_i T_i ∂l_i/∂q of frictionless cables running straight between pinholes, computed
+    from the one segment per cable that crosses each joint. The derivations, the joint
+    placement and its convergence (span-mean moment-arm excess (1 + 2/m²)·h²κ/12) and the mass
+    model are in that module's docstring; here only the dynamics.
 
-    * every disk sits at the middle of a straight link, so for a bent backbone it lies on the
-      arc and is normal to the arc's tangent there to O(α²) (α = κΔs, the joint angle); joints
-      at the disks would tilt each disk by α/2 (first order);
-    * every joint's share of the rod (its Voronoi cell) is exactly Δs, end joints included, so
-      one stiffness EI/Δs serves all joints and a pure moment M bends the chain through exactly
-      θ = M·ℓ/EI for any n;
-    * a joint never coincides with a pinhole, so exactly one straight segment of each cable
-      crosses each joint: its generalized force is one cross product (below);
-    * convergence: with the cable straight between pinholes, a joint at fraction u of a disk
-      span sees the moment arm r + (h²κ/2)·u(1−u) + h²κ/(8m²) (the arc's sagitta plus the
-      polygon vertex's excess over the arc). Averaged over the m joints of a span this is
-      r + (h²κ/12)·(1 + 2/m²): as m → ∞ the model converges (O(1/m²)) to a continuous rod with
-      discrete disks (span-mean arm r + h²κ/12, the physical discrete-routing effect), and as
-      n_disks → ∞ (h → 0) to the elastica θ = T·r·ℓ/EI. With m = 1 the discrete-routing excess
-      is 3× the physical one; joints at the disks would instead give the factor (1 − 1/m²),
-      i.e. no discrete-routing effect at all at m = 1, plus the disk tilt above.
-
-2-DOF joints without twist or extension
-    Each joint is a Cardan (universal) joint: a revolute joint about the parent's X axis into a
-    massless intermediate link at the same point, then a revolute joint about that link's Y
-    axis into the real link. Two revolute coordinates per joint keep the generalized
-    coordinates linear (no quaternions), so the joint stiffness is the diagonal matrix
-    K = EI/Δs·I and the cable Jacobians are single cross products; the joint cannot twist
-    about the backbone or extend along it.
-
-Cable loads
-    Cable i is frictionless and anchored at the tip disk, so its tension T_i is uniform and its
-    potential is T_i·l_i(q) with l_i the sum of straight pinhole-to-pinhole segment lengths.
-    The backend applies the generalized forces τ = −Σ_i T_i ∂l_i/∂q. For joint j (axes a, point
-    o, world frame) inside disk span k the only segment of cable i that depends on q_j is the
-    one from pinhole p_k to p_{k+1}; with u its unit vector,
-    ∂l_i/∂q_j = u·(a × (p_{k+1} − o)) = a·((p_{k+1} − o) × u), so
-    τ_j = −Σ_i T_i·a·((p_{k+1,i} − o) × u_{k,i}). This equals the virtual work of the point
-    forces ∓T_i·u at the two pinholes of every segment (forces on joints proximal to both
-    pinholes cancel because they are collinear); tests check it by finite differences.
+pybullet's multibody
+    The base (base disk, first half link) is fixed at the world origin with orientation
+    ``base_orientation``; each Cardan joint is a revolute about X into a massless intermediate
+    link at the joint, then a revolute about Y into the real link (mass, COM and principal
+    inertia from the chain model; no collision shapes, so no contacts). pybullet's API caps a
+    multibody at 128 joint coordinates, hence n_disks·links_per_span ≤ 63.
 
 Implicit spring–damper integration
     pybullet has no joint springs. The default motors are switched off and every physics step
@@ -70,13 +42,6 @@ Damping
     Higher modes are over-damped and relax at ≈ 1/β = ω₁/(2ζ); the default ζ = 0.7 balances the
     first mode (decay ζω₁) against those, for the fastest settling (numbers in the docs).
 
-Masses
-    Rod: linear density ``params.backbone_linear_density`` (solid cylinder of diameter d).
-    Disks: solid disks of ``disk_mass``, radius ``disk_radius``, thickness ``disk_thickness``
-    (the pinholes and centre bore are neglected). Each link carries its rod piece, its disk
-    (if its station is a disk station) and, at the tip, ``tip_payload`` as a point mass. The
-    base body's half link and base disk are clamped and carry no dynamics.
-
 Frames
     The base frame R0 is the base disk centre with the backbone along +Z0 and cable 1 at +X0.
     ``base_orientation`` places R0 in the world (pybullet's frame, gravity −Z_world). Every
@@ -94,12 +59,12 @@ import sys
 import time
 import weakref
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
 
 import numpy as np
 
 from cdcr_gym.backends.base import Backend
-from cdcr_gym.params import CABLE_ANGLES, RobotParams
+from cdcr_gym.backends.bullet_chain import GRAVITY, ChainPose, DiscreteBackbone, quat_to_matrix
+from cdcr_gym.params import RobotParams
 
 __all__ = ["BulletBackend", "SimulationDivergedError"]
 
@@ -107,7 +72,9 @@ __all__ = ["BulletBackend", "SimulationDivergedError"]
 #: taken as a diverged simulation (a real spacer-disk span never kinks by 90°).
 _MAX_JOINT_ANGLE = 0.5 * math.pi
 _MAX_JOINT_RATE = 1.0e3
-_GRAVITY = 9.81
+#: pybullet's shared-memory API holds at most 128 joint coordinates per body (and
+#: ``createMultiBody`` at most 127 links): 63 Cardan joints = 126 revolutes.
+MAX_JOINTS = 63
 
 
 class SimulationDivergedError(RuntimeError):
@@ -203,53 +170,6 @@ def _disconnect(client: int) -> None:
     with contextlib.suppress(Exception):
         if pb.getConnectionInfo(physicsClientId=client)["isConnected"]:
             pb.disconnect(physicsClientId=client)
-
-
-# --------------------------------------------------------------------------------------------
-# small numerics
-# --------------------------------------------------------------------------------------------
-
-
-def _quat_to_matrix(quat: np.ndarray) -> np.ndarray:
-    """Rotation matrices (..., 3, 3) from unit quaternions (..., 4) in pybullet's xyzw order."""
-    x, y, z, w = quat[..., 0], quat[..., 1], quat[..., 2], quat[..., 3]
-    xx, yy, zz = x * x, y * y, z * z
-    xy, xz, yz = x * y, x * z, y * z
-    wx, wy, wz = w * x, w * y, w * z
-    rot = np.empty(quat.shape[:-1] + (3, 3))
-    rot[..., 0, 0] = 1.0 - 2.0 * (yy + zz)
-    rot[..., 0, 1] = 2.0 * (xy - wz)
-    rot[..., 0, 2] = 2.0 * (xz + wy)
-    rot[..., 1, 0] = 2.0 * (xy + wz)
-    rot[..., 1, 1] = 1.0 - 2.0 * (xx + zz)
-    rot[..., 1, 2] = 2.0 * (yz - wx)
-    rot[..., 2, 0] = 2.0 * (xz - wy)
-    rot[..., 2, 1] = 2.0 * (yz + wx)
-    rot[..., 2, 2] = 1.0 - 2.0 * (xx + yy)
-    return rot
-
-
-_LEVI_CIVITA = np.zeros((3, 3, 3))
-_LEVI_CIVITA[0, 1, 2] = _LEVI_CIVITA[1, 2, 0] = _LEVI_CIVITA[2, 0, 1] = 1.0
-_LEVI_CIVITA[0, 2, 1] = _LEVI_CIVITA[2, 1, 0] = _LEVI_CIVITA[1, 0, 2] = -1.0
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Cross product over the last axis (one einsum: faster than np.cross for small arrays)."""
-    return np.einsum("ijk,...j,...k->...i", _LEVI_CIVITA, a, b)
-
-
-@dataclass
-class _Kinematics:
-    """The state and world-frame geometry at one instant (cached between steps)."""
-
-    q: np.ndarray  # (2n,) joint angles, rad: [a_1, b_1, a_2, b_2, ...]
-    qd: np.ndarray  # (2n,) joint rates, rad/s
-    joint_points: np.ndarray  # (n, 3) joint centres o_j, world, m
-    joint_axes: np.ndarray  # (n, 2, 3) world axes of the X and Y revolute joint of each joint
-    link_rot: np.ndarray  # (n, 3, 3) orientation of the real links in world
-    stations: np.ndarray  # (n+1, 3) rod stations s_j = jΔs, world, m (0 = base)
-    pinholes: np.ndarray  # (n_disks+1, 3, 3) [disk, cable, xyz] world, m
 
 
 # --------------------------------------------------------------------------------------------
@@ -366,24 +286,25 @@ class BulletBackend(Backend):
         self.damping_ratio = _check_positive("damping_ratio", damping_ratio, "")
 
         p = params
-        self.n_links = p.n_disks * self.links_per_span  # real links = 2-DOF joints
-        self.n_dof = 2 * self.n_links
-        self.segment_length = p.length / self.n_links  # Δs, m
-        self._base_rot = _quat_to_matrix(np.asarray(self.base_orientation))
-        beta = np.asarray(CABLE_ANGLES)
-        self._pinhole_local = p.cable_radius * np.stack(
-            [np.cos(beta), np.sin(beta), np.zeros(3)], axis=-1
-        )  # (3 cables, 3)
-        # disk span of each joint: joint j (1-based) at (j − ½)Δs lies in span (j − 1) // m
-        self._joint_span = np.arange(self.n_links) // self.links_per_span
-        # real-link index (0-based) carrying disk k = 1..n_disks, and the base disk's pinholes
-        self._disk_links = np.arange(1, p.n_disks + 1) * self.links_per_span - 1
-        self._base_pinholes = self._pinhole_local @ self._base_rot.T
-        self._base_rot_flat = self._base_rot.reshape(9)
+        if p.n_disks * self.links_per_span > MAX_JOINTS:
+            raise ValueError(
+                f"params.n_disks × links_per_span = {p.n_disks} × {self.links_per_span} = "
+                f"{p.n_disks * self.links_per_span} joints, but a pybullet multibody holds at most "
+                f"{MAX_JOINTS} (128 joint coordinates); use fewer disks or links per span "
+                "(cdcr_gym.backends.bullet_chain.DiscreteBackbone evaluates longer chains' statics)"
+            )
+        self._base_rot = quat_to_matrix(np.asarray(self.base_orientation))
+        #: The discretised backbone: geometry, masses, cable and gravity loads, statics.
+        self.chain = DiscreteBackbone(
+            p, self.links_per_span, self.tip_payload, self._base_rot, self.gravity
+        )
+        self.n_links = self.chain.n_links  # links = 2-DOF joints
+        self.n_dof = self.chain.n_dof  # revolute coordinates, 2 per joint
+        self.segment_length = self.chain.segment_length  # Δs, m
         #: Joint stiffness EI/Δs (N·m/rad), the same for all 2n revolute coordinates.
-        self.joint_stiffness = p.bending_stiffness / self.segment_length
+        self.joint_stiffness = self.chain.joint_stiffness
         self._tensions = np.zeros(3)
-        self._kin: _Kinematics | None = None
+        self._pose: ChainPose | None = None
         self._q: np.ndarray | None = None
         self._qd: np.ndarray | None = None
         self.time = 0.0
@@ -406,30 +327,6 @@ class BulletBackend(Backend):
 
     # ---------------------------------------------------------------- construction
 
-    def _link_inertia(self, j: int) -> tuple[float, float, float, float]:
-        """Mass (kg), COM height (m, in the link frame) and principal inertias (kg·m²) of link j.
-
-        Link j (1-based) runs from its joint at z = 0 along +z; full links are Δs long, the tip
-        link Δs/2; its station (and disk, if any) sits at z = Δs/2.
-        """
-        p = self.params
-        ds = self.segment_length
-        length = ds if j < self.n_links else 0.5 * ds
-        a = 0.5 * p.backbone_diameter
-        parts = []  # (mass, z, Ixx about own COM, Izz)
-        m_rod = p.backbone_linear_density * length
-        parts.append((m_rod, 0.5 * length, m_rod * (3 * a * a + length**2) / 12.0, 0.5 * m_rod * a * a))
-        if j % self.links_per_span == 0:
-            m_d, rad, t = p.disk_mass, p.disk_radius, p.disk_thickness
-            parts.append((m_d, 0.5 * ds, m_d * (3 * rad * rad + t * t) / 12.0, 0.5 * m_d * rad * rad))
-        if j == self.n_links and self.tip_payload > 0.0:
-            parts.append((self.tip_payload, 0.5 * ds, 0.0, 0.0))
-        mass = sum(m for m, _, _, _ in parts)
-        z_c = sum(m * z for m, z, _, _ in parts) / mass
-        ixx = sum(i + m * (z - z_c) ** 2 for m, z, i, _ in parts)
-        izz = sum(i for _, _, _, i in parts)
-        return mass, z_c, ixx, izz
-
     def _build(self) -> None:
         pb, cid = self._pb, self._client
         ds = self.segment_length
@@ -439,18 +336,15 @@ class BulletBackend(Backend):
             deterministicOverlappingPairs=1,
             physicsClientId=cid,
         )
-        pb.setGravity(0.0, 0.0, -_GRAVITY if self.gravity else 0.0, physicsClientId=cid)
+        pb.setGravity(0.0, 0.0, -GRAVITY if self.gravity else 0.0, physicsClientId=cid)
         if self.gui:
             pb.configureDebugVisualizer(pb.COV_ENABLE_GUI, 0, physicsClientId=cid)
 
         vis = self._make_visuals()
         masses, vis_idx, pos, inertial_pos, parents, axes = [], [], [], [], [], []
-        self._link_mass = np.zeros(self.n_links)
-        self._link_inertia_diag = []
+        chain = self.chain
         for j in range(1, self.n_links + 1):
-            mass, z_c, ixx, izz = self._link_inertia(j)
-            self._link_mass[j - 1] = mass
-            self._link_inertia_diag.append((ixx, ixx, izz))
+            mass, z_c = float(chain.link_masses[j - 1]), float(chain.link_com_offsets[j - 1])
             # X joint into the massless intermediate link
             masses.append(0.0)
             vis_idx.append(-1)
@@ -504,13 +398,13 @@ class BulletBackend(Backend):
                 pb.changeDynamics(
                     body,
                     i,
-                    localInertiaDiagonal=self._link_inertia_diag[i // 2],
+                    localInertiaDiagonal=chain.link_inertias[i // 2].tolist(),
                     physicsClientId=cid,
                 )
         self._joint_ids = list(range(n2))
         for i in range(1, n2, 2):
             info = pb.getDynamicsInfo(body, i, physicsClientId=cid)
-            if not np.allclose(info[2], self._link_inertia_diag[i // 2], rtol=1e-9, atol=0.0):
+            if not np.allclose(info[2], chain.link_inertias[i // 2], rtol=1e-9, atol=0.0):
                 raise RuntimeError(f"pybullet did not take the inertia of link {i}: {info[2]}")
         # default joint motors off (they would act as velocity dampers)
         pb.setJointMotorControlArray(
@@ -570,7 +464,7 @@ class BulletBackend(Backend):
         tip_rod = (cyl, rod_r, (0.5 * ds, (0.0, 0.0, 0.25 * ds)))
         holes = [
             (sph, 0.004, (0.0, (float(x), float(y), 0.5 * ds + 0.5 * p.disk_thickness)))
-            for x, y, _ in self._pinhole_local
+            for x, y, _ in self.chain.pinhole_local
         ]
         base_rod = (cyl, rod_r, (0.5 * ds, (0.0, 0.0, 0.25 * ds)))
         base_disk = (cyl, p.disk_radius, (p.disk_thickness, (0.0, 0.0, 0.0)))
@@ -597,66 +491,16 @@ class BulletBackend(Backend):
             self._q, self._qd = qqd[:, 0].copy(), qqd[:, 1].copy()
         return self._q, self._qd
 
-    def _read(self) -> _Kinematics:
-        """Joint state and world geometry of the current pybullet state (cached until a step).
+    def _read(self) -> ChainPose:
+        """World geometry of the current state (cached until the next step).
 
-        The link frames are computed here by forward kinematics in float64, because pybullet's
-        ``getLinkState`` returns positions rounded to single precision (~1e-8 m), too coarse for
-        the finite-difference checks and the static solver; a test checks this FK against
-        ``getLinkState``.
+        The link frames come from the chain model's float64 forward kinematics, because
+        pybullet's ``getLinkState`` returns positions rounded to single precision (~1e-8 m),
+        too coarse for finite-difference checks; a test checks the two agree.
         """
-        if self._kin is None:
-            q, qd = self._state()
-            self._kin = self._geometry(q, qd)
-        return self._kin
-
-    def _geometry(self, q: np.ndarray, qd: np.ndarray) -> _Kinematics:
-        """World geometry of the chain at joint angles ``q`` (pure numpy forward kinematics).
-
-        Link j's orientation is R_j = R_base·Rx(a_1)·Ry(b_1)·…·Rx(a_j)·Ry(b_j); joint 1 sits
-        Δs/2 above the base, each further joint Δs along the previous link, station j Δs/2
-        along link j. Written for few numpy calls (it runs every physics step).
-        """
-        n, ds = self.n_links, self.segment_length
-        c, s = np.cos(q), np.sin(q)
-        ca, sa, cb, sb = c[0::2], s[0::2], c[1::2], s[1::2]
-        rot = np.empty((n + 1, 9))  # [R_base, Rx(a_1)·Ry(b_1), …] flattened row-major
-        rot[0] = self._base_rot_flat
-        rot[1:, 0] = cb
-        rot[1:, 1] = 0.0
-        rot[1:, 2] = sb
-        rot[1:, 3] = sa * sb
-        rot[1:, 4] = ca
-        rot[1:, 5] = -sa * cb
-        rot[1:, 6] = -ca * sb
-        rot[1:, 7] = sa
-        rot[1:, 8] = ca * cb
-        rot = rot.reshape(n + 1, 3, 3)
-        # prefix products by a log-depth (Hillis–Steele) scan: ⌈log2(n+1)⌉ batched matmuls
-        d = 1
-        while d <= n:
-            rot[d:] = np.matmul(rot[:-d], rot[d:])
-            d *= 2
-        prev, link_rot = rot[:-1], rot[1:]  # parent orientation of joint j, orientation of link j
-        axes = np.empty((n, 2, 3))
-        axes[:, 0] = prev[:, :, 0]  # X joint: the parent's X axis
-        # Y joint: the intermediate frame's Y axis, parent·Rx(a)·e_y = parent·(0, cos a, sin a)
-        axes[:, 1] = prev[:, :, 1] * ca[:, None] + prev[:, :, 2] * sa[:, None]
-        tangent = rot[:, :, 2] * ds  # (n+1, 3): base and link directions × Δs
-        joint_points = np.cumsum(tangent[:-1], axis=0)
-        joint_points -= 0.5 * tangent[0]
-        stations = np.empty((n + 1, 3))
-        stations[0] = 0.0
-        np.add(joint_points, 0.5 * tangent[1:], out=stations[1:])
-        pin = np.empty((self.params.n_disks + 1, 3, 3))
-        pin[0] = self._base_pinholes
-        dl = self._disk_links
-        np.add(
-            stations[dl + 1][:, None, :],
-            np.matmul(self._pinhole_local, link_rot[dl].transpose(0, 2, 1)),
-            out=pin[1:],
-        )
-        return _Kinematics(q, qd, joint_points, axes, link_rot, stations, pin)
+        if self._pose is None:
+            self._pose = self.chain.pose(self._state()[0])
+        return self._pose
 
     def _pybullet_link_frames(self) -> tuple[np.ndarray, np.ndarray]:
         """pybullet's own link-frame positions (2n, 3) and rotations (2n, 3, 3), world (for tests)."""
@@ -665,65 +509,7 @@ class BulletBackend(Backend):
             self._body, self._joint_ids, computeForwardKinematics=1, physicsClientId=self._client
         )
         frames = np.array([s[4] + s[5] for s in ls])
-        return frames[:, :3], _quat_to_matrix(frames[:, 3:])
-
-    def _cable_loads(self, q: np.ndarray, tensions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Generalized cable forces τ = −Σ_i T_i ∂l_i/∂q (2n,) N·m and cable lengths (3,) m.
-
-        Evaluated span by span in the frame of the span's proximal disk (generalized forces
-        and segment lengths are frame-invariant), so no global forward kinematics is needed:
-        the segment of cable i across disk span k runs from the pinhole p_a (fixed in the
-        proximal disk's frame) to p_b on the distal disk, which the span's m joints move. For
-        joint j of that span (point o, axis a), ∂l_i/∂q_j = a·((p_b − o) × u) with u the unit
-        segment vector, so τ_j = a·(o × F − G) with F = Σ_i T_i u_i and G = Σ_i T_i p_b,i × u_i.
-        Vectorised over the spans; a Python loop over the m joints of a span.
-        """
-        n_span, m, half = self.params.n_disks, self.links_per_span, 0.5 * self.segment_length
-        c, s = np.cos(q).reshape(n_span, m, 2), np.sin(q).reshape(n_span, m, 2)
-        points = np.empty((n_span, m, 3))  # joint points o in the span frame
-        axes = np.empty((n_span, m, 2, 3))  # X and Y joint axes in the span frame
-        rot = None
-        pos = None
-        for i in range(m):
-            ca, sa, cb, sb = c[:, i, 0], s[:, i, 0], c[:, i, 1], s[:, i, 1]
-            local = np.empty((n_span, 9))  # Rx(a)·Ry(b), row-major
-            local[:, 0] = cb
-            local[:, 1] = 0.0
-            local[:, 2] = sb
-            local[:, 3] = sa * sb
-            local[:, 4] = ca
-            local[:, 5] = -sa * cb
-            local[:, 6] = -ca * sb
-            local[:, 7] = sa
-            local[:, 8] = ca * cb
-            local = local.reshape(n_span, 3, 3)
-            if rot is None:  # first joint: the span frame itself, joint Δs/2 up its axis
-                points[:, 0] = (0.0, 0.0, half)
-                axes[:, 0, 0] = (1.0, 0.0, 0.0)
-                axes[:, 0, 1, 0] = 0.0
-                axes[:, 0, 1, 1] = ca
-                axes[:, 0, 1, 2] = sa
-                rot = local
-            else:
-                points[:, i] = pos + half * rot[:, :, 2]
-                axes[:, i, 0] = rot[:, :, 0]
-                axes[:, i, 1] = rot[:, :, 1] * ca[:, None] + rot[:, :, 2] * sa[:, None]
-                rot = np.matmul(rot, local)
-            pos = points[:, i] + half * rot[:, :, 2]  # the next station
-        p_b = pos[:, None, :] + np.matmul(self._pinhole_local, rot.transpose(0, 2, 1))
-        seg = p_b - self._pinhole_local  # (n_span, 3 cables, 3)
-        seg_len = np.sqrt((seg * seg).sum(axis=-1))  # (n_span, 3)
-        tu = seg * (tensions / seg_len)[..., None]  # T_i·u_i
-        force = tu.sum(axis=1)  # F (n_span, 3)
-        couple = _cross(p_b, tu).sum(axis=1)  # G (n_span, 3)
-        moment = _cross(points, force[:, None, :]) - couple[:, None, :]  # (n_span, m, 3)
-        tau = (axes * moment[:, :, None, :]).sum(axis=-1).reshape(-1)
-        return tau, seg_len.sum(axis=0)
-
-    @staticmethod
-    def _lengths(kin: _Kinematics) -> np.ndarray:
-        seg = kin.pinholes[1:] - kin.pinholes[:-1]
-        return np.sqrt(np.einsum("dci,dci->dc", seg, seg)).sum(axis=0)
+        return frames[:, :3], quat_to_matrix(frames[:, 3:])
 
     def _to_base(self, points_world: np.ndarray) -> np.ndarray:
         return points_world @ self._base_rot  # R0 = Rᵀ·world (base at the origin)
@@ -736,7 +522,7 @@ class BulletBackend(Backend):
             targetVelocities=[[float(v)] for v in qd],
             physicsClientId=self._client,
         )
-        self._q = self._qd = self._kin = None
+        self._q = self._qd = self._pose = None
 
     def _diverged(self, message: str, q: np.ndarray, qd: np.ndarray, t: np.ndarray) -> SimulationDivergedError:
         state = {"joint_positions": q.copy(), "joint_velocities": qd.copy(), "tensions": t.copy(), "time": self.time}
@@ -783,17 +569,10 @@ class BulletBackend(Backend):
         """
         self._check_open()
         t = self._check_tensions(tensions)
-        q = np.zeros(self.n_dof)
-        for _ in range(1000):
-            tau, _ = self._cable_loads(q, t)
-            q_new = (tau - self._gravity_bias(q)) / self._K
-            step = np.max(np.abs(q_new - q))
-            q = q_new
-            if not step < _MAX_JOINT_ANGLE or not np.max(np.abs(q)) <= _MAX_JOINT_ANGLE:
-                break
-            if step < 1e-14:
-                return q
-        raise self._diverged("the static equilibrium did not converge", q, np.zeros(self.n_dof), t)
+        q, converged = self.chain.static_equilibrium(t, self._gravity_bias, max_angle=_MAX_JOINT_ANGLE)
+        if not converged:
+            raise self._diverged("the static equilibrium did not converge", q, np.zeros(self.n_dof), t)
+        return q
 
     def reset(self, tensions: np.ndarray) -> None:
         """Put the chain at rest in its static equilibrium under ``tensions`` (3,) N.
@@ -833,10 +612,11 @@ class BulletBackend(Backend):
         h = self.physics_timestep
         K, D, h_k = self._K, self._D, self._h_k
         torque_mode = pb.TORQUE_CONTROL
+        cable_loads = self.chain.cable_loads
         for _ in range(self.n_substeps):
             q, qd = self._state()
             ql = q.tolist()
-            tau_c, _ = self._cable_loads(q, t)
+            tau_c, _ = cable_loads(q, t)
             mass = np.array(pb.calculateMassMatrix(body, ql, physicsClientId=cid))
             bias = np.array(
                 pb.calculateInverseDynamics(body, ql, qd.tolist(), self._zeros_list, physicsClientId=cid)
@@ -847,7 +627,7 @@ class BulletBackend(Backend):
             # TORQUE_CONTROL torques accumulate until the next step: exactly one call per step
             pb.setJointMotorControlArray(body, ids, torque_mode, forces=torque.tolist(), physicsClientId=cid)
             pb.stepSimulation(physicsClientId=cid)
-            self._q = self._qd = self._kin = None
+            self._q = self._qd = self._pose = None
             self.time += h
         q, qd = self._state()
         # NaN fails every comparison, so "not (x <= limit)" also catches non-finite values
@@ -869,7 +649,7 @@ class BulletBackend(Backend):
     def cable_lengths(self) -> np.ndarray:
         """Sensed cable lengths (3,), m: summed pinhole-to-pinhole segment lengths, base → tip disk."""
         self._check_open()
-        return self._lengths(self._read())
+        return self.chain.cable_lengths_of(self._read())
 
     @property
     def tensions(self) -> np.ndarray:
@@ -919,7 +699,7 @@ class BulletBackend(Backend):
         """
         self._check_open()
         t = self._tensions if tensions is None else self._check_tensions(tensions)
-        return self._cable_loads(self._state()[0], t)[0]
+        return self.chain.cable_loads(self._state()[0], t)[0]
 
     def gravity_generalized_forces(self) -> np.ndarray:
         """Generalized gravity forces (2n,), N·m, at the current pose (pybullet inverse dynamics)."""
@@ -942,11 +722,11 @@ class BulletBackend(Backend):
         if frame not in ("base", "world"):
             raise ValueError(f"frame must be 'base' or 'world', got {frame!r}")
         self._check_open()
-        kin = self._read()
+        pose = self._read()
         pts = np.empty((2 * self.n_links + 1, 3))
         pts[0] = 0.0
-        pts[1::2] = kin.joint_points
-        pts[2::2] = kin.stations[1:]
+        pts[1::2] = pose.joint_points
+        pts[2::2] = pose.stations[1:]
         return pts if frame == "world" else self._to_base(pts)
 
     def pinhole_positions(self, frame: str = "base") -> np.ndarray:
@@ -1024,4 +804,4 @@ class BulletBackend(Backend):
             return
         self._finalizer()
         self._client = None
-        self._q = self._qd = self._kin = None
+        self._q = self._qd = self._pose = None

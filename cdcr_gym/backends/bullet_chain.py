@@ -1,0 +1,365 @@
+"""The discretised backbone of the pybullet backend, as pure numpy (no simulator).
+
+``BulletBackend`` simulates this model's dynamics in pybullet; this module holds its geometry,
+mass properties, cable and gravity loads and statics, so that they are written once, can be
+checked against pybullet (tests), and can be evaluated for chains longer than one pybullet
+multibody can hold (pybullet's API caps a body at 128 joint coordinates, i.e. 63 Cardan joints).
+
+Discretisation and joint placement
+    The backbone of length ℓ carries a fixed base disk at s = 0 and ``n_disks`` spacer disks at
+    s_k = k·h (h = ℓ/n_disks, the last at the tip). Each disk span is cut into
+    ``links_per_span`` = m pieces of length Δs = h/m, giving n = n_disks·m *rod stations*
+    s_j = j·Δs, j = 0..n (every m-th carries a disk). The joints sit **half-way between
+    stations**, at s = (j − ½)·Δs, j = 1..n; rigid link j runs from joint j to joint j+1 and is
+    centred on station j. The base holds the half link [0, Δs/2] (clamped); the tip link is the
+    half link [ℓ − Δs/2, ℓ] with the tip disk at its end. Why this placement (a staggered grid):
+
+    * every disk sits in the middle of a straight link, so on a bent backbone it lies on the arc
+      and is normal to the arc's tangent there, to O(α²) (α = κΔs, the joint angle); joints at
+      the disks would tilt each disk by α/2 (first order);
+    * every joint's share of the rod (its Voronoi cell) is exactly Δs, the end joints included,
+      so one stiffness EI/Δs serves all joints, and a pure moment M bends the chain through
+      exactly θ = M·ℓ/EI for any n;
+    * a joint never coincides with a pinhole, so exactly one straight segment of each cable
+      crosses each joint, and its generalized force is one cross product (below);
+    * convergence: with the cable straight between pinholes, a joint at fraction u of a disk span
+      sees the moment arm r + (h²κ/2)·u(1−u) + h²κ/(8m²) (the arc's sagitta, plus the polygon
+      vertex's excess over the arc). Averaged over the m joints of a span this is
+      r + (h²κ/12)·(1 + 2/m²). So as m → ∞ the model converges, at O(1/m²), to a continuous rod
+      between discrete disks (span-mean arm r + h²κ/12: the physical discrete-routing effect),
+      and as n_disks → ∞ (h → 0) to the elastica θ = T·r·ℓ/EI. With m = 1 the discrete-routing
+      excess is 3× the physical one; joints at the disks would give the factor (1 − 1/m²)
+      instead, i.e. no discrete-routing effect at all at m = 1, plus the disk tilt above.
+
+2-DOF joints without twist or extension
+    Each joint is a Cardan (universal) joint: a rotation a_j about the parent link's X axis,
+    then b_j about the resulting Y axis, R = Rx(a)·Ry(b). It has no twist and no extension
+    degree of freedom. The generalized coordinates q = [a_1, b_1, a_2, b_2, …] are plain angles,
+    so the joint stiffness is diagonal, K = EI/Δs·I (strain energy (EI/2Δs)·(a² + b²), exact
+    to fourth order in the joint angle), and every Jacobian column is a single cross product.
+
+Cable loads
+    Cable i is frictionless and anchored at the tip disk: its tension T_i is uniform and its
+    potential is T_i·l_i(q), l_i the sum of the straight pinhole-to-pinhole segment lengths.
+    The generalized forces are τ = −Σ_i T_i ∂l_i/∂q. For joint j (point o, axis a) inside disk
+    span k, only the segment p_k → p_{k+1} of cable i depends on q_j (the joints proximal to
+    both pinholes move them rigidly together); with u its unit vector,
+    ∂l_i/∂q_j = u·(a × (p_{k+1} − o)) = a·((p_{k+1} − o) × u), hence
+    τ_j = −Σ_i T_i·a·((p_{k+1,i} − o) × u_{k,i}) = a·(o × F_k − G_k),
+    F_k = Σ_i T_i u_{k,i},  G_k = Σ_i T_i p_{k+1,i} × u_{k,i}.
+    These are exactly the generalized forces of the point forces ∓T_i·u at the two pinholes of
+    every segment (on joints proximal to both pinholes the pair cancels: collinear forces).
+
+Masses (the paper gives none; see ``RobotParams``)
+    Rod: linear density ``backbone_linear_density`` (solid cylinder of diameter d). Disks: solid
+    disks of ``disk_mass``, ``disk_radius``, ``disk_thickness`` (pinholes and bore neglected).
+    Each link carries its rod piece, its disk (if its station carries one) and, at the tip,
+    ``tip_payload`` as a point mass. The base's half link and the base disk are clamped.
+
+Frames: R0 at the base disk centre, backbone along +Z0, cable 1 at +X0; ``base_rotation`` maps
+R0 to the world frame, where gravity is −9.81 m/s² along −Z_world. Positions here are world.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from cdcr_gym.params import CABLE_ANGLES, RobotParams
+
+__all__ = ["DiscreteBackbone", "ChainPose", "quat_to_matrix", "GRAVITY"]
+
+#: Standard gravity (m/s²).
+GRAVITY = 9.81
+
+_LEVI_CIVITA = np.zeros((3, 3, 3))
+_LEVI_CIVITA[0, 1, 2] = _LEVI_CIVITA[1, 2, 0] = _LEVI_CIVITA[2, 0, 1] = 1.0
+_LEVI_CIVITA[0, 2, 1] = _LEVI_CIVITA[2, 1, 0] = _LEVI_CIVITA[1, 0, 2] = -1.0
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Cross product over the last axis (one einsum: faster than np.cross for small arrays)."""
+    return np.einsum("ijk,...j,...k->...i", _LEVI_CIVITA, a, b)
+
+
+def quat_to_matrix(quat: np.ndarray) -> np.ndarray:
+    """Rotation matrices (..., 3, 3) from unit quaternions (..., 4) in pybullet's (x, y, z, w)."""
+    quat = np.asarray(quat, dtype=np.float64)
+    x, y, z, w = quat[..., 0], quat[..., 1], quat[..., 2], quat[..., 3]
+    rot = np.empty(quat.shape[:-1] + (3, 3))
+    rot[..., 0, 0] = 1.0 - 2.0 * (y * y + z * z)
+    rot[..., 0, 1] = 2.0 * (x * y - w * z)
+    rot[..., 0, 2] = 2.0 * (x * z + w * y)
+    rot[..., 1, 0] = 2.0 * (x * y + w * z)
+    rot[..., 1, 1] = 1.0 - 2.0 * (x * x + z * z)
+    rot[..., 1, 2] = 2.0 * (y * z - w * x)
+    rot[..., 2, 0] = 2.0 * (x * z - w * y)
+    rot[..., 2, 1] = 2.0 * (y * z + w * x)
+    rot[..., 2, 2] = 1.0 - 2.0 * (x * x + y * y)
+    return rot
+
+
+def _cardan(ca: np.ndarray, sa: np.ndarray, cb: np.ndarray, sb: np.ndarray) -> np.ndarray:
+    """Rx(a)·Ry(b), shape (k, 3, 3), from the cosines and sines (each shape (k,))."""
+    rot = np.empty((ca.shape[0], 9))
+    rot[:, 0] = cb
+    rot[:, 1] = 0.0
+    rot[:, 2] = sb
+    rot[:, 3] = sa * sb
+    rot[:, 4] = ca
+    rot[:, 5] = -sa * cb
+    rot[:, 6] = -ca * sb
+    rot[:, 7] = sa
+    rot[:, 8] = ca * cb
+    return rot.reshape(-1, 3, 3)
+
+
+@dataclass(frozen=True)
+class ChainPose:
+    """World-frame geometry of the chain at one set of joint angles (all lengths in m).
+
+    Attributes:
+        joint_points: (n, 3) joint centres o_j.
+        joint_axes: (n, 2, 3) unit axes of the X and the Y revolute of each joint.
+        link_rot: (n, 3, 3) orientation of link j (its third column is the link direction).
+        stations: (n+1, 3) rod stations s_j = j·Δs (0: base disk centre, n: tip disk centre).
+        pinholes: (n_disks+1, 3, 3) cable pinholes [disk (base first), cable, xyz].
+        coms: (n, 3) link centres of mass.
+    """
+
+    joint_points: np.ndarray
+    joint_axes: np.ndarray
+    link_rot: np.ndarray
+    stations: np.ndarray
+    pinholes: np.ndarray
+    coms: np.ndarray
+
+
+class DiscreteBackbone:
+    """The rigid-link, elastic-joint model of the backbone (see the module docstring).
+
+    Args:
+        params: the robot.
+        links_per_span: rigid links per disk span, m >= 1.
+        tip_payload: point mass at the tip disk centre (kg, >= 0).
+        base_rotation: (3, 3) rotation of R0 in the world (default identity: upright).
+        gravity: whether :meth:`gravity_loads` returns the loads of −9.81 m/s² along −Z_world
+            (``False``: zeros).
+
+    The caller (``BulletBackend``) validates the arguments; this class trusts them.
+    """
+
+    def __init__(
+        self,
+        params: RobotParams,
+        links_per_span: int = 1,
+        tip_payload: float = 0.0,
+        base_rotation: np.ndarray | None = None,
+        gravity: bool = True,
+    ) -> None:
+        self.params = params
+        self.links_per_span = m = int(links_per_span)
+        self.tip_payload = float(tip_payload)
+        self.base_rotation = np.eye(3) if base_rotation is None else np.asarray(base_rotation, float)
+        self.gravity = bool(gravity)
+        #: Number of links (= 2-DOF joints) n and of joint coordinates 2n.
+        self.n_links = params.n_disks * m
+        self.n_dof = 2 * self.n_links
+        #: Link length Δs = h/m (m).
+        self.segment_length = params.length / self.n_links
+        #: Joint stiffness EI/Δs (N·m/rad), the same for the 2n coordinates.
+        self.joint_stiffness = params.bending_stiffness / self.segment_length
+        beta = np.asarray(CABLE_ANGLES)
+        #: Pinhole positions on a disk in the disk's frame, shape (3 cables, 3), m.
+        self.pinhole_local = params.cable_radius * np.stack(
+            [np.cos(beta), np.sin(beta), np.zeros(3)], axis=-1
+        )
+        # index (0-based) of the link carrying disk k = 1..n_disks
+        self._disk_links = np.arange(1, params.n_disks + 1) * m - 1
+        self._base_pinholes = self.pinhole_local @ self.base_rotation.T
+        self._base_rot_flat = self.base_rotation.reshape(9).copy()
+        props = [self._link_properties(j) for j in range(1, self.n_links + 1)]
+        #: Link masses (n,) kg, COM offsets along the link from its joint (n,) m, and principal
+        #: inertias about the COM (n, 3) kg·m² (Ixx = Iyy, Izz about the link axis).
+        self.link_masses = np.array([pr[0] for pr in props])
+        self.link_com_offsets = np.array([pr[1] for pr in props])
+        self.link_inertias = np.array([pr[2] for pr in props])
+        g = np.array([0.0, 0.0, -GRAVITY]) if self.gravity else np.zeros(3)
+        self._weights = self.link_masses[:, None] * g  # (n, 3) N
+
+    def _link_properties(self, j: int) -> tuple[float, float, tuple[float, float, float]]:
+        """Mass (kg), COM offset along the link from its joint (m), principal inertias (kg·m²).
+
+        Link j (1-based) starts at its joint (z = 0) and runs along +z: Δs long, the tip link
+        Δs/2; its station (and its disk, if any) is at z = Δs/2.
+        """
+        p, ds = self.params, self.segment_length
+        length = ds if j < self.n_links else 0.5 * ds
+        a = 0.5 * p.backbone_diameter
+        m_rod = p.backbone_linear_density * length
+        parts = [(m_rod, 0.5 * length, m_rod * (3 * a * a + length**2) / 12.0, 0.5 * m_rod * a * a)]
+        if j % self.links_per_span == 0:
+            md, rd, t = p.disk_mass, p.disk_radius, p.disk_thickness
+            parts.append((md, 0.5 * ds, md * (3 * rd * rd + t * t) / 12.0, 0.5 * md * rd * rd))
+        if j == self.n_links and self.tip_payload > 0.0:
+            parts.append((self.tip_payload, 0.5 * ds, 0.0, 0.0))
+        mass = sum(pt[0] for pt in parts)
+        z_c = sum(pt[0] * pt[1] for pt in parts) / mass
+        ixx = sum(pt[2] + pt[0] * (pt[1] - z_c) ** 2 for pt in parts)
+        izz = sum(pt[3] for pt in parts)
+        return mass, z_c, (ixx, ixx, izz)
+
+    # ------------------------------------------------------------------ kinematics
+
+    def pose(self, q: np.ndarray) -> ChainPose:
+        """World geometry at joint angles ``q`` (2n,) rad (forward kinematics, float64).
+
+        Link j's orientation is R_j = R_base·Rx(a_1)·Ry(b_1)·…·Rx(a_j)·Ry(b_j); joint 1 sits
+        Δs/2 above the base, each further joint Δs along the previous link, station j Δs/2 along
+        link j. The prefix products use a log-depth (Hillis–Steele) scan: ⌈log2(n+1)⌉ batched
+        matmuls instead of n small ones.
+        """
+        n, ds = self.n_links, self.segment_length
+        c, s = np.cos(q), np.sin(q)
+        ca, sa = c[0::2], s[0::2]
+        rot = np.empty((n + 1, 3, 3))
+        rot[0] = self.base_rotation
+        rot[1:] = _cardan(ca, sa, c[1::2], s[1::2])
+        d = 1
+        while d <= n:
+            rot[d:] = np.matmul(rot[:-d], rot[d:])
+            d *= 2
+        prev, link_rot = rot[:-1], rot[1:]  # parent orientation of joint j, orientation of link j
+        axes = np.empty((n, 2, 3))
+        axes[:, 0] = prev[:, :, 0]  # X revolute: the parent's X axis
+        # Y revolute: the intermediate frame's Y axis, parent·Rx(a)·e_y = parent·(0, cos a, sin a)
+        axes[:, 1] = prev[:, :, 1] * ca[:, None] + prev[:, :, 2] * sa[:, None]
+        tangent = rot[:, :, 2]  # (n+1, 3): base and link directions
+        joint_points = np.cumsum(tangent[:-1] * ds, axis=0)
+        joint_points -= (0.5 * ds) * tangent[0]
+        stations = np.empty((n + 1, 3))
+        stations[0] = 0.0
+        stations[1:] = joint_points + (0.5 * ds) * tangent[1:]
+        pins = np.empty((self.params.n_disks + 1, 3, 3))
+        pins[0] = self._base_pinholes
+        dl = self._disk_links
+        pins[1:] = stations[dl + 1][:, None, :] + np.matmul(
+            self.pinhole_local, link_rot[dl].transpose(0, 2, 1)
+        )
+        coms = joint_points + self.link_com_offsets[:, None] * tangent[1:]
+        return ChainPose(joint_points, axes, link_rot, stations, pins, coms)
+
+    @staticmethod
+    def cable_lengths_of(pose: ChainPose) -> np.ndarray:
+        """Sensed cable lengths (3,) m: summed pinhole-to-pinhole segment lengths of ``pose``."""
+        seg = pose.pinholes[1:] - pose.pinholes[:-1]
+        return np.sqrt((seg * seg).sum(axis=-1)).sum(axis=0)
+
+    # ------------------------------------------------------------------ loads
+
+    def cable_loads(self, q: np.ndarray, tensions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Generalized cable forces τ = −Σ_i T_i ∂l_i/∂q (2n,) N·m and cable lengths (3,) m.
+
+        Evaluated span by span in the frame of the span's proximal disk (generalized forces and
+        segment lengths are frame-invariant), so no global forward kinematics is needed: the
+        segment of cable i across disk span k runs from the pinhole p_a, fixed in the proximal
+        disk's frame, to p_b on the distal disk, which only the span's m joints move. Then
+        τ_j = a·(o × F − G) (module docstring). Vectorised over the spans, a loop over the m
+        joints of a span. Used every physics step.
+        """
+        n_span, m, half = self.params.n_disks, self.links_per_span, 0.5 * self.segment_length
+        c, s = np.cos(q).reshape(n_span, m, 2), np.sin(q).reshape(n_span, m, 2)
+        points = np.empty((n_span, m, 3))  # joint points in the span frame
+        axes = np.empty((n_span, m, 2, 3))  # their X and Y revolute axes
+        rot = pos = None
+        for i in range(m):
+            ca, sa = c[:, i, 0], s[:, i, 0]
+            local = _cardan(ca, sa, c[:, i, 1], s[:, i, 1])
+            if rot is None:  # the span frame itself; the joint Δs/2 up its axis
+                points[:, 0] = (0.0, 0.0, half)
+                axes[:, 0, 0] = (1.0, 0.0, 0.0)
+                axes[:, 0, 1, 0] = 0.0
+                axes[:, 0, 1, 1] = ca
+                axes[:, 0, 1, 2] = sa
+                rot = local
+            else:
+                points[:, i] = pos + half * rot[:, :, 2]
+                axes[:, i, 0] = rot[:, :, 0]
+                axes[:, i, 1] = rot[:, :, 1] * ca[:, None] + rot[:, :, 2] * sa[:, None]
+                rot = np.matmul(rot, local)
+            pos = points[:, i] + half * rot[:, :, 2]  # the next station
+        p_b = pos[:, None, :] + np.matmul(self.pinhole_local, rot.transpose(0, 2, 1))
+        seg = p_b - self.pinhole_local  # (n_span, 3 cables, 3)
+        seg_len = np.sqrt((seg * seg).sum(axis=-1))  # (n_span, 3)
+        tu = seg * (tensions / seg_len)[..., None]  # T_i·u_i
+        force = tu.sum(axis=1)  # F (n_span, 3)
+        couple = _cross(p_b, tu).sum(axis=1)  # G (n_span, 3)
+        moment = _cross(points, force[:, None, :]) - couple[:, None, :]  # (n_span, m, 3)
+        tau = (axes * moment[:, :, None, :]).sum(axis=-1).reshape(-1)
+        return tau, seg_len.sum(axis=0)
+
+    def gravity_loads(self, q: np.ndarray, pose: ChainPose | None = None) -> np.ndarray:
+        """Generalized gravity forces (2n,) N·m: joint j carries the weight of links j..n.
+
+        τ_j = a·((S_j − M_j·o_j) × g) with M_j = Σ_{k≥j} m_k and S_j = Σ_{k≥j} m_k·c_k
+        (c_k: link COMs). Zeros when the model was built with ``gravity=False``.
+        """
+        if not self.gravity:
+            return np.zeros(self.n_dof)
+        pose = self.pose(q) if pose is None else pose
+        w = self._weights  # m_k·g
+        # Σ_{k≥j} (c_k − o_j) × m_k g = Σ_{k≥j} c_k × m_k g − o_j × Σ_{k≥j} m_k g
+        cw = np.cumsum(_cross(pose.coms, w)[::-1], axis=0)[::-1]
+        wsum = np.cumsum(w[::-1], axis=0)[::-1]
+        moment = cw - _cross(pose.joint_points, wsum)
+        return (pose.joint_axes * moment[:, None, :]).sum(axis=-1).reshape(-1)
+
+    # ------------------------------------------------------------------ statics
+
+    def static_equilibrium(
+        self,
+        tensions: np.ndarray,
+        gravity_bias=None,
+        *,
+        tol: float = 1e-14,
+        max_iter: int = 1000,
+        max_angle: float = 0.5 * math.pi,
+    ) -> tuple[np.ndarray, bool]:
+        """Joint angles of the static equilibrium K·q = τ_cable(q) + τ_gravity(q).
+
+        Fixed-point iteration q ← K⁻¹·(τ_cable(q) + τ_gravity(q)) from the straight pose q = 0,
+        to max |Δq| < ``tol`` rad. It converges because the load stiffnesses (the cables'
+        ≲ ΣT·Δs/4 per joint, gravity's ≲ m·g·ℓ) are small against K = EI/Δs: the contraction
+        factor is their ratio (≈ 0.1–0.3 at the maximum tension with m = 1, less with more
+        links). Its limit is the stable equilibrium the dynamics settle to.
+
+        Args:
+            tensions: (3,) N.
+            gravity_bias: optional callable q -> b(q) (2n,), the joint torques that hold the
+                chain against gravity (``BulletBackend`` passes pybullet's inverse dynamics);
+                default −:meth:`gravity_loads`.
+            tol, max_iter, max_angle: convergence tolerance (rad), iteration limit, and the joint
+                angle (rad) beyond which the iteration is declared diverged.
+
+        Returns:
+            ``(q, converged)``; the same tensions always give the same bits.
+        """
+        tensions = np.asarray(tensions, dtype=np.float64)
+        k = self.joint_stiffness
+        q = np.zeros(self.n_dof)
+        for _ in range(max_iter):
+            tau, _ = self.cable_loads(q, tensions)
+            if gravity_bias is not None:
+                tau = tau - gravity_bias(q)
+            elif self.gravity:
+                tau = tau + self.gravity_loads(q)
+            q_new = tau / k
+            step = np.max(np.abs(q_new - q))
+            q = q_new
+            if not (step <= max_angle and np.max(np.abs(q)) <= max_angle):  # NaN fails too
+                return q, False
+            if step < tol:
+                return q, True
+        return q, False
