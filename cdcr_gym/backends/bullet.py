@@ -305,6 +305,10 @@ class BulletBackend(Backend):
         self.joint_stiffness = self.chain.joint_stiffness
         self._tensions = np.zeros(3)
         self._pose: ChainPose | None = None
+        # gravity in R0 coordinates, when it differs from the upright (0, 0, −g) (see _bias)
+        g_base = self._base_rot.T @ np.array([0.0, 0.0, -GRAVITY])
+        upright = np.allclose(g_base, (0.0, 0.0, -GRAVITY), rtol=0.0, atol=1e-12)
+        self._gravity_in_base = None if (upright or not self.gravity) else tuple(g_base.tolist())
         self._q: np.ndarray | None = None
         self._qd: np.ndarray | None = None
         self.time = 0.0
@@ -546,14 +550,30 @@ class BulletBackend(Backend):
             )
         return t
 
+    def _bias(self, q_list: list, qd_list: list) -> np.ndarray:
+        """b(q, q̇) = C(q, q̇)·q̇ + g(q): the joint torques (N·m) for zero acceleration.
+
+        pybullet's ``calculateInverseDynamics`` works in the base frame and applies the world
+        gravity vector there as if the base were upright (pybullet 3.2.7). For a turned base we
+        therefore set gravity to its base-frame components R0ᵀ·g around the call (a test checks
+        the result against the chain model's gravity loads).
+        """
+        pb, cid = self._pb, self._client
+        if self._gravity_in_base is None:
+            return np.array(
+                pb.calculateInverseDynamics(self._body, q_list, qd_list, self._zeros_list, physicsClientId=cid)
+            )
+        pb.setGravity(*self._gravity_in_base, physicsClientId=cid)
+        try:
+            return np.array(
+                pb.calculateInverseDynamics(self._body, q_list, qd_list, self._zeros_list, physicsClientId=cid)
+            )
+        finally:
+            pb.setGravity(0.0, 0.0, -GRAVITY, physicsClientId=cid)
+
     def _gravity_bias(self, q: np.ndarray) -> np.ndarray:
         """b(q, 0): the joint torques that hold the chain still against gravity (N·m)."""
-        zeros = self._zeros_list
-        return np.array(
-            self._pb.calculateInverseDynamics(
-                self._body, q.tolist(), zeros, zeros, physicsClientId=self._client
-            )
-        )
+        return self._bias(q.tolist(), self._zeros_list)
 
     def static_equilibrium(self, tensions: np.ndarray) -> np.ndarray:
         """Joint angles q (2n,) rad of the static equilibrium under ``tensions`` (3,) N.
@@ -618,9 +638,7 @@ class BulletBackend(Backend):
             ql = q.tolist()
             tau_c, _ = cable_loads(q, t)
             mass = np.array(pb.calculateMassMatrix(body, ql, physicsClientId=cid))
-            bias = np.array(
-                pb.calculateInverseDynamics(body, ql, qd.tolist(), self._zeros_list, physicsClientId=cid)
-            )
+            bias = self._bias(ql, qd.tolist())
             mass[self._diag_idx] += self._A_diag  # M + hD + h²K
             qd_new = qd + np.linalg.solve(mass, h * (tau_c - bias - K * q - (D + h_k) * qd))
             torque = tau_c - K * (q + h * qd_new) - D * qd_new
