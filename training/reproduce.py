@@ -12,8 +12,8 @@ against an experiment. This module repeats that study with the pybullet backbone
 3. CCKA vs physics (Fig. 10–12): at each settled state, the CCKA tip computed from the *sensed*
    cable lengths (pinhole-to-pinhole) against the simulated tip, per axis and Euclidean — gravity
    off (as the paper's simulation) and on.
-4. Beyond the paper: a tip payload (0–200 g by default), the model resolution (disks, links per
-   disk span), and a horizontal base; a paragraph saying, with the numbers of the run, where the
+4. Beyond the paper: a tip payload (0–200 g by default), the model resolution (links per disk
+   span, gravity off and on), the number of spacer disks, and a horizontal base; a paragraph saying, with the numbers of the run, where the
    constant-curvature assumption stops holding.
 
 Every state is a *verified* static equilibrium: :func:`settle` resets the backend to its
@@ -90,18 +90,23 @@ class SettleError(RuntimeError):
 
 @dataclass(frozen=True)
 class SettleInfo:
-    """How an equilibrium was confirmed.
+    """How an equilibrium was reached and confirmed.
 
     Attributes:
-        steps: control steps applied after ``reset`` until the check passed.
-        motion: tip displacement (m) over the last check window (below the tolerance).
+        steps: control steps applied after the reset until the check passed.
+        motion: tip displacement (m) over the last check window (at most the tolerance).
         drift: tip displacement (m) between the state right after ``reset(tensions)`` and the
-            confirmed equilibrium (≈ 0 when ``reset`` already gives the equilibrium).
+            confirmed equilibrium (≈ 0 when ``reset`` gives the equilibrium); NaN on the
+            dynamic route.
+        route: ``"reset"`` (the backend's reset-to-equilibrium, then verified) or
+            ``"dynamic"`` (the backend's reset refused these tensions: reset to zero tension,
+            ramp the tensions up, hold them until settled).
     """
 
     steps: int
     motion: float
     drift: float
+    route: str = "reset"
 
 
 def settle(
@@ -111,18 +116,23 @@ def settle(
     tol: float = 1e-6,
     window: int = 25,
     max_steps: int = 5000,
+    ramp_steps: int = 50,
 ) -> SettleInfo:
     """Put ``backend`` at its static equilibrium under ``tensions`` and verify it is settled.
 
     Calls ``backend.reset(tensions)``, then applies the same tensions in windows of ``window``
-    control steps until the tip moves by at most ``tol`` over one window.
+    control steps until the tip moves by at most ``tol`` over one window. If the backend's
+    reset raises (a ``RuntimeError``, e.g. its equilibrium solver did not converge), takes the
+    dynamic route instead: ``reset(0)``, tensions ramped linearly over ``ramp_steps`` control
+    steps, then held and checked the same way.
 
     Args:
         backend: the robot model.
         tensions: cable tensions (3,), N.
         tol: settling tolerance on the tip displacement over one window, m.
         window: control steps per check.
-        max_steps: cap on the control steps after ``reset``.
+        max_steps: cap on the control steps after the reset (ramp included).
+        ramp_steps: control steps of the tension ramp on the dynamic route.
 
     Returns:
         A :class:`SettleInfo`.
@@ -132,28 +142,45 @@ def settle(
             ``max_steps`` steps; the message gives the tensions, the motion and how to proceed.
     """
     tensions = np.asarray(tensions, dtype=np.float64)
-    backend.reset(tensions)
+    route = "reset"
+    steps = 0
+    try:
+        backend.reset(tensions)
+    except RuntimeError as exc:
+        route = "dynamic"
+        reset_error = exc
+        backend.reset(np.zeros(3))
+        for k in range(1, ramp_steps + 1):
+            backend.apply_tensions(tensions * (k / ramp_steps))
+        steps = ramp_steps
     start = np.asarray(backend.tip, dtype=np.float64)
     prev = start
-    steps = 0
     while True:
-        for _ in range(window):
-            backend.apply_tensions(tensions)
+        try:
+            for _ in range(window):
+                backend.apply_tensions(tensions)
+        except RuntimeError as exc:  # e.g. the backend's divergence error
+            raise SettleError(
+                f"the backend failed while settling under tensions {tensions} N after {steps} "
+                f"control steps ({route} route): {exc}"
+            ) from exc
         steps += window
         tip = np.asarray(backend.tip, dtype=np.float64)
         if not np.all(np.isfinite(tip)):
             raise SettleError(
                 f"backend state became non-finite while settling under tensions {tensions} N "
-                f"(after {steps} control steps)"
+                f"(after {steps} control steps, {route} route)"
             )
         motion = float(np.linalg.norm(tip - prev))
         if motion <= tol:
-            return SettleInfo(steps=steps, motion=motion, drift=float(np.linalg.norm(tip - start)))
+            drift = float(np.linalg.norm(tip - start)) if route == "reset" else float("nan")
+            return SettleInfo(steps=steps, motion=motion, drift=drift, route=route)
         if steps >= max_steps:
+            why = "" if route == "reset" else f" (the backend's reset had failed: {reset_error})"
             raise SettleError(
                 f"no static equilibrium under tensions {tensions} N: after {steps} control steps "
                 f"the tip still moved {motion:.3g} m over the last {window} steps (tolerance "
-                f"{tol:g} m). Raise --settle-max-steps, loosen --settle-tol, or check the "
+                f"{tol:g} m){why}. Raise --settle-max-steps, loosen --settle-tol, or check the "
                 f"backend's damping/timestep."
             )
         prev = tip
@@ -174,11 +201,15 @@ class StudyConfig:
         n_dl: points of the CCKA-alone sweep.
         shape_dls: Δl values (m) whose backbones are drawn in 3-D; ``None``: 5 evenly spaced.
         payloads: tip payloads for the payload study (gravity on), kg.
-        n_disks_values: disk counts for the resolution study (one link per disk span).
-        links_per_span_values: links per disk span for the resolution study (default disks).
-        resolution_forces: forces (N) of the resolution study; ``None``: ``forces``.
+        links_per_span_values: links per disk span of the model-resolution study (the robot of
+            ``params``, gravity off and on).
+        n_disks_values: disk counts of the disk-count study (gravity off), each cut into about
+            ``disk_study_links`` links (links per span = max(1, disk_study_links // n_disks)).
+        disk_study_links: target number of links of the disk-count study.
+        resolution_forces: forces (N) of both studies; ``None``: ``forces``.
         horizontal: also run the sweep with a horizontal base (gravity across the backbone).
-        links_per_span: links per disk span of the main sweeps.
+        links_per_span: links per disk span of the main sweeps (default 4: converged, see the
+            resolution study; 1 over-states the discrete-routing excess threefold).
         threshold_pct: the error (% of ℓ) above which CCKA is said to stop holding.
         settle_tol, settle_window, settle_max_steps: see :func:`settle`.
         backend_kwargs: extra keyword arguments for the backend constructor.
@@ -190,11 +221,12 @@ class StudyConfig:
     n_dl: int = 41
     shape_dls: tuple[float, ...] | None = None
     payloads: tuple[float, ...] = (0.0, 0.05, 0.1, 0.15, 0.2)
+    links_per_span_values: tuple[int, ...] = (1, 2, 4)
     n_disks_values: tuple[int, ...] = (3, 5, 9, 17, 33)
-    links_per_span_values: tuple[int, ...] = (1, 2, 4, 8)
+    disk_study_links: int = 36
     resolution_forces: tuple[float, ...] | None = (0.0, 20.0, 40.0, 60.0, 80.0)
     horizontal: bool = True
-    links_per_span: int = 1
+    links_per_span: int = 4
     threshold_pct: float = 1.0
     settle_tol: float = 1e-6
     settle_window: int = 25
@@ -226,8 +258,10 @@ class StudyConfig:
             vals = getattr(self, name)
             if any(isinstance(v, bool) or not isinstance(v, int) or v < 1 for v in vals):
                 raise ValueError(f"{name} must be integers >= 1, got {vals!r}")
-        if isinstance(self.links_per_span, bool) or self.links_per_span < 1:
-            raise ValueError(f"links_per_span must be an integer >= 1, got {self.links_per_span!r}")
+        for name in ("links_per_span", "disk_study_links"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+                raise ValueError(f"{name} must be an integer >= 1, got {v!r}")
         if not (math.isfinite(self.threshold_pct) and self.threshold_pct > 0.0):
             raise ValueError(f"threshold_pct must be > 0, got {self.threshold_pct!r}")
         if not (math.isfinite(self.settle_tol) and self.settle_tol > 0.0):
@@ -280,6 +314,7 @@ class Sweep:
     settle_steps: np.ndarray  # (n,)
     settle_motion: np.ndarray  # (n,)
     settle_drift: np.ndarray  # (n,)
+    settle_route: np.ndarray  # (n,) str: "reset" or "dynamic"
     shapes: dict[float, np.ndarray] = field(default_factory=dict)  # force -> backbone (m, 3)
     seconds: float = 0.0
     cable_radius: float = 0.029  # m, for theta_ccka
@@ -325,10 +360,12 @@ class StudyResults:
     gravity_off: Sweep
     gravity_on: Sweep
     payload: list[Sweep]
-    resolution_disks: list[Sweep]
-    resolution_links: list[Sweep]
+    resolution_links: list[Sweep]  # gravity off, the robot of params, links per span varied
+    resolution_links_on: list[Sweep]  # the same with gravity on
+    resolution_disks: list[Sweep]  # gravity off, disk count varied
     horizontal: Sweep | None
     seconds: float = 0.0
+    horizontal_error: str | None = None  # why the horizontal sweep is missing, if it failed
     backend_name: str = ""
 
 
@@ -405,6 +442,7 @@ def run_force_sweep(
     steps = np.empty(n, dtype=int)
     motion = np.empty(n)
     drift = np.empty(n)
+    route = np.empty(n, dtype=object)
     shapes: dict[float, np.ndarray] = {}
     backend = factory(
         params,
@@ -424,7 +462,7 @@ def run_force_sweep(
                 raise SettleError(f"[{label}] {exc}") from exc
             tip_sim[i] = backend.tip
             lengths[i] = backend.cable_lengths
-            steps[i], motion[i], drift[i] = info.steps, info.motion, info.drift
+            steps[i], motion[i], drift[i], route[i] = info.steps, info.motion, info.drift, info.route
             if any(abs(forces[i] - f) < 1e-9 for f in shape_forces):
                 shapes[float(forces[i])] = np.asarray(backend.backbone_points(), dtype=np.float64)
     finally:
@@ -445,6 +483,7 @@ def run_force_sweep(
         settle_steps=steps,
         settle_motion=motion,
         settle_drift=drift,
+        settle_route=route,
         shapes=shapes,
         seconds=time.perf_counter() - t0,
         cable_radius=params.cable_radius,
@@ -481,7 +520,7 @@ def run_study(
             f"  ({s.seconds:5.1f} s)")
         return s
 
-    log("physics vs CCKA (tension 0–%.0f N on cable 1)" % f_max)
+    log(f"physics vs CCKA (tension 0–{f_max:.0f} N on cable 1)")
     off = sweep("gravity off", gravity=False, shape_forces=shape_forces)
     on = sweep("gravity on", gravity=True, shape_forces=shape_forces)
 
@@ -493,31 +532,47 @@ def run_study(
     ]
 
     res_forces = config.resolution_forces or forces
-    log("model resolution (gravity off)")
-    res_disks = [
-        sweep(f"{n} disks, 1 link per span", gravity=False, params=_with_disks(p, n),
-              forces=res_forces, links_per_span=1)
-        for n in config.n_disks_values
-    ]
+    def per_span(k: int) -> str:
+        return f"{k} link{'s' if k > 1 else ''} per span"
+
+    log(f"model resolution ({p.n_disks} disks; gravity off, then on)")
     res_links = [
-        sweep(f"{p.n_disks} disks, {k} link{'s' if k > 1 else ''} per span", gravity=False, forces=res_forces,
+        sweep(f"{p.n_disks} disks, {per_span(k)}", gravity=False, forces=res_forces,
               links_per_span=k)
         for k in config.links_per_span_values
     ]
-    horizontal = None
+    res_links_on = [
+        sweep(f"{p.n_disks} disks, {per_span(k)}, gravity on", gravity=True, forces=res_forces,
+              links_per_span=k)
+        for k in config.links_per_span_values
+    ]
+    log(f"number of spacer disks (≈ {config.disk_study_links} links each, gravity off)")
+    res_disks = []
+    for n in config.n_disks_values:
+        k = max(1, config.disk_study_links // n)
+        res_disks.append(sweep(f"{n} disks, {per_span(k)}", gravity=False,
+                               params=_with_disks(p, n), forces=res_forces, links_per_span=k))
+    horizontal, horizontal_error = None, None
     if config.horizontal:
+        # An extension beyond the paper and the issue: a failure here is reported, not fatal.
         log("horizontal base (gravity across the backbone)")
-        horizontal = sweep("horizontal base, gravity on", gravity=True,
-                           base_orientation=HORIZONTAL_BASE, shape_forces=shape_forces)
+        try:
+            horizontal = sweep("horizontal base, gravity on", gravity=True,
+                               base_orientation=HORIZONTAL_BASE, shape_forces=shape_forces)
+        except SettleError as exc:
+            horizontal_error = str(exc)
+            log(f"  horizontal base: skipped, {exc}")
     return StudyResults(
         config=config,
         ccka=ccka,
         gravity_off=off,
         gravity_on=on,
         payload=payload,
-        resolution_disks=res_disks,
         resolution_links=res_links,
+        resolution_links_on=res_links_on,
+        resolution_disks=res_disks,
         horizontal=horizontal,
+        horizontal_error=horizontal_error,
         seconds=time.perf_counter() - t0,
         backend_name=getattr(factory, "__name__", type(factory).__name__),
     )
@@ -558,7 +613,7 @@ SWEEP_HEADER = (
     "l1_m", "l2_m", "l3_m",
     "tip_ccka_x_m", "tip_ccka_y_m", "tip_ccka_z_m",
     "err_x_m", "err_y_m", "err_z_m", "err_norm_m", "err_pct_of_length",
-    "settle_steps", "settle_motion_m", "settle_drift_m",
+    "settle_steps", "settle_motion_m", "settle_drift_m", "settle_route",
 )
 
 
@@ -569,7 +624,8 @@ def sweep_rows(s: Sweep, length: float) -> list[list]:
     return [
         [s.label, int(s.gravity), s.payload, s.n_disks, s.links_per_span, s.forces[i],
          *s.tensions[i], *s.tip_sim[i], *s.lengths[i], *s.tip_ccka[i], *err[i], en[i],
-         100.0 * en[i] / length, int(s.settle_steps[i]), s.settle_motion[i], s.settle_drift[i]]
+         100.0 * en[i] / length, int(s.settle_steps[i]), s.settle_motion[i], s.settle_drift[i],
+         s.settle_route[i]]
         for i in range(s.forces.size)
     ]
 
@@ -622,7 +678,7 @@ def write_outputs(res: StudyResults, out: Path, *, dpi: int = 100, command: str 
         "sim_gravity_off.csv": [res.gravity_off],
         "sim_gravity_on.csv": [res.gravity_on],
         "payload.csv": res.payload,
-        "resolution.csv": res.resolution_disks + res.resolution_links,
+        "resolution.csv": res.resolution_links + res.resolution_links_on + res.resolution_disks,
     }
     if res.horizontal is not None:
         sweeps["horizontal_base.csv"] = [res.horizontal]
@@ -661,8 +717,9 @@ def write_outputs(res: StudyResults, out: Path, *, dpi: int = 100, command: str 
 
 def _all_sweeps(res: StudyResults) -> list[Sweep]:
     seen: list[Sweep] = []
-    for s in [res.gravity_off, res.gravity_on, *res.payload, *res.resolution_disks,
-              *res.resolution_links, *([res.horizontal] if res.horizontal else [])]:
+    for s in [res.gravity_off, res.gravity_on, *res.payload, *res.resolution_links,
+              *res.resolution_links_on, *res.resolution_disks,
+              *([res.horizontal] if res.horizontal else [])]:
         if all(s is not t for t in seen):
             seen.append(s)
     return seen
@@ -682,13 +739,13 @@ def _json_default(o):
 # CLI
 # ---------------------------------------------------------------------------------------------
 def quick_config(**overrides) -> StudyConfig:
-    """A coarse grid (≈ 10× cheaper) for smoke tests: 5 forces, 2 payloads, 2+2 resolutions."""
+    """A coarse grid for smoke tests: 5 forces, 2 payloads, 2 resolutions, 2 disk counts."""
     base = dict(
         forces=(0.0, 20.0, 40.0, 60.0, 80.0),
         n_dl=11,
         payloads=(0.0, 0.2),
         n_disks_values=(5, 9),
-        links_per_span_values=(1, 2),
+        links_per_span_values=(1, 4),
         resolution_forces=(0.0, 40.0, 80.0),
     )
     base.update(overrides)
@@ -757,17 +814,20 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--out", type=Path, default=DEFAULT_OUT,
                     help=f"output folder (created; default: {DEFAULT_OUT})")
     ap.add_argument("--quick", action="store_true",
-                    help="coarse grid (5 forces, 0 and 200 g, 2+2 resolutions) for a smoke run")
+                    help="coarse grid (5 forces, 0 and 200 g, 2 resolutions, 2 disk counts) for a "
+                    "smoke run")
     ap.add_argument("--forces", type=_positive_int("--forces", 2), default=None,
                     help="number of tensions from 0 to --max-force on cable 1 (default 17: 5 N steps)")
     ap.add_argument("--max-force", type=_positive_float("--max-force"), default=None,
                     help="largest tension on cable 1, N (default: max_tension = 80 N, the paper's)")
     ap.add_argument("--payloads-g", type=_float_list("--payloads-g"), default=None,
                     help="tip payloads in grams, comma-separated (default 0,50,100,150,200)")
+    ap.add_argument("--links-per-span", type=_positive_int("--links-per-span"), default=4,
+                    help="links per disk span of the main sweeps (default 4)")
+    ap.add_argument("--resolution", type=_int_list("--resolution"), default=None,
+                    help="links per disk span of the model-resolution study (default 1,2,4)")
     ap.add_argument("--disks", type=_int_list("--disks"), default=None,
-                    help="disk counts of the resolution study (default 3,5,9,17,33)")
-    ap.add_argument("--links-per-span", type=_int_list("--links-per-span"), default=None,
-                    help="links per disk span of the resolution study (default 1,2,4,8)")
+                    help="disk counts of the disk-count study (default 3,5,9,17,33)")
     ap.add_argument("--no-horizontal", action="store_true",
                     help="skip the horizontal-base sweep")
     ap.add_argument("--threshold-pct", type=_positive_float("--threshold-pct"), default=1.0,
@@ -809,8 +869,9 @@ def config_from_args(args: argparse.Namespace) -> StudyConfig:
         kw["payloads"] = tuple(v / 1e3 for v in args.payloads_g)
     if args.disks is not None:
         kw["n_disks_values"] = args.disks
-    if args.links_per_span is not None:
-        kw["links_per_span_values"] = args.links_per_span
+    if args.resolution is not None:
+        kw["links_per_span_values"] = args.resolution
+    kw["links_per_span"] = args.links_per_span
     kw.update(horizontal=not args.no_horizontal, threshold_pct=args.threshold_pct,
               settle_tol=args.settle_tol, settle_max_steps=args.settle_max_steps)
     return quick_config(**kw) if args.quick else StudyConfig(**kw)

@@ -30,6 +30,14 @@ def _figure(w: float, h: float, dpi: int):
     return fig
 
 
+def _min_span(ax, span: float) -> None:
+    """Widen the y-range to at least ``span`` (data units) so that round-off is not magnified."""
+    lo, hi = ax.get_ylim()
+    if hi - lo < span:
+        mid = 0.5 * (lo + hi)
+        ax.set_ylim(mid - span / 2, mid + span / 2)
+
+
 def _save(fig, path: Path, dpi: int) -> Path:
     fig.savefig(path, dpi=dpi)
     return path
@@ -44,7 +52,7 @@ def make_figures(res, out: Path, *, dpi: int = 100) -> dict[str, Path]:
         "fig05": fig05_sim_tip(res, out / "fig05_sim_tip_vs_force.png", dpi),
         "fig10": fig10_sim_vs_ccka(res, out / "fig10_sim_vs_ccka.png", dpi),
     }
-    ymax = 1.1 * MM * max(float(np.abs(s.error).max()) for s in (res.gravity_off, res.gravity_on))
+    ymax = 1.1 * MM * max(float(s.error_norm.max()) for s in (res.gravity_off, res.gravity_on))
     ymax = max(ymax, 1.15 * MM * res.config.threshold_pct / 100.0 * res.config.params.length)
     paths["fig11"] = fig_error(res, res.gravity_off, out / "fig11_error_gravity_off.png", dpi,
                                "Fig. 11 analogue — CCKA vs simulation, gravity off", ymax)
@@ -73,6 +81,7 @@ def fig06_ccka_sweep(res, path: Path, dpi: int) -> Path:
     a.legend(fontsize=8)
     for i, ax_name in enumerate("XYZ"):
         b.plot(dl, c.tip[:, i] * MM, color=AXIS_COLOURS[ax_name], label=f"tip {ax_name}")
+    b.plot([], [], " ", label="(Y = 0: bending plane φ = 0)")
     top = b.secondary_xaxis("top", functions=(lambda x: np.degrees(x / (res.config.params.cable_radius * MM)),
                                               lambda d: np.radians(d) * res.config.params.cable_radius * MM))
     top.set_xlabel("bending angle θ = Δl/r (degrees)")
@@ -145,6 +154,7 @@ def fig05_sim_tip(res, path: Path, dpi: int) -> Path:
         ax.plot(fine, el[:, i] * MM, ":", color="k", label="elastica θ = T·r·ℓ/EI")
         ax.set(xlabel="tension on cable 1 (N)", ylabel=f"tip {name} (mm)", title=f"tip {name}")
         ax.grid(alpha=0.3)
+        _min_span(ax, 20.0)
     axes[0].legend(fontsize=8)
     fig.suptitle("Fig. 5 analogue — physics alone: settled tip vs tension on cable 1")
     return _save(fig, path, dpi)
@@ -165,6 +175,7 @@ def fig10_sim_vs_ccka(res, path: Path, dpi: int) -> Path:
                 label="CCKA from sensed lengths, gravity on")
         ax.set(xlabel="tension on cable 1 (N)", ylabel=f"tip {name} (mm)", title=f"tip {name}")
         ax.grid(alpha=0.3)
+        _min_span(ax, 20.0)
     axes[0].legend(fontsize=7)
     fig.suptitle("Fig. 10 analogue — simulated tip vs CCKA tip from the simulated cable lengths")
     return _save(fig, path, dpi)
@@ -213,7 +224,7 @@ def fig_payload(res, path: Path, dpi: int) -> Path:
     g = np.array([s.payload for s in res.payload]) * MM
     mean = np.array([s.error_norm.mean() for s in res.payload]) * MM
     mx = np.array([s.error_norm.max() for s in res.payload]) * MM
-    b.plot(g, mean, "o-", color="tab:blue", label="mean over 0–%g N" % res.payload[0].forces[-1])
+    b.plot(g, mean, "o-", color="tab:blue", label=f"mean over 0–{res.payload[0].forces[-1]:g} N")
     b.plot(g, mx, "s-", color="tab:red", label="max over the sweep")
     b.axhline(thr, color="0.4", ls="--", lw=1, label=f"{res.config.threshold_pct:g} % of ℓ")
     b.axhline(PAPER_SIM_MEAN_MM, color="tab:purple", ls=":", lw=1.2,
@@ -234,14 +245,27 @@ def _plane_coords(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return points[:, 0], points[:, 2]
 
 
+def _gravity_in_base(quat) -> np.ndarray:
+    """Unit gravity direction (world −Z) in the base frame R0 of a base at quaternion xyzw."""
+    x, y, z, w = quat
+    rot = np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+    ])
+    return rot.T @ np.array([0.0, 0.0, -1.0])
+
+
 def fig_shapes(res, path: Path, dpi: int) -> Path:
     p = res.config.params
     panels = [("(a) upright base", [res.gravity_off, res.gravity_on,
                                     *(res.payload[-1:] if res.payload[-1].payload > 0 else [])])]
     if res.horizontal is not None:
-        panels.append(("(b) horizontal base (gravity along +X0 of the robot's frame)",
-                       [res.horizontal]))
-    fig = _figure(6 * len(panels), 5.5, dpi)
+        g = _gravity_in_base(res.horizontal.base_orientation)
+        axis = "XYZ"[int(np.argmax(np.abs(g)))]
+        sign = "+" if g[int(np.argmax(np.abs(g)))] > 0 else "−"
+        panels.append((f"(b) horizontal base: gravity along {sign}{axis}0", [res.horizontal]))
+    fig = _figure(6 * len(panels), 6.5, dpi)
     axes = np.atleast_1d(fig.subplots(1, len(panels)))
     colours = ["tab:blue", "tab:orange", "tab:red", "tab:green", "tab:purple"]
     for ax, (title, sweeps) in zip(axes, panels):
@@ -264,48 +288,66 @@ def fig_shapes(res, path: Path, dpi: int) -> Path:
         ax.set_aspect("equal")
         ax.set(xlabel="X0 (mm)", ylabel="Z0 (mm)", title=title)
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7, loc="lower right" if len(sweeps) > 1 else "best")
+        if any(sw.gravity for sw in sweeps):
+            g = _gravity_in_base(sweeps[-1].base_orientation)
+            start = np.array([0.12, 0.75] if abs(g[2]) >= abs(g[0]) else [0.85, 0.85])
+            ax.annotate("gravity (when on)", xy=tuple(start + 0.15 * g[[0, 2]]),
+                        xytext=tuple(start), xycoords="axes fraction",
+                        textcoords="axes fraction", ha="center", va="bottom", fontsize=8,
+                        color="0.3", arrowprops=dict(arrowstyle="-|>", color="0.3", lw=1.5))
+        ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2)
     fig.suptitle("Simulated backbones vs the CCKA arcs from their sensed cable lengths")
     return _save(fig, path, dpi)
 
 
 def fig_resolution(res, path: Path, dpi: int) -> Path:
     p = res.config.params
-    fig = _figure(12, 4.5, dpi)
-    a, b = fig.subplots(1, 2)
-    series = [
-        ("more disks (1 link per span)", res.resolution_disks, "o-", "tab:blue"),
-        (f"{p.n_disks} disks, more links per span", res.resolution_links, "s--", "tab:orange"),
-    ]
-    theta_el = None
-    for label, sweeps, style, colour in series:
+    fig = _figure(12, 8, dpi)
+    (a, b), (c, d) = fig.subplots(2, 2)
+    any_sweep = (res.resolution_links or res.resolution_disks)[0]
+    f_top = float(any_sweep.forces[-1])
+    theta_el = math.degrees(float(statics.arc_from_tensions(np.array([f_top, 0.0, 0.0]), p)[0]))
+
+    def draw(ax_err, ax_th, sweeps, x, label, style, colour):
         if not sweeps:
-            continue
-        links = np.array([s.n_disks * s.links_per_span for s in sweeps])
+            return
         mean = np.array([s.error_norm.mean() for s in sweeps]) * MM
         mx = np.array([s.error_norm.max() for s in sweeps]) * MM
-        a.plot(links, mx, style, color=colour, label=f"{label}: max")
-        a.plot(links, mean, style, color=colour, alpha=0.5, label=f"{label}: mean")
-        theta = np.degrees([s.theta_sim[-1] for s in sweeps])
-        b.plot(links, theta, style, color=colour, label=label)
-        for s, x, y in zip(sweeps, links, theta):
-            b.annotate(f"{s.n_disks}×{s.links_per_span}", (x, y), textcoords="offset points",
-                       xytext=(3, 4), fontsize=7, color=colour)
-        f_top = float(sweeps[0].forces[-1])
-        theta_el = math.degrees(
-            float(statics.arc_from_tensions(np.array([f_top, 0.0, 0.0]), p)[0]))
-    a.set_xscale("log", base=2)
-    a.set(xlabel="number of links (disks × links per span)",
-          ylabel="Euclidean CCKA error (mm)", title="(a) CCKA error, gravity off")
-    a.grid(alpha=0.3, which="both")
-    a.legend(fontsize=7)
-    if theta_el is not None:
-        b.axhline(theta_el, color="k", ls=":", label=f"continuous elastica ({theta_el:.1f}°)")
-    b.set_xscale("log", base=2)
-    f_top = float((res.resolution_disks or res.resolution_links)[0].forces[-1])
-    b.set(xlabel="number of links (disks × links per span)", ylabel="bending angle θ (degrees)",
-          title=f"(b) bending angle at {f_top:g} N (from the tip)")
-    b.grid(alpha=0.3, which="both")
-    b.legend(fontsize=7)
-    fig.suptitle("Beyond the paper — model resolution (gravity off)")
+        ax_err.plot(x, mx, style, color=colour, label=f"{label}: max")
+        ax_err.plot(x, mean, style, color=colour, alpha=0.45, label=f"{label}: mean")
+        ax_th.plot(x, np.degrees([s.theta_sim[-1] for s in sweeps]), style, color=colour,
+                   label=label)
+
+    lps = [s.links_per_span for s in res.resolution_links]
+    draw(a, b, res.resolution_links, lps, "gravity off", "o-", "tab:blue")
+    draw(a, b, res.resolution_links_on, [s.links_per_span for s in res.resolution_links_on],
+         "gravity on", "s--", "tab:orange")
+    for ax in (a, b):
+        ax.set_xscale("log", base=2)
+        ax.set_xticks(lps, [str(k) for k in lps])
+        ax.set_xlabel(f"links per disk span ({p.n_disks} disks)")
+        ax.grid(alpha=0.3, which="both")
+    a.set(ylabel="Euclidean CCKA error (mm)",
+          title=f"(a) model resolution: CCKA error over 0–{f_top:g} N")
+    b.set(ylabel="bending angle θ (degrees)",
+          title=f"(b) model resolution: bending angle at {f_top:g} N")
+    b.axhline(theta_el, color="k", ls=":", label=f"continuous elastica ({theta_el:.1f}°)")
+    disks = [s.n_disks for s in res.resolution_disks]
+    draw(c, d, res.resolution_disks, disks, "gravity off", "o-", "tab:green")
+    for s, n in zip(res.resolution_disks, disks):
+        d.annotate(f"{s.n_disks}×{s.links_per_span} links", (n, math.degrees(s.theta_sim[-1])),
+                   textcoords="offset points", xytext=(4, 4), fontsize=7)
+    for ax in (c, d):
+        ax.set_xscale("log", base=2)
+        ax.set_xticks(disks, [str(n) for n in disks])
+        ax.set_xlabel("number of spacer disks")
+        ax.grid(alpha=0.3, which="both")
+    c.set(ylabel="Euclidean CCKA error (mm)",
+          title=f"(c) number of disks: CCKA error over 0–{f_top:g} N")
+    d.set(ylabel="bending angle θ (degrees)",
+          title=f"(d) number of disks: bending angle at {f_top:g} N")
+    d.axhline(theta_el, color="k", ls=":", label=f"continuous elastica ({theta_el:.1f}°)")
+    for ax in (a, b, c, d):
+        ax.legend(fontsize=7)
+    fig.suptitle("Beyond the paper — model resolution and number of spacer disks")
     return _save(fig, path, dpi)
