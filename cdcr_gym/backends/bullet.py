@@ -18,7 +18,7 @@ pybullet's multibody
     ``base_orientation``; each Cardan joint is a revolute about X into a massless intermediate
     link at the joint, then a revolute about Y into the real link (mass, COM and principal
     inertia from the chain model; no collision shapes, so no contacts). pybullet's API caps a
-    multibody at 128 joint coordinates, hence n_disks·links_per_span ≤ 63.
+    multibody at 128 coordinates including the base's 7, hence n_disks·links_per_span ≤ 60.
 
 Implicit spring–damper integration
     pybullet has no joint springs. The default motors are switched off and every physics step
@@ -72,9 +72,10 @@ __all__ = ["BulletBackend", "SimulationDivergedError"]
 #: taken as a diverged simulation (a real spacer-disk span never kinks by 90°).
 _MAX_JOINT_ANGLE = 0.5 * math.pi
 _MAX_JOINT_RATE = 1.0e3
-#: pybullet's shared-memory API holds at most 128 joint coordinates per body (and
-#: ``createMultiBody`` at most 127 links): 63 Cardan joints = 126 revolutes.
-MAX_JOINTS = 63
+#: Most Cardan joints (n_disks × links_per_span) one pybullet multibody can hold: pybullet's
+#: shared-memory state holds 128 coordinates per body, 7 of them the base pose, so joint
+#: states from index 121 on are lost (measured with pybullet 3.2.7): 60 joints = 120 revolutes.
+MAX_JOINTS = 60
 
 
 class SimulationDivergedError(RuntimeError):
@@ -290,7 +291,7 @@ class BulletBackend(Backend):
             raise ValueError(
                 f"params.n_disks × links_per_span = {p.n_disks} × {self.links_per_span} = "
                 f"{p.n_disks * self.links_per_span} joints, but a pybullet multibody holds at most "
-                f"{MAX_JOINTS} (128 joint coordinates); use fewer disks or links per span "
+                f"{MAX_JOINTS} (its state holds 121 joint coordinates); use fewer disks or links per span "
                 "(cdcr_gym.backends.bullet_chain.DiscreteBackbone evaluates longer chains' statics)"
             )
         self._base_rot = quat_to_matrix(np.asarray(self.base_orientation))

@@ -3,7 +3,7 @@
 ``BulletBackend`` simulates this model's dynamics in pybullet; this module holds its geometry,
 mass properties, cable and gravity loads and statics, so that they are written once, can be
 checked against pybullet (tests), and can be evaluated for chains longer than one pybullet
-multibody can hold (pybullet's API caps a body at 128 joint coordinates, i.e. 63 Cardan joints).
+multibody can hold (pybullet's API keeps 121 joint coordinates per body: 60 Cardan joints).
 
 Discretisation and joint placement
     The backbone of length ℓ carries a fixed base disk at s = 0 and ``n_disks`` spacer disks at
