@@ -13,6 +13,8 @@ valid name), wrong types and out-of-range values are errors that name the key an
     env:
       id: cdcr_gym/CCKAReach-v0   # any registered id
       kwargs: {}                  # passed to gymnasium.make (ReachEnv / backend arguments)
+      per_env_kwargs: []          # cycled over the training envs, each updates kwargs, e.g.
+                                  # [{initial_state: straight}, {initial_state: random}]
       max_episode_steps: null     # null: the registered value (100)
       n_envs: 8                   # parallel training envs
       vec_env: dummy              # dummy | subproc | batched (training/sb3_vec.py, CCKA only)
@@ -44,6 +46,7 @@ valid name), wrong types and out-of-range values are errors that name the key an
       freq: 25000                 # environment steps between evaluations
       n_episodes: 50
       seed: 100000                # fixed goals: episode i resets with seed + i
+      initial_states: [straight, random]  # n_episodes from each starting state
       best_metric: mean_error     # mean_error | median_error | success_rate | mean_reward
     checkpoint:
       freq: 50000                 # environment steps between checkpoints
@@ -105,6 +108,7 @@ class EnvConfig:
 
     id: str = "cdcr_gym/CCKAReach-v0"
     kwargs: dict[str, Any] = field(default_factory=dict)
+    per_env_kwargs: list[dict[str, Any]] = field(default_factory=list)
     max_episode_steps: int | None = None
     n_envs: int = 8
     vec_env: str = "dummy"
@@ -157,6 +161,7 @@ class EvalConfig:
     freq: int = 25_000
     n_episodes: int = 50
     seed: int = 100_000
+    initial_states: list[str] = field(default_factory=lambda: ["straight", "random"])
     best_metric: str = "mean_error"
 
 
@@ -217,8 +222,11 @@ class ExperimentConfig:
         _choice("env.vec_env", e.vec_env, VEC_ENVS)
         if not all(isinstance(k, str) for k in e.kwargs):
             raise ConfigError(f"env.kwargs keys must be strings, got {list(e.kwargs)!r}")
+        for i, extra in enumerate(e.per_env_kwargs):
+            if not all(isinstance(k, str) for k in extra):
+                raise ConfigError(f"env.per_env_kwargs[{i}] keys must be strings, got {extra!r}")
         for key in ("max_episode_steps", "render_mode"):
-            if key in e.kwargs:
+            if any(key in kw for kw in (e.kwargs, *e.per_env_kwargs)):
                 hint = "env.max_episode_steps" if key == "max_episode_steps" else "(set by evaluate)"
                 raise ConfigError(f"env.kwargs.{key} is not allowed here; use {hint}")
         n = self.normalize
@@ -263,6 +271,10 @@ class ExperimentConfig:
         if self.eval.seed < 0:
             raise ConfigError(f"eval.seed must be >= 0, got {self.eval.seed!r}")
         _choice("eval.best_metric", self.eval.best_metric, BEST_METRICS)
+        if not self.eval.initial_states:
+            raise ConfigError("eval.initial_states must list at least one starting state")
+        for s in self.eval.initial_states:
+            _choice("eval.initial_states[]", s, INITIAL_STATES)
         _positive_int("checkpoint.freq", self.checkpoint.freq)
         v = self.evaluate
         _positive_int("evaluate.episodes", v.episodes)

@@ -178,7 +178,7 @@ def plot_error_vs_step(
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(7, 4))
     for label, d in curves.items():
-        mm = np.asarray(d) * 1000.0
+        mm = np.clip(np.asarray(d) * 1000.0, 1e-3, None)  # below 1 µm drawn at 1 µm
         t = np.arange(mm.shape[1])
         line, = ax.semilogy(t, np.median(mm, axis=0), label=f"{label} median")
         ax.semilogy(t, np.percentile(mm, 95, axis=0), ls="--", color=line.get_color(),

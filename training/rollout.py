@@ -31,6 +31,7 @@ __all__ = [
     "Rollouts",
     "PPOPolicy",
     "make_specs",
+    "concat_specs",
     "make_env",
     "run_episodes",
     "error_stats",
@@ -85,6 +86,16 @@ def make_specs(
         starts[i] = info["tensions"]
     env.close()
     return EpisodeSpecs(goals, starts, initial_state, seed)
+
+
+def concat_specs(parts: list[EpisodeSpecs]) -> EpisodeSpecs:
+    """One :class:`EpisodeSpecs` holding the episodes of ``parts`` in order."""
+    return EpisodeSpecs(
+        np.concatenate([p.goals for p in parts]),
+        np.concatenate([p.initial_tensions for p in parts]),
+        "+".join(p.initial_state for p in parts),
+        parts[0].seed,
+    )
 
 
 def make_env(

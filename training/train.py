@@ -167,6 +167,8 @@ def build_vec_env(config: ExperimentConfig, seed: int, n_envs: int | None = None
             ) from None
         if "CCKAReach" not in e.id:
             raise ConfigError(f"env.vec_env: 'batched' supports the CCKA env only, not {e.id!r}")
+        if e.per_env_kwargs:
+            raise ConfigError("env.per_env_kwargs is not supported with env.vec_env: 'batched'")
         kwargs = dict(e.kwargs)
         if e.max_episode_steps is not None:
             kwargs["max_episode_steps"] = e.max_episode_steps
@@ -175,7 +177,10 @@ def build_vec_env(config: ExperimentConfig, seed: int, n_envs: int | None = None
 
     def factory(rank: int):
         def _init():
-            env = make_env(e.id, e.kwargs, e.max_episode_steps)
+            kwargs = dict(e.kwargs)
+            if e.per_env_kwargs:
+                kwargs.update(e.per_env_kwargs[rank % len(e.per_env_kwargs)])
+            env = make_env(e.id, kwargs, e.max_episode_steps)
             env = Monitor(env)
             env.reset(seed=seed + rank)
             env.action_space.seed(seed + rank)
@@ -203,7 +208,14 @@ def _check_env_id(config: ExperimentConfig) -> None:
 def _make_callbacks(config: ExperimentConfig, run: RunDir, state: dict[str, Any]) -> list[Any]:
     from stable_baselines3.common.callbacks import BaseCallback
 
-    from training.rollout import PPOPolicy, make_env, make_specs, run_episodes, summarize
+    from training.rollout import (
+        PPOPolicy,
+        concat_specs,
+        make_env,
+        make_specs,
+        run_episodes,
+        summarize,
+    )
 
     class StatsCallback(BaseCallback):
         """Logs the final tip error of finished training episodes (``charts/``)."""
@@ -249,8 +261,14 @@ def _make_callbacks(config: ExperimentConfig, run: RunDir, state: dict[str, Any]
             super().__init__()
             ev = config.eval
             self.next_at = (state["start_steps"] // ev.freq + 1) * ev.freq
-            initial_state = config.env.kwargs.get("initial_state", "straight")
-            self.specs = make_specs(ev.n_episodes, ev.seed, initial_state, config.env.kwargs.get("params"))
+            params = config.env.kwargs.get("params")
+            if isinstance(params, dict):
+                from cdcr_gym.params import RobotParams
+
+                params = RobotParams(**params)
+            self.specs = concat_specs([
+                make_specs(ev.n_episodes, ev.seed, s, params) for s in ev.initial_states
+            ])
             self.horizon = config.env.max_episode_steps or _registered_steps(config.env.id)
 
         def _evaluate(self) -> None:

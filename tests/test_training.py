@@ -1,0 +1,256 @@
+"""Training and evaluation scripts: strict configs, smoke runs as real subprocesses, resume."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+import yaml
+
+from training.config import ConfigError, config_from_dict, load_config, save_config
+
+REPO = Path(__file__).resolve().parent.parent
+CONFIGS = sorted((REPO / "configs").glob("*.yaml"))
+ENV = {**os.environ, "MPLBACKEND": "Agg", "PYTHONPATH": str(REPO)}
+
+#: A tiny experiment: 2 envs × 64 steps per rollout, small nets, evaluations every rollout.
+TINY = {
+    "name": "tiny",
+    "seed": 3,
+    "total_timesteps": 256,
+    "env": {"id": "cdcr_gym/CCKAReach-v0", "n_envs": 2},
+    "ppo": {"n_steps": 64, "batch_size": 64, "n_epochs": 2, "policy": {"net_arch": [16, 16]}},
+    "eval": {"freq": 128, "n_episodes": 4},
+    "checkpoint": {"freq": 128},
+    "evaluate": {"episodes": 3, "horizons": [100, 120], "video_episodes": 1},
+}
+
+
+def _run(module: str, *args: str, timeout: float = 120) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", module, *map(str, args)],
+        cwd=REPO, env=ENV, capture_output=True, text=True, timeout=timeout,
+    )
+
+
+def _tiny_config(tmp_path: Path, **changes: object) -> Path:
+    data = json.loads(json.dumps(TINY))
+    data.update(changes)
+    path = tmp_path / "tiny.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def _csv_rows(path: Path) -> list[dict[str, str]]:
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+# -- configs ------------------------------------------------------------------------------------
+@pytest.mark.parametrize("path", CONFIGS, ids=[p.name for p in CONFIGS])
+def test_shipped_configs_load(path: Path) -> None:
+    config = load_config(path)
+    assert config.name == path.stem
+
+
+def test_required_configs_exist() -> None:
+    names = {p.name for p in CONFIGS}
+    assert {"ppo_ccka_reach.yaml", "ppo_bullet_reach.yaml"} <= names
+
+
+def test_misspelt_key_names_the_key() -> None:
+    with pytest.raises(ConfigError, match=r"ppo\.learnig_rate.*did you mean 'learning_rate'"):
+        config_from_dict({"ppo": {"learnig_rate": 1e-3}})
+    with pytest.raises(ConfigError, match=r"unknown config key 'totl_timesteps'"):
+        config_from_dict({"totl_timesteps": 10})
+
+
+@pytest.mark.parametrize(
+    "data, key",
+    [
+        ({"env": {"n_envs": 0}}, "env.n_envs"),
+        ({"ppo": {"gamma": 1.5}}, "ppo.gamma"),
+        ({"ppo": {"lr_schedule": "cosine"}}, "ppo.lr_schedule"),
+        ({"env": {"vec_env": "threads"}}, "env.vec_env"),
+        ({"ppo": {"batch_size": 10_000}}, "ppo.batch_size"),
+        ({"normalize": {"enabled": "yes"}}, "normalize.enabled"),
+        ({"evaluate": {"initial_states": ["upside_down"]}}, "evaluate.initial_states"),
+        ({"ppo": {"policy": {"net_arch": [64, 0]}}}, "ppo.policy.net_arch"),
+    ],
+)
+def test_bad_values_name_the_key(data: dict, key: str) -> None:
+    with pytest.raises(ConfigError, match=key.replace(".", r"\.")):
+        config_from_dict(data)
+
+
+def test_cli_misspelt_key_fails_with_clear_message(tmp_path: Path) -> None:
+    config = _tiny_config(tmp_path, normalise={"enabled": True})
+    result = _run("training.train", config, "--run-dir", tmp_path / "run", timeout=60)
+    assert result.returncode == 2
+    assert "unknown config key 'normalise'" in result.stderr
+    assert "did you mean 'normalize'" in result.stderr
+    assert not (tmp_path / "run").exists()
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["missing.yaml"], "does not exist"),
+        (["{cfg}", "--total-timesteps", "0"], "--total-timesteps"),
+        (["{cfg}", "--seed", "-1"], "--seed"),
+        (["{cfg}", "--resume"], "--resume needs --run-dir"),
+        (["{cfg}", "--resume", "--run-dir", "{tmp}"], "not a training run directory"),
+    ],
+)
+def test_train_cli_validates_arguments(tmp_path: Path, args: list[str], message: str) -> None:
+    cfg = _tiny_config(tmp_path)
+    args = [a.format(cfg=cfg, tmp=tmp_path) for a in args]
+    result = _run("training.train", *args, timeout=60)
+    assert result.returncode != 0
+    assert message in result.stderr
+
+
+def test_evaluate_cli_validates_arguments(tmp_path: Path) -> None:
+    result = _run("training.evaluate", tmp_path / "nope", timeout=60)
+    assert result.returncode == 2 and "RUN_DIR" in result.stderr
+
+
+# -- smoke runs ---------------------------------------------------------------------------------
+EVAL_KEYS = {"success_rate", "within_1mm", "error_mm", "ik", "conditions", "headline_condition"}
+STAT_KEYS = {"mean", "median", "p95", "max"}
+
+
+def _check_eval_json(path: Path, conditions: set[str]) -> dict:
+    data = json.loads(path.read_text())
+    assert EVAL_KEYS <= data.keys()
+    assert set(data["error_mm"]) == STAT_KEYS
+    ik = data["ik"]
+    assert {"success_rate", "error_mm", "cable_length_distance_mm", "tension_distance_n"} <= ik.keys()
+    assert set(ik["error_mm"]) == STAT_KEYS
+    assert set(ik["cable_length_distance_mm"]) == STAT_KEYS
+    assert set(ik["tension_distance_n"]) == STAT_KEYS
+    assert 0.0 <= data["success_rate"] <= 1.0
+    assert set(data["conditions"]) == conditions
+    # On the analytic backend the IK oracle reaches every goal.
+    if data["env_id"].endswith("CCKAReach-v0"):
+        assert ik["success_rate"] == 1.0 and ik["error_mm"]["max"] < 1e-3
+    return data
+
+
+def test_train_and_evaluate_default_config_smoke(tmp_path: Path) -> None:
+    """The default config, a tiny budget: every run-directory artefact exists; evaluate works."""
+    run = tmp_path / "run"
+    result = _run("training.train", "configs/ppo_ccka_reach.yaml", "--total-timesteps", 512,
+                  "--run-dir", run, "--seed", 1)
+    assert result.returncode == 0, result.stderr[-3000:]
+    for name in ("config.yaml", "run.json", "command.txt", "progress.csv", "eval_log.csv",
+                 "vecnormalize.pkl", "learning_curve.png", "best_model/model.zip",
+                 "best_model/vecnormalize.pkl", "final_model/model.zip"):
+        assert (run / name).exists(), name
+    assert any((run / "tb").iterdir())
+    assert list((run / "checkpoints").glob("model_*_steps.zip"))
+    meta = json.loads((run / "run.json").read_text())
+    assert meta["seed"] == 1 and meta["status"] == "complete"
+    assert {"torch", "stable_baselines3", "gymnasium", "numpy", "cdcr_gym"} <= meta["versions"].keys()
+    assert load_config(run / "config.yaml").total_timesteps == 512
+    assert "--total-timesteps 512" in (run / "command.txt").read_text()
+
+    result = _run("training.evaluate", run, "--episodes", 4)
+    assert result.returncode == 0, result.stderr[-3000:]
+    data = _check_eval_json(run / "eval.json", {"straight_h100", "straight_h200", "random_h100",
+                                                 "random_h200"})
+    assert "max_error_after_train_horizon_mm" in data["conditions"]["straight_h200"]
+    for fig in ("error_histogram.png", "workspace_errors.png", "policy_vs_ik.png"):
+        assert (run / "eval" / fig).stat().st_size > 0
+    assert "success" in result.stdout  # the printed table
+
+
+def test_train_runs_in_an_existing_dir_only_with_resume(tmp_path: Path) -> None:
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "something").write_text("x")
+    result = _run("training.train", _tiny_config(tmp_path), "--run-dir", run, timeout=60)
+    assert result.returncode == 2 and "--resume" in result.stderr
+
+
+@pytest.mark.slow
+def test_resume_continues_steps_and_logs(tmp_path: Path) -> None:
+    cfg = _tiny_config(tmp_path)
+    run = tmp_path / "run"
+    result = _run("training.train", cfg, "--run-dir", run)
+    assert result.returncode == 0, result.stderr[-3000:]
+    first = _csv_rows(run / "progress.csv")
+    assert [int(r["time/total_timesteps"]) for r in first] == [128, 256]
+    n_events = len(list((run / "tb").iterdir()))
+
+    # Resume to a larger budget: the counter continues from the checkpoint, logs are appended.
+    result = _run("training.train", cfg, "--run-dir", run, "--resume", "--total-timesteps", 512)
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert "resuming" in result.stdout and "from step 256" in result.stdout
+    rows = _csv_rows(run / "progress.csv")
+    assert [int(r["time/total_timesteps"]) for r in rows] == [128, 256, 384, 512]
+    for old, new in zip(first, rows[:2], strict=True):  # the first session's rows are kept
+        assert old["rollout/ep_rew_mean"] == new["rollout/ep_rew_mean"]
+    # 3 updates × n_epochs 2 before the last row (a row logs the previous update): continued.
+    assert int(rows[-1]["train/n_updates"]) == 6
+    evals = [int(r["timesteps"]) for r in _csv_rows(run / "eval_log.csv")]
+    assert evals == [128, 256, 384, 512]
+    assert len(list((run / "tb").iterdir())) > n_events
+    meta = json.loads((run / "run.json").read_text())
+    assert [s["status"] for s in meta["sessions"]] == ["complete", "complete"]
+    assert meta["sessions"][1]["start_steps"] == 256 and meta["total_steps"] == 512
+    assert len((run / "command.txt").read_text().splitlines()) == 2
+
+
+@pytest.mark.slow
+def test_ctrl_c_saves_a_checkpoint_and_resume_continues(tmp_path: Path) -> None:
+    cfg = _tiny_config(tmp_path, total_timesteps=1_000_000)
+    run = tmp_path / "run"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "training.train", str(cfg), "--run-dir", str(run)],
+        cwd=REPO, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )
+    try:
+        deadline = time.time() + 90
+        while time.time() < deadline and not list((run / "checkpoints").glob("model_*.zip")):
+            time.sleep(0.2)
+        time.sleep(0.5)
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130, err[-3000:]
+    assert "checkpoint saved at step" in err
+    meta = json.loads((run / "run.json").read_text())
+    assert meta["status"] == "interrupted"
+    stopped = meta["total_steps"]
+    assert (run / "checkpoints" / f"model_{stopped}_steps.zip").exists()
+
+    result = _run("training.train", run / "config.yaml", "--run-dir", run, "--resume",
+                  "--total-timesteps", stopped + 128)
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert f"from step {stopped}" in result.stdout
+    meta = json.loads((run / "run.json").read_text())
+    assert meta["total_steps"] >= stopped + 128 and meta["status"] == "complete"
+    steps = [int(r["time/total_timesteps"]) for r in _csv_rows(run / "progress.csv")]
+    assert steps == sorted(steps) and steps[-1] >= stopped + 128
+
+
+def test_resume_rejects_a_different_config(tmp_path: Path) -> None:
+    cfg = _tiny_config(tmp_path)
+    run = tmp_path / "run"
+    run.mkdir()  # a run directory as train.py leaves it (validation happens before training)
+    save_config(load_config(cfg), run / "config.yaml")
+    (run / "run.json").write_text("{}")
+    (tmp_path / "other").mkdir()
+    other = _tiny_config(tmp_path / "other", ppo={**TINY["ppo"], "n_epochs": 3})
+    result = _run("training.train", other, "--run-dir", run, "--resume", timeout=60)
+    assert result.returncode == 2 and "ppo.n_epochs" in result.stderr
