@@ -272,6 +272,17 @@ def test_cable_loads_equal_virtual_work_of_sensed_lengths(make, m, orientation):
         np.testing.assert_allclose(b.chain.cable_loads(q, tensions)[1], b.cable_lengths, atol=1e-14)
 
 
+def test_one_link_fast_path_equals_the_general_span_loop():
+    chain = DiscreteBackbone(P, 1)
+    rng = np.random.default_rng(4)
+    for _ in range(5):
+        q = rng.uniform(-0.4, 0.4, chain.n_dof)
+        t = rng.uniform(0.0, 80.0, 3)
+        fast, general = chain.cable_loads(q, t), chain._cable_loads_spans(q, t)
+        np.testing.assert_allclose(fast[0], general[0], rtol=0, atol=1e-13)
+        np.testing.assert_allclose(fast[1], general[1], rtol=0, atol=1e-15)
+
+
 def test_the_generalized_forces_pybullet_receives_are_the_cable_loads(make):
     """End to end: from rest, one physics step under tensions T, gravity off. pybullet's
     velocity update then obeys (M + hD + h²K)·q̇⁺ = h·(τ_cable − K·q); recover τ_cable from the

@@ -269,6 +269,12 @@ class DiscreteBackbone:
         τ_j = a·(o × F − G) (module docstring). Vectorised over the spans, a loop over the m
         joints of a span. Used every physics step.
         """
+        if self.links_per_span == 1:
+            return self._cable_loads_one_link(q, tensions)
+        return self._cable_loads_spans(q, tensions)
+
+    def _cable_loads_spans(self, q: np.ndarray, tensions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`cable_loads` for any number of links per span."""
         n_span, m, half = self.params.n_disks, self.links_per_span, 0.5 * self.segment_length
         c, s = np.cos(q).reshape(n_span, m, 2), np.sin(q).reshape(n_span, m, 2)
         points = np.empty((n_span, m, 3))  # joint points in the span frame
@@ -298,6 +304,30 @@ class DiscreteBackbone:
         couple = _cross(p_b, tu).sum(axis=1)  # G (n_span, 3)
         moment = _cross(points, force[:, None, :]) - couple[:, None, :]  # (n_span, m, 3)
         tau = (axes * moment[:, :, None, :]).sum(axis=-1).reshape(-1)
+        return tau, seg_len.sum(axis=0)
+
+    def _cable_loads_one_link(self, q: np.ndarray, tensions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`cable_loads` for one link per span (the default), with fewer numpy calls.
+
+        One joint per span at o = (0, 0, Δs/2) in the span frame, axes e_x and (0, cos a, sin a):
+        τ_a = (o × F − G)_x = −(Δs/2)·F_y − G_x,
+        τ_b = (o × F − G)·(0, cos a, sin a) = ((Δs/2)·F_x − G_y)·cos a − G_z·sin a.
+        """
+        half = 0.5 * self.segment_length
+        c, s = np.cos(q), np.sin(q)
+        ca, sa = c[0::2], s[0::2]
+        rot = _cardan(ca, sa, c[1::2], s[1::2])
+        pos = half * rot[:, :, 2]
+        pos[:, 2] += half
+        p_b = pos[:, None, :] + np.matmul(self.pinhole_local, rot.transpose(0, 2, 1))
+        seg = p_b - self.pinhole_local
+        seg_len = np.sqrt((seg * seg).sum(axis=-1))
+        tu = seg * (tensions / seg_len)[..., None]
+        force = tu.sum(axis=1)
+        couple = _cross(p_b, tu).sum(axis=1)
+        tau = np.empty(self.n_dof)
+        tau[0::2] = -half * force[:, 1] - couple[:, 0]
+        tau[1::2] = (half * force[:, 0] - couple[:, 1]) * ca - couple[:, 2] * sa
         return tau, seg_len.sum(axis=0)
 
     def gravity_loads(self, q: np.ndarray, pose: ChainPose | None = None) -> np.ndarray:
