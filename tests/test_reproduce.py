@@ -76,6 +76,20 @@ class _Converging(_Drifting):
         self._tip = self._tip + 0.5 * (np.array([0.01, 0.0, ELL]) - self._tip)
 
 
+class _ResetRefuses(_Converging):
+    """reset() refuses any non-zero tension (like an equilibrium solver that does not converge)."""
+
+    def reset(self, tensions):
+        if np.any(np.asarray(tensions) != 0.0):
+            raise RuntimeError("equilibrium solver did not converge")
+        super().reset(tensions)
+
+
+class _AlwaysRefuses(_Converging):
+    def reset(self, tensions):
+        raise RuntimeError("nope")
+
+
 # ---------------------------------------------------------------------------------------------
 # Fast tests
 # ---------------------------------------------------------------------------------------------
@@ -111,6 +125,29 @@ def test_settle_reports_steps_motion_and_drift():
     assert info.motion <= 1e-6
     assert info.steps % 5 == 0 and 5 <= info.steps < 100
     assert info.drift == pytest.approx(0.01, rel=1e-3)  # it had to move from the start
+
+
+def test_settle_falls_back_to_the_dynamic_route():
+    info = R.settle(_ResetRefuses(), np.array([40.0, 0, 0]), tol=1e-6, window=5,
+                    max_steps=1000, ramp_steps=10)
+    assert info.route == "dynamic" and info.motion <= 1e-6 and info.steps > 10
+    assert math.isnan(info.drift)
+    with pytest.raises(R.SettleError, match="dynamic route"):
+        R.settle(_AlwaysRefuses(), np.array([40.0, 0, 0]))
+
+
+def test_preflight_stops_a_configuration_the_backend_refuses(tmp_path, capsys):
+    def picky(params, *, links_per_span, **kwargs):
+        if links_per_span > 2:
+            raise ValueError(f"too many links: {links_per_span}")
+        return analytic_factory(params, links_per_span=links_per_span, **kwargs)
+
+    code = R.main(["--out", str(tmp_path / "o"), "--quick", "--links-per-span", "2",
+                   "--resolution", "1,3"], factory=picky)
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "9 disks × 3 links per span" in err and "too many links" in err
+    assert not (tmp_path / "o").exists()  # stopped before any sweep or output
 
 
 def test_settle_error_names_the_sweep():
@@ -206,7 +243,6 @@ def test_config_validation():
 # ---------------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def study():
-    pytest.importorskip("pybullet")
     cfg = R.quick_config(
         forces=(0.0, 20.0, 40.0, 60.0, 80.0),
         payloads=(0.0, 0.1, 0.2),

@@ -149,9 +149,15 @@ def settle(
     except RuntimeError as exc:
         route = "dynamic"
         reset_error = exc
-        backend.reset(np.zeros(3))
-        for k in range(1, ramp_steps + 1):
-            backend.apply_tensions(tensions * (k / ramp_steps))
+        try:
+            backend.reset(np.zeros(3))
+            for k in range(1, ramp_steps + 1):
+                backend.apply_tensions(tensions * (k / ramp_steps))
+        except RuntimeError as exc2:
+            raise SettleError(
+                f"the backend's reset to tensions {tensions} N failed ({reset_error}), and so did "
+                f"the dynamic route from zero tension ({exc2})"
+            ) from exc2
         steps = ramp_steps
     start = np.asarray(backend.tip, dtype=np.float64)
     prev = start
@@ -509,6 +515,7 @@ def run_study(
     f_max = max(forces)
     shape_forces = tuple(sorted({forces[0], forces[len(forces) // 2], f_max}))
 
+    preflight(config, factory)
     log("CCKA alone: cable-length sweep")
     ccka = ccka_cable_sweep(p, config.resolved_dl_max, config.n_dl, config.shape_dls)
 
@@ -576,6 +583,32 @@ def run_study(
         seconds=time.perf_counter() - t0,
         backend_name=getattr(factory, "__name__", type(factory).__name__),
     )
+
+
+def backend_configs(config: StudyConfig) -> list[tuple[int, int]]:
+    """The distinct (n_disks, links_per_span) the study will build, in order."""
+    p = config.params
+    combos = [(p.n_disks, config.links_per_span)]
+    combos += [(p.n_disks, k) for k in config.links_per_span_values]
+    combos += [(n, max(1, config.disk_study_links // n)) for n in config.n_disks_values]
+    return list(dict.fromkeys(combos))
+
+
+def preflight(config: StudyConfig, factory: BackendFactory) -> None:
+    """Build (and close) every backend configuration once before any sweep.
+
+    Raises:
+        ValueError: the backend's own message, prefixed with the configuration, if it refuses
+            one (e.g. more joints than pybullet holds), so the study stops before running.
+    """
+    for n, k in backend_configs(config):
+        try:
+            b = factory(_with_disks(config.params, n), gravity=False, links_per_span=k,
+                        tip_payload=0.0, base_orientation=(0.0, 0.0, 0.0, 1.0),
+                        **config.backend_kwargs)
+        except ValueError as exc:
+            raise ValueError(f"{n} disks × {k} links per span: {exc}") from exc
+        b.close()
 
 
 def _with_disks(params: RobotParams, n_disks: int) -> RobotParams:
@@ -901,6 +934,9 @@ def main(argv: Sequence[str] | None = None, factory: BackendFactory = bullet_fac
     except SettleError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1
+    except ValueError as exc:  # a configuration the backend refuses (found before any sweep)
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
     paths = write_outputs(res, args.out, dpi=args.dpi, command=command.strip())
     if args.report_copy is not None:
         from training import reproduce_report
