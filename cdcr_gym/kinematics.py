@@ -18,9 +18,22 @@ Z = 2ℓ = 1.282 m instead of ℓ = 0.641 m.
 The 0/0 forms at θ = 0 are evaluated with sinc-style expressions that are exact and finite there:
     sin θ / θ        = sinc(θ/π)                      (numpy's normalised sinc)
     (1 − cos θ) / θ  = (θ/2) · sinc(θ/(2π))²
+computed together from t = tan(θ/4) (one transcendental call, see ``_arc_profile``): with
+q = sinc(θ/(2π)) = (tan(θ/4)/(θ/4)) / (1 + t²), sin θ/θ = q·(1 − t²)/(1 + t²) and
+(1 − cos θ)/θ² = q²/2.
+
+Internally the shape is carried as the *bending vector* w = θ·(cos φ, sin φ) (rad), in which the
+cable lengths (l_i = ℓ − r·w·u_i, u_i = (cos β_i, sin β_i)) and the tension statics are linear and
+nothing is singular at θ = 0. The private kernels below (``_lengths_from_bending``,
+``_tip_from_bending``, ...) take and return *components* (x, y, z separately), each a Python
+float or a numpy array of any shape; the public (..., 3)-array functions are thin wrappers around
+them, the single env's analytic backend calls them with floats (fast ``math``-module path), and
+the batched env with arrays of all envs at once. One formula, three call sites.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -42,16 +55,131 @@ _BETA = np.asarray(CABLE_ANGLES, dtype=np.float64)
 _COS_BETA = np.cos(_BETA)
 _SIN_BETA = np.sin(_BETA)
 _SQRT3 = np.sqrt(3.0)
+# cos β_i, sin β_i for the component kernels: the exact values (1, −1/2, −1/2) and
+# (0, √3/2, −√3/2), so that the kernels keep the three-fold symmetry exactly (np.cos(2π/3) and
+# np.cos(4π/3) differ in the last bits), as Python floats (a numpy scalar would pull the scalar
+# path onto numpy's slow scalar arithmetic).
+_SQRT3_F = math.sqrt(3.0)
+_C1, _C2, _C3 = 1.0, -0.5, -0.5
+_S1, _S2, _S3 = 0.0, 0.5 * _SQRT3_F, -0.5 * _SQRT3_F
+assert np.allclose([_C1, _C2, _C3], _COS_BETA, atol=1e-15)
+assert np.allclose([_S1, _S2, _S3], _SIN_BETA, atol=1e-15)
+
+
+# -- elementwise primitives: Python floats -> math module, anything else -> numpy -----------------
+# The kernels are written once with arithmetic operators and these few functions, so the same
+# code runs on Python floats (the single env: ~50 ns per call instead of ~1 µs for numpy on tiny
+# arrays) and on arrays of any shape (the batched env). Dispatch is on ``type(x) is float``:
+# numpy scalars stay on numpy, so a batched call and a per-row call give bit-identical results.
+
+def _sqrt(x):
+    return math.sqrt(x) if type(x) is float else np.sqrt(x)
+
+
+def _tan_over(x):
+    """tan x / x, exact at x = 0 (value 1); |x| < π/2 for the arcs of interest."""
+    if type(x) is float:
+        return math.tan(x) / x if x else 1.0
+    safe = np.where(x == 0.0, 1e-20, x)  # numpy's sinc trick: tan(1e-20)/1e-20 == 1.0 exactly
+    return np.tan(safe) / safe
+
+
+def _minimum(a, b):
+    return min(a, b) if type(a) is float and type(b) is float else np.minimum(a, b)
+
+
+def _maximum(a, b):
+    return max(a, b) if type(a) is float and type(b) is float else np.maximum(a, b)
+
+
+def _min3(a, b, c):
+    if type(a) is float and type(b) is float and type(c) is float:
+        return min(a, b, c)
+    return np.minimum(np.minimum(a, b), c)
+
+
+def _max3(a, b, c):
+    if type(a) is float and type(b) is float and type(c) is float:
+        return max(a, b, c)
+    return np.maximum(np.maximum(a, b), c)
+
+
+def _clip(x, low, high):
+    """x clipped to [low, high] (NaN passes through, like np.clip)."""
+    if type(x) is float:
+        return low if x < low else high if x > high else x
+    return np.minimum(np.maximum(x, low), high)
+
+
+def _stack3(x, y, z) -> np.ndarray:
+    """Stack three broadcast-compatible components into a (..., 3) float64 array."""
+    out = np.empty(np.broadcast_shapes(np.shape(x), np.shape(y), np.shape(z)) + (3,))
+    out[..., 0] = x
+    out[..., 1] = y
+    out[..., 2] = z
+    return out
+
+
+# -- component kernels (one formula each; floats or arrays) ---------------------------------------
+
+def _arc_profile(theta):
+    """(f, g) = ((1 − cos θ)/θ², sin θ/θ), exact and finite at θ = 0 (1/2, 1); even in θ.
+
+    From t = tan(θ/4): sin(θ/2) = 2t/(1+t²) and cos(θ/2) = (1−t²)/(1+t²), so with
+    q = sin(θ/2)/(θ/2) = (t/(θ/4))/(1+t²): sin θ/θ = q·cos(θ/2) and (1 − cos θ)/θ² = q²/2.
+    One tangent (vectorised in numpy, unlike sin/cos) and no cancellation near θ = 0.
+    """
+    x = 0.25 * theta
+    p = _tan_over(x)
+    t = p * x
+    t2 = t * t
+    inv = 1.0 / (1.0 + t2)
+    q = p * inv
+    return 0.5 * q * q, q * (1.0 - t2) * inv
+
+
+def _bending_angle(wx, wy):
+    """θ = |w| (rad) of the bending vector w = (wx, wy)."""
+    return _sqrt(wx * wx + wy * wy)
+
+
+def _bending_from_lengths(l1, l2, l3, r):
+    """Bending vector w = θ·(cos φ, sin φ) (rad) from the cable lengths (paper eq. 2–3).
+
+    wx = (l2 + l3 − 2 l1)/(3r), wy = √3 (l3 − l2)/(3r): |w| = 2 L_sqr/(3r) = θ and
+    atan2(wy, wx) = φ.
+    """
+    k = 1.0 / (3.0 * r)
+    return (l2 + l3 - 2.0 * l1) * k, _SQRT3_F * (l3 - l2) * k
+
+
+def _lengths_from_bending(wx, wy, length, r):
+    """Cable lengths (l1, l2, l3) = ℓ − r·(w·u_i) (m), u_i = (cos β_i, sin β_i)."""
+    return (
+        length - r * wx,  # u_1 = (1, 0)
+        length - r * (wx * _C2 + wy * _S2),
+        length - r * (wx * _C3 + wy * _S3),
+    )
+
+
+def _tip_from_bending(theta, wx, wy, length):
+    """Tip (x, y, z) (m) of the arc with bending vector w and bending angle θ (= |w|).
+
+    x = ℓ (1 − cos θ)/θ · cos φ = ℓ·f(θ)·wx, y = ℓ·f(θ)·wy, z = ℓ sin θ/θ (paper eq. 1).
+    """
+    f, g = _arc_profile(theta)
+    lf = length * f
+    return lf * wx, lf * wy, length * g
 
 
 def _sin_over(theta: np.ndarray) -> np.ndarray:
     """sin θ / θ, exact at θ = 0."""
-    return np.sinc(theta / np.pi)
+    return _arc_profile(theta)[1]
 
 
 def _one_minus_cos_over(theta: np.ndarray) -> np.ndarray:
     """(1 − cos θ) / θ = 2 sin²(θ/2)/θ, exact at θ = 0 (value 0)."""
-    return 0.5 * theta * np.sinc(theta / (2.0 * np.pi)) ** 2
+    return theta * _arc_profile(theta)[0]
 
 
 def _check_radius(r: float) -> float:
@@ -94,15 +222,19 @@ def arc_from_lengths(
     r = _check_radius(r)
     lengths = _as_lengths(lengths)
     l1, l2, l3 = lengths[..., 0], lengths[..., 1], lengths[..., 2]
-    # L_sqr via differences (same value as the paper's form, without cancellation):
-    # l1²+l2²+l3²−l1l2−l1l3−l2l3 = ((l1−l2)² + (l2−l3)² + (l3−l1)²)/2.
-    l_sqr = np.sqrt(0.5 * ((l1 - l2) ** 2 + (l2 - l3) ** 2 + (l3 - l1) ** 2))
-    l_sum = l1 + l2 + l3
-    theta = 2.0 * l_sqr / (3.0 * r)
-    kappa = 2.0 * l_sqr / (r * l_sum)
-    phi = np.arctan2(_SQRT3 * (l3 - l2), l2 + l3 - 2.0 * l1)
-    phi = np.where(theta == 0.0, 0.0, phi) + 0.0  # + 0.0 turns −0.0 into 0.0
+    # Through the bending vector: |w| = 2·L_sqr/(3r) with L_sqr² = l1²+l2²+l3²−l1l2−l1l3−l2l3,
+    # atan2(wy, wx) = atan2(√3(l3 − l2), l2 + l3 − 2 l1) (both scaled by 1/(3r) > 0).
+    wx, wy = _bending_from_lengths(l1, l2, l3, r)
+    theta, phi = _arc_from_bending(wx, wy)
+    kappa = 3.0 * theta / (l1 + l2 + l3)  # = 2 L_sqr / (r L_sum)
     return theta, phi, kappa
+
+
+def _arc_from_bending(wx: np.ndarray, wy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(θ, φ) of a bending vector (arrays); φ = 0 when θ = 0."""
+    theta = np.sqrt(wx * wx + wy * wy)
+    phi = np.where(theta == 0.0, 0.0, np.arctan2(wy, wx)) + 0.0  # + 0.0 turns −0.0 into 0.0
+    return theta, phi
 
 
 def lengths_from_arc(
@@ -121,10 +253,10 @@ def lengths_from_arc(
     """
     length = _check_length(length)
     r = _check_radius(r)
-    theta = np.asarray(theta, dtype=np.float64)[..., None]
-    phi = np.asarray(phi, dtype=np.float64)[..., None]
-    # cos(φ − β) = cos φ cos β + sin φ sin β
-    return length - r * theta * (np.cos(phi) * _COS_BETA + np.sin(phi) * _SIN_BETA)
+    theta = np.asarray(theta, dtype=np.float64)
+    phi = np.asarray(phi, dtype=np.float64)
+    # θ·cos(φ − β) = wx cos β + wy sin β with the bending vector w = θ (cos φ, sin φ)
+    return _stack3(*_lengths_from_bending(theta * np.cos(phi), theta * np.sin(phi), length, r))
 
 
 def tip_from_arc(theta: np.ndarray, phi: np.ndarray, length: float) -> np.ndarray:
@@ -143,11 +275,7 @@ def tip_from_arc(theta: np.ndarray, phi: np.ndarray, length: float) -> np.ndarra
     length = _check_length(length)
     theta = np.asarray(theta, dtype=np.float64)
     phi = np.asarray(phi, dtype=np.float64)
-    rho = length * _one_minus_cos_over(theta)
-    return np.stack(
-        np.broadcast_arrays(rho * np.cos(phi), rho * np.sin(phi), length * _sin_over(theta)),
-        axis=-1,
-    )
+    return _stack3(*_tip_from_bending(theta, theta * np.cos(phi), theta * np.sin(phi), length))
 
 
 def forward_kinematics(lengths: np.ndarray, r: float) -> np.ndarray:
@@ -160,11 +288,12 @@ def forward_kinematics(lengths: np.ndarray, r: float) -> np.ndarray:
     Returns:
         Tip position in R0, shape (..., 3), m. Equal lengths give (0, 0, ℓ) exactly.
     """
+    r = _check_radius(r)
     lengths = _as_lengths(lengths)
-    theta, phi, _ = arc_from_lengths(lengths, r)
-    backbone = lengths.sum(axis=-1) / 3.0
-    rho = backbone * _one_minus_cos_over(theta)
-    return np.stack((rho * np.cos(phi), rho * np.sin(phi), backbone * _sin_over(theta)), axis=-1)
+    l1, l2, l3 = lengths[..., 0], lengths[..., 1], lengths[..., 2]
+    wx, wy = _bending_from_lengths(l1, l2, l3, r)
+    backbone = (l1 + l2 + l3) / 3.0
+    return _stack3(*_tip_from_bending(_bending_angle(wx, wy), wx, wy, backbone))
 
 
 def arc_from_tip(

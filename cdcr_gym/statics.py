@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from cdcr_gym.kinematics import _C2, _C3, _S2, _S3, _arc_from_bending, _max3, _maximum, _min3
 from cdcr_gym.params import CABLE_ANGLES, RobotParams
 
 __all__ = ["arc_from_tensions", "tensions_from_arc", "bending_limit", "CABLE_DIRECTIONS"]
@@ -32,6 +33,44 @@ def _as_tensions(tensions: np.ndarray) -> np.ndarray:
     return tensions
 
 
+# -- component kernels (floats or arrays; see cdcr_gym.kinematics) --------------------------------
+# In terms of the bending vector w = θ·(cos φ, sin φ) (rad) the statics are linear:
+# w = (r ℓ / EI)·Σ T_i u_i, and the minimal tensions holding w are (EI/(r ℓ))·(2/3)·(w·u_i − min_j w·u_j).
+
+def _bending_from_tensions(t1, t2, t3, compliance):
+    """Bending vector w (rad) under tensions (N); ``compliance`` = r ℓ / EI (rad/N)."""
+    return (
+        compliance * (t1 + t2 * _C2 + t3 * _C3),
+        compliance * (t2 * _S2 + t3 * _S3),
+    )
+
+
+def _tensions_from_bending(wx, wy, stiffness):
+    """Minimal non-negative tensions (T1, T2, T3) (N) holding the bending vector w (rad).
+
+    ``stiffness`` = EI/(r ℓ) (N/rad). Σ_i T_i u_i = m has the particular solution
+    T_i = (2/3)·m·u_i (since Σ u_i u_iᵀ = 3/2·I); subtracting the minimum leaves the cable opposite
+    the bend slack (exactly zero) and loads the two cables that bracket φ.
+    """
+    k = (2.0 / 3.0) * stiffness
+    p1 = k * wx
+    p2 = k * (wx * _C2 + wy * _S2)
+    p3 = k * (wx * _C3 + wy * _S3)
+    low = _min3(p1, p2, p3)
+    return p1 - low, p2 - low, p3 - low
+
+
+def _workspace_scale(wx, wy, stiffness, max_tension):
+    """Factor in (0, 1] that brings w radially onto the tension-reachable hexagon if outside.
+
+    The minimal tensions are positively homogeneous in w, so w·s with
+    s = T_max / max(max_i T_i(w), T_max) is θ clipped to θ_lim(φ) with φ kept (cf.
+    :func:`bending_limit`, ``workspace.clip_to_workspace``).
+    """
+    t1, t2, t3 = _tensions_from_bending(wx, wy, stiffness)
+    return max_tension / _maximum(_max3(t1, t2, t3), max_tension)
+
+
 def arc_from_tensions(tensions: np.ndarray, params: RobotParams) -> tuple[np.ndarray, np.ndarray]:
     """Bending of the backbone under cable tensions.
 
@@ -45,11 +84,11 @@ def arc_from_tensions(tensions: np.ndarray, params: RobotParams) -> tuple[np.nda
         (rad, towards the pulling cables; 0 when θ = 0).
     """
     tensions = _as_tensions(tensions)
-    moment = tensions @ CABLE_DIRECTIONS  # (..., 2), N (times r gives N·m)
-    scale = params.cable_radius * params.length / params.bending_stiffness
-    theta = scale * np.hypot(moment[..., 0], moment[..., 1])
-    phi = np.where(theta == 0.0, 0.0, np.arctan2(moment[..., 1], moment[..., 0])) + 0.0
-    return theta, phi
+    compliance = params.cable_radius * params.length / params.bending_stiffness
+    wx, wy = _bending_from_tensions(
+        tensions[..., 0], tensions[..., 1], tensions[..., 2], compliance
+    )
+    return _arc_from_bending(wx, wy)
 
 
 def _minimal_tension_profile(phi: np.ndarray) -> np.ndarray:
@@ -60,9 +99,8 @@ def _minimal_tension_profile(phi: np.ndarray) -> np.ndarray:
     minimum, which leaves the cable opposite the bend slack (exactly zero) and loads the two
     cables that bracket φ.
     """
-    phi = np.asarray(phi, dtype=np.float64)[..., None]
-    proj = (2.0 / 3.0) * np.cos(phi - np.asarray(CABLE_ANGLES))
-    return proj - proj.min(axis=-1, keepdims=True)
+    phi = np.asarray(phi, dtype=np.float64)
+    return np.stack(_tensions_from_bending(np.cos(phi), np.sin(phi), 1.0), axis=-1)
 
 
 def tensions_from_arc(
@@ -89,8 +127,14 @@ def tensions_from_arc(
     if not np.isfinite(pretension) or pretension < 0.0:
         raise ValueError(f"pretension must be finite and >= 0 N, got {pretension!r}")
     theta = np.asarray(theta, dtype=np.float64)
-    moment = theta * params.bending_stiffness / (params.cable_radius * params.length)  # N
-    tensions = moment[..., None] * _minimal_tension_profile(phi) + pretension
+    phi = np.asarray(phi, dtype=np.float64)
+    stiffness = params.bending_stiffness / (params.cable_radius * params.length)  # N/rad
+    tensions = (
+        np.stack(
+            _tensions_from_bending(theta * np.cos(phi), theta * np.sin(phi), stiffness), axis=-1
+        )
+        + pretension
+    )
     clipped_tensions = np.clip(tensions, 0.0, params.max_tension)
     return clipped_tensions, np.any(clipped_tensions != tensions, axis=-1)
 

@@ -187,9 +187,25 @@ class ReachEnv(gym.Env):
             )
             self.observation_space = spaces.Box(low, high, dtype=np.float32)
 
-        self._goal = np.array([0.0, 0.0, ell])
-        self._held_tensions = np.zeros(3)
-        self._held_lengths = np.full(3, ell)
+        # Constants and state of the hot path, as Python floats (see ``step``).
+        p = self.params
+        self._max_tension = float(p.max_tension)
+        self._backbone_length = float(ell)
+        self._length_span = float(np.pi * p.cable_radius)
+        self._length_action_args = (
+            self.length_step,
+            float(ell),
+            float(p.cable_radius),
+            p.bending_stiffness / (p.cable_radius * ell),
+            self._max_tension,
+        )
+        self._set_goal(np.array([0.0, 0.0, ell]))
+        self._held_tensions = (0.0, 0.0, 0.0)
+        self._held_lengths = (float(ell),) * 3
+
+    def _set_goal(self, goal: np.ndarray) -> None:
+        self._goal = goal
+        self._goal_floats = tuple(goal.tolist())
 
     # -- task API -------------------------------------------------------------------------------
     @property
@@ -236,8 +252,8 @@ class ReachEnv(gym.Env):
         else:
             tensions = np.zeros(3)
         self.backend.reset(tensions)
-        self._held_tensions = self.backend.tensions
-        self._held_lengths = self.backend.cable_lengths
+        self._held_tensions = tuple(self.backend.tensions.tolist())
+        self._held_lengths = tuple(self.backend.cable_lengths.tolist())
 
         if "goal" in options:
             goal = np.asarray(options["goal"], dtype=np.float64)
@@ -245,32 +261,32 @@ class ReachEnv(gym.Env):
                 raise ValueError(f"options['goal'] must be a finite (3,) position in m, "
                                  f"got {options['goal']!r}")
             theta, phi, _ = kinematics.arc_from_tip(goal, p.length)
-            self._goal = kinematics.tip_from_arc(theta, phi, p.length)
+            self._set_goal(kinematics.tip_from_arc(theta, phi, p.length))
         else:
-            self._goal = self.sample_goal()
+            self._set_goal(self.sample_goal())
         obs, info = self._observe()
         if self.render_mode == "human":
             self.render()
         return obs, info
 
     def step(self, action: np.ndarray) -> tuple[Any, float, bool, bool, dict[str, Any]]:
-        action = np.asarray(action, dtype=np.float64)
-        if action.shape != (3,):
-            raise ValueError(f"action must have shape (3,), got shape {action.shape}")
-        if not np.all(np.isfinite(action)):
-            raise ValueError(f"action must be finite, got {action!r}")
-        action = np.clip(action, -1.0, 1.0)
-        p = self.params
+        # The hot path of training: Python floats through the task and model kernels (the same
+        # functions the batched env calls with arrays), numpy only at the API boundary.
+        a1, a2, a3 = self._clipped_action(action)
         if self.action_mode == "length_delta":
-            self._held_lengths = task.lengths_from_action(
-                action, self._held_lengths, p, self.length_step
+            self._held_lengths = task._lengths_from_action(
+                (a1, a2, a3), self._held_lengths, *self._length_action_args
             )
-            self.backend.apply_cable_lengths(self._held_lengths)
+            self.backend.apply_cable_lengths(np.array(self._held_lengths))
         else:
-            self._held_tensions = task.tensions_from_action(
-                action, self._held_tensions, self.action_mode, p.max_tension, self.tension_step
+            h1, h2, h3 = self._held_tensions
+            mode, t_max, t_step = self.action_mode, self._max_tension, self.tension_step
+            self._held_tensions = (
+                task.tensions_from_action(a1, h1, mode, t_max, t_step),
+                task.tensions_from_action(a2, h2, mode, t_max, t_step),
+                task.tensions_from_action(a3, h3, mode, t_max, t_step),
             )
-            self.backend.apply_tensions(self._held_tensions)
+            self.backend.apply_tensions(np.array(self._held_tensions))
         obs, info = self._observe()
         reward = self._step_reward(obs, info)
         terminated = bool(self.terminate_on_success and info["is_success"])
@@ -278,15 +294,42 @@ class ReachEnv(gym.Env):
             self.render()
         return obs, reward, terminated, False, info
 
+    @staticmethod
+    def _clipped_action(action: Any) -> tuple[float, float, float]:
+        """The action as three floats clipped to [−1, 1]; ValueError if misshapen or non-finite."""
+        if type(action) is not np.ndarray or action.dtype.kind != "f":
+            action = np.asarray(action, dtype=np.float64)
+        if action.shape != (3,):
+            raise ValueError(f"action must have shape (3,), got shape {action.shape}")
+        a1, a2, a3 = action.tolist()
+        # A NaN or an infinity makes the sum non-finite; a finite sum proves all three finite.
+        if not math.isfinite(a1 + a2 + a3) and not np.all(np.isfinite(action)):
+            raise ValueError(f"action must be finite, got {np.asarray(action, np.float64)!r}")
+        return (
+            -1.0 if a1 < -1.0 else 1.0 if a1 > 1.0 else a1,
+            -1.0 if a2 < -1.0 else 1.0 if a2 > 1.0 else a2,
+            -1.0 if a3 < -1.0 else 1.0 if a3 > 1.0 else a3,
+        )
+
     def _step_reward(self, obs: Any, info: dict[str, Any]) -> float:
         """The step's reward, from the float64 tip and goal (so dense reward = −distance)."""
-        return float(self._reward(info["tip"], self._goal))
+        return float(
+            task.reward_from_distance(info["distance"], self.reward_type, self.distance_threshold)
+        )
 
     def _observe(self) -> tuple[Any, dict[str, Any]]:
         tip = self.backend.tip
         tensions = self.backend.tensions
         lengths = self.backend.cable_lengths
-        distance = float(np.linalg.norm(self._goal - tip))
+        t1, t2, t3 = tip.tolist()
+        g1, g2, g3 = self._goal_floats
+        # task's elementwise feature kernels, per axis / per cable, on floats
+        (e1, s1), (e2, s2), (e3, s3) = (
+            task._goal_features(t1, g1),
+            task._goal_features(t2, g2),
+            task._goal_features(t3, g3),
+        )
+        distance = task._distance((e1, e2, e3))
         info = {
             "distance": distance,
             "is_success": distance <= self.distance_threshold,
@@ -295,14 +338,27 @@ class ReachEnv(gym.Env):
             "tensions": tensions,
             "cable_lengths": lengths,
         }
+        c1, c2, c3 = tensions.tolist()
+        l1, l2, l3 = lengths.tolist()
+        args = (self._max_tension, self._backbone_length, self._length_span)
+        (n1, m1), (n2, m2), (n3, m3) = (
+            task._state_features(c1, l1, *args),
+            task._state_features(c2, l2, *args),
+            task._state_features(c3, l3, *args),
+        )
         if self.goal_conditioned:
             obs = {
-                "observation": task.goal_observation(tip, tensions, lengths, self.params),
+                "observation": np.array(
+                    [t1, t2, t3, n1, n2, n3, m1, m2, m3], dtype=np.float32
+                ),
                 "achieved_goal": tip.astype(np.float32),
                 "desired_goal": self._goal.astype(np.float32),
             }
         else:
-            obs = task.flat_observation(tip, self._goal, tensions, lengths, self.params)
+            obs = np.array(
+                [t1, t2, t3, g1, g2, g3, e1, e2, e3, s1, s2, s3, n1, n2, n3, m1, m2, m3],
+                dtype=np.float32,
+            )
         return obs, info
 
     def render(self) -> np.ndarray | None:
@@ -339,5 +395,9 @@ class GoalReachEnv(ReachEnv):
         return self._reward(achieved_goal, desired_goal)
 
     def _step_reward(self, obs: Any, info: dict[str, Any]) -> float:
-        # From the observed (float32) goals, so that the step reward equals compute_reward exactly.
-        return float(self._reward(obs["achieved_goal"], obs["desired_goal"]))
+        # From the observed (float32) goals, so that the step reward equals compute_reward exactly
+        # (same operations in the same order as its norm over the last axis, in float64).
+        a1, a2, a3 = obs["achieved_goal"].tolist()
+        d1, d2, d3 = obs["desired_goal"].tolist()
+        distance = task._distance((a1 - d1, a2 - d2, a3 - d3))
+        return float(task.reward_from_distance(distance, self.reward_type, self.distance_threshold))

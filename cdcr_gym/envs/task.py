@@ -3,15 +3,22 @@
 Both the single env (``reach.ReachEnv``) and the batched env use these functions, so the two
 cannot drift apart. Every function broadcasts over leading batch dimensions; arrays are float64
 in SI units unless stated.
+
+The elementwise functions (:func:`tensions_from_action`, :func:`reward_from_distance` and the
+private feature kernels) also accept Python floats, which the single env uses for speed; the
+functions that couple the three cables have private component kernels (``_lengths_from_action``)
+that take floats or arrays, like those of ``cdcr_gym.kinematics``.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from cdcr_gym import kinematics
+from cdcr_gym.kinematics import _bending_from_lengths, _clip, _lengths_from_bending, _sqrt, _stack3
 from cdcr_gym.params import RobotParams
-from cdcr_gym.workspace import clip_to_workspace
+from cdcr_gym.statics import _workspace_scale
 
 __all__ = [
     "ACTION_MODES",
@@ -48,7 +55,7 @@ def tensions_from_action(
     """
     if mode == "tension":
         return max_tension * 0.5 * (action + 1.0)
-    return np.clip(held + action * (tension_step * max_tension), 0.0, max_tension)
+    return _clip(held + action * (tension_step * max_tension), 0.0, max_tension)
 
 
 def lengths_from_action(
@@ -60,11 +67,37 @@ def lengths_from_action(
     the mean cable length stays ℓ), and the resulting arc's bending angle is clipped to the
     tension-reachable limit θ_lim(φ) (radially in the curvature plane; φ is kept).
     """
-    delta = action * length_step
-    delta = delta - delta.mean(axis=-1, keepdims=True)
-    theta, phi, _ = kinematics.arc_from_lengths(lengths + delta, params.cable_radius)
-    theta, _ = clip_to_workspace(theta, phi, params)
-    return kinematics.lengths_from_arc(theta, phi, params.length, params.cable_radius)
+    action = np.asarray(action, dtype=np.float64)
+    lengths = np.asarray(lengths, dtype=np.float64)
+    r, ell, ei = params.cable_radius, params.length, params.bending_stiffness
+    return _stack3(
+        *_lengths_from_action(
+            (action[..., 0], action[..., 1], action[..., 2]),
+            (lengths[..., 0], lengths[..., 1], lengths[..., 2]),
+            length_step,
+            ell,
+            r,
+            ei / (r * ell),
+            params.max_tension,
+        )
+    )
+
+
+def _lengths_from_action(action, lengths, length_step, length, r, stiffness, max_tension):
+    """Component kernel of :func:`lengths_from_action` (floats or arrays).
+
+    ``action`` and ``lengths`` are 3-tuples; ``stiffness`` = EI/(r ℓ) (N/rad). The projected
+    lengths set the bending vector w (``kinematics.arc_from_lengths``); w is scaled radially onto
+    the tension-reachable hexagon if outside (= ``workspace.clip_to_workspace``: θ clipped to
+    θ_lim(φ), φ kept), and the lengths of the clipped arc are returned (with backbone length ℓ).
+    """
+    d1, d2, d3 = action[0] * length_step, action[1] * length_step, action[2] * length_step
+    mean = (d1 + d2 + d3) / 3.0
+    wx, wy = _bending_from_lengths(
+        lengths[0] + (d1 - mean), lengths[1] + (d2 - mean), lengths[2] + (d3 - mean), r
+    )
+    s = _workspace_scale(wx, wy, stiffness, max_tension)
+    return _lengths_from_bending(wx * s, wy * s, length, r)
 
 
 def flat_observation_size() -> int:
@@ -72,13 +105,31 @@ def flat_observation_size() -> int:
     return 18
 
 
-def _state_features(tensions: np.ndarray, lengths: np.ndarray, params: RobotParams) -> np.ndarray:
-    return np.concatenate(
-        [
-            tensions / params.max_tension,
-            (lengths - params.length) / (np.pi * params.cable_radius),
-        ],
-        axis=-1,
+def _tanh(x):
+    return math.tanh(x) if type(x) is float else np.tanh(x)
+
+
+def _goal_features(tip, goal):
+    """Elementwise (per axis; floats or arrays): goal − tip (m) and tanh((goal − tip)/1 cm)."""
+    error = goal - tip
+    return error, _tanh(error / ERROR_SCALE)
+
+
+def _state_features(tension, length, max_tension, backbone_length, length_span):
+    """Elementwise (per cable; floats or arrays): T/T_max and (l − ℓ)/length_span, the span
+    being π r."""
+    return tension / max_tension, (length - backbone_length) / length_span
+
+
+def _distance(error):
+    """‖error‖ (m) of an error 3-tuple of components (floats or arrays)."""
+    ex, ey, ez = error
+    return _sqrt(ex * ex + ey * ey + ez * ez)
+
+
+def _params_state_features(tensions, lengths, params: RobotParams):
+    return _state_features(
+        tensions, lengths, params.max_tension, params.length, np.pi * params.cable_radius
     )
 
 
@@ -94,11 +145,11 @@ def flat_observation(
     [tip (3) m, goal (3) m, goal − tip (3) m, tanh((goal − tip)/1 cm) (3),
     tensions/max_tension (3), (cable length − ℓ)/(π r) (3)]
     """
-    error = goal - tip
     return np.concatenate(
-        [tip, goal, error, np.tanh(error / ERROR_SCALE), _state_features(tensions, lengths, params)],
+        [tip, goal, *_goal_features(tip, goal), *_params_state_features(tensions, lengths, params)],
         axis=-1,
-    ).astype(np.float32)
+        dtype=np.float32,
+    )
 
 
 def goal_observation(
@@ -108,8 +159,8 @@ def goal_observation(
 
     [tip (3) m, tensions/max_tension (3), (cable length − ℓ)/(π r) (3)]
     """
-    return np.concatenate([tip, _state_features(tensions, lengths, params)], axis=-1).astype(
-        np.float32
+    return np.concatenate(
+        [tip, *_params_state_features(tensions, lengths, params)], axis=-1, dtype=np.float32
     )
 
 
@@ -117,4 +168,4 @@ def reward_from_distance(distance: np.ndarray, reward_type: str, threshold: floa
     """Reward for a tip-to-goal ``distance`` (m): −distance (dense) or −(distance > threshold)."""
     if reward_type == "dense":
         return -distance
-    return -(distance > threshold).astype(np.float64)
+    return -((distance > threshold) * 1.0)
