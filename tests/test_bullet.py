@@ -434,6 +434,18 @@ def test_divergence_raises_the_named_error_with_the_state(make):
     assert not np.all(np.isfinite(info.value.state["joint_positions"]))
 
 
+def test_a_bowstringing_chain_raises_in_reset_and_in_the_dynamics(make):
+    """One disk: the cable runs straight from base to tip and its arm grows with the bend faster
+    than the joint resists; there is no equilibrium, and both paths say so by the named error."""
+    b = make(RobotParams(n_disks=1))
+    with pytest.raises(SimulationDivergedError, match="no static equilibrium"):
+        b.reset(np.array([40.0, 0.0, 0.0]))
+    b.reset(np.zeros(3))
+    with pytest.raises(SimulationDivergedError, match="diverged"):
+        for _ in range(200):
+            b.apply_tensions(np.array([40.0, 0.0, 0.0]))
+
+
 @pytest.mark.slow
 def test_long_random_tension_runs_stay_finite_and_bounded():
     """100 000 control steps at default settings: uniform and bang-bang random tensions."""

@@ -595,13 +595,23 @@ class BulletBackend(Backend):
         stable equilibrium the dynamics settle to. Does not change the simulation state.
 
         Raises:
-            SimulationDivergedError: if the iteration does not converge in 1000 steps.
+            SimulationDivergedError: if the iteration does not converge in 1000 steps. This
+                happens when the tensions bowstring the chain: with only 1–2 disks and one link
+                per span (moment-arm excess 3× the physical one) there is no equilibrium short
+                of a 90° kink from about 20–40 N; 3 or more disks are fine up to 80 N.
         """
         self._check_open()
         t = self._check_tensions(tensions)
         q, converged = self.chain.static_equilibrium(t, self._gravity_bias, max_angle=_MAX_JOINT_ANGLE)
         if not converged:
-            raise self._diverged("the static equilibrium did not converge", q, np.zeros(self.n_dof), t)
+            raise self._diverged(
+                "no static equilibrium found: the cables' destabilising load stiffness (which grows "
+                "with the disk spacing, see bullet_chain) exceeds the joint stiffness; with very "
+                "few disks use more links_per_span or lower tensions",
+                q,
+                np.zeros(self.n_dof),
+                t,
+            )
         return q
 
     def reset(self, tensions: np.ndarray) -> None:
