@@ -167,12 +167,15 @@ def build_vec_env(config: ExperimentConfig, seed: int, n_envs: int | None = None
             ) from None
         if "CCKAReach" not in e.id:
             raise ConfigError(f"env.vec_env: 'batched' supports the CCKA env only, not {e.id!r}")
-        if e.per_env_kwargs:
-            raise ConfigError("env.per_env_kwargs is not supported with env.vec_env: 'batched'")
         kwargs = dict(e.kwargs)
         if e.max_episode_steps is not None:
             kwargs["max_episode_steps"] = e.max_episode_steps
-        venv = BatchedCCKAVecEnv(num_envs=n, seed=seed, **kwargs)
+        if e.per_env_kwargs:
+            kwargs["per_env_kwargs"] = [dict(k) for k in e.per_env_kwargs]
+        try:
+            venv = BatchedCCKAVecEnv(num_envs=n, seed=seed, **kwargs)
+        except ValueError as exc:
+            raise ConfigError(f"env (vec_env: batched): {exc}") from None
         return VecMonitor(venv)
 
     def factory(rank: int):
