@@ -24,12 +24,22 @@ _ENTRY_POINTS = {
     "BulletReach-v0": "cdcr_gym.envs.factory:make_bullet_reach",
 }
 
+#: Batched implementations for ``gymnasium.make_vec(..., vectorization_mode="vector_entry_point")``.
+_VECTOR_ENTRY_POINTS = {
+    "CCKAReach-v0": "cdcr_gym.envs.vector:CCKAReachVectorEnv",
+}
+
 
 def _register_all() -> None:
     for name, entry_point in _ENTRY_POINTS.items():
         for env_id in (f"cdcr_gym/{name}", name):
             if env_id not in registry:
-                register(id=env_id, entry_point=entry_point, max_episode_steps=MAX_EPISODE_STEPS)
+                register(
+                    id=env_id,
+                    entry_point=entry_point,
+                    vector_entry_point=_VECTOR_ENTRY_POINTS.get(name),
+                    max_episode_steps=MAX_EPISODE_STEPS,
+                )
 
 
 _register_all()

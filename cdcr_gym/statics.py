@@ -35,7 +35,8 @@ def _as_tensions(tensions: np.ndarray) -> np.ndarray:
 
 # -- component kernels (floats or arrays; see cdcr_gym.kinematics) --------------------------------
 # In terms of the bending vector w = θ·(cos φ, sin φ) (rad) the statics are linear:
-# w = (r ℓ / EI)·Σ T_i u_i, and the minimal tensions holding w are (EI/(r ℓ))·(2/3)·(w·u_i − min_j w·u_j).
+# w = (r ℓ / EI)·Σ T_i u_i, and the minimal tensions holding w are
+# (EI/(r ℓ))·(2/3)·(w·u_i − min_j w·u_j).
 
 def _bending_from_tensions(t1, t2, t3, compliance):
     """Bending vector w (rad) under tensions (N); ``compliance`` = r ℓ / EI (rad/N)."""

@@ -15,6 +15,7 @@ the hexagon — which is exact: rejection of a uniform law leaves it uniform on 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from functools import lru_cache
 
 import numpy as np
@@ -22,7 +23,7 @@ import numpy as np
 from cdcr_gym.params import RobotParams
 from cdcr_gym.statics import bending_limit
 
-__all__ = ["area_density", "sample_arcs", "clip_to_workspace"]
+__all__ = ["area_density", "sample_arcs", "sample_arcs_each", "clip_to_workspace"]
 
 _TABLE_SIZE = 4097
 
@@ -62,20 +63,57 @@ def sample_arcs(
     Returns:
         ``(theta, phi)``, each of shape (n,), rad; θ in [0, θ_lim(φ)], φ in [−π, π).
     """
-    cdf, table = _theta_table(params.max_bending_angle)
     theta = np.empty(n)
     phi = np.empty(n)
     filled = 0
     while filled < n:
         want = n - filled
-        u = rng.random((want, 2))
-        cand_theta = np.interp(u[:, 0], cdf, table)
-        cand_phi = (2.0 * u[:, 1] - 1.0) * np.pi
-        keep = cand_theta <= bending_limit(cand_phi, params)
+        cand_theta, cand_phi, keep = _candidate_arcs(rng.random((want, 2)), params)
         k = int(keep.sum())
         theta[filled : filled + k] = cand_theta[keep]
         phi[filled : filled + k] = cand_phi[keep]
         filled += k
+    return theta, phi
+
+
+def _candidate_arcs(
+    u: np.ndarray, params: RobotParams
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Candidates (θ, φ) from uniforms ``u`` (..., 2) in [0, 1), and whether each is kept.
+
+    θ by the inverse area CDF of u[..., 0], φ = (2 u[..., 1] − 1)·π, kept where θ <= θ_lim(φ).
+    """
+    cdf, table = _theta_table(params.max_bending_angle)
+    cand_theta = np.interp(u[..., 0], cdf, table)
+    cand_phi = (2.0 * u[..., 1] - 1.0) * np.pi
+    return cand_theta, cand_phi, cand_theta <= bending_limit(cand_phi, params)
+
+
+def sample_arcs_each(
+    rngs: Sequence[np.random.Generator], params: RobotParams
+) -> tuple[np.ndarray, np.ndarray]:
+    """One arc from each generator: ``[sample_arcs(rng, 1, params) for rng in rngs]``, batched.
+
+    Draw for draw the same as the per-generator calls (each generator gives its two uniforms per
+    candidate, rejected candidates are redrawn from the same generator), so a batch of envs that
+    each own a generator samples exactly what the single envs would; only the arithmetic is done
+    for all candidates at once. Used by the batched env when many envs reset in the same step.
+
+    Returns:
+        ``(theta, phi)``, each of shape (len(rngs),), rad.
+    """
+    m = len(rngs)
+    theta = np.empty(m)
+    phi = np.empty(m)
+    pending = np.arange(m)
+    u = np.empty((m, 2))
+    while pending.size:
+        for k, i in enumerate(pending.tolist()):
+            rngs[i].random(out=u[k])
+        cand_theta, cand_phi, keep = _candidate_arcs(u[: pending.size], params)
+        theta[pending[keep]] = cand_theta[keep]
+        phi[pending[keep]] = cand_phi[keep]
+        pending = pending[~keep]
     return theta, phi
 
 

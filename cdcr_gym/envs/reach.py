@@ -190,8 +190,7 @@ class ReachEnv(gym.Env):
         # Constants and state of the hot path, as Python floats (see ``step``).
         p = self.params
         self._max_tension = float(p.max_tension)
-        self._backbone_length = float(ell)
-        self._length_span = float(np.pi * p.cable_radius)
+        self._obs_constants = task._observation_constants(p)
         self._length_action_args = (
             self.length_step,
             float(ell),
@@ -321,15 +320,24 @@ class ReachEnv(gym.Env):
         tip = self.backend.tip
         tensions = self.backend.tensions
         lengths = self.backend.cable_lengths
-        t1, t2, t3 = tip.tolist()
-        g1, g2, g3 = self._goal_floats
-        # task's elementwise feature kernels, per axis / per cable, on floats
-        (e1, s1), (e2, s2), (e3, s3) = (
-            task._goal_features(t1, g1),
-            task._goal_features(t2, g2),
-            task._goal_features(t3, g3),
-        )
-        distance = task._distance((e1, e2, e3))
+        # task's observation kernels on floats (the batched env runs them on arrays)
+        tip_f, tensions_f, lengths_f = tip.tolist(), tensions.tolist(), lengths.tolist()
+        if self.goal_conditioned:
+            entries = task._goal_entries(tip_f, tensions_f, lengths_f, self._obs_constants)
+            g1, g2, g3 = self._goal_floats
+            t1, t2, t3 = tip_f
+            distance = task._distance((g1 - t1, g2 - t2, g3 - t3))
+            obs = {
+                "observation": np.array(entries, dtype=np.float32),
+                "achieved_goal": tip.astype(np.float32),
+                "desired_goal": self._goal.astype(np.float32),
+            }
+        else:
+            entries, error = task._flat_entries(
+                tip_f, self._goal_floats, tensions_f, lengths_f, self._obs_constants
+            )
+            distance = task._distance(error)
+            obs = np.array(entries, dtype=np.float32)
         info = {
             "distance": distance,
             "is_success": distance <= self.distance_threshold,
@@ -338,27 +346,6 @@ class ReachEnv(gym.Env):
             "tensions": tensions,
             "cable_lengths": lengths,
         }
-        c1, c2, c3 = tensions.tolist()
-        l1, l2, l3 = lengths.tolist()
-        args = (self._max_tension, self._backbone_length, self._length_span)
-        (n1, m1), (n2, m2), (n3, m3) = (
-            task._state_features(c1, l1, *args),
-            task._state_features(c2, l2, *args),
-            task._state_features(c3, l3, *args),
-        )
-        if self.goal_conditioned:
-            obs = {
-                "observation": np.array(
-                    [t1, t2, t3, n1, n2, n3, m1, m2, m3], dtype=np.float32
-                ),
-                "achieved_goal": tip.astype(np.float32),
-                "desired_goal": self._goal.astype(np.float32),
-            }
-        else:
-            obs = np.array(
-                [t1, t2, t3, g1, g2, g3, e1, e2, e3, s1, s2, s3, n1, n2, n3, m1, m2, m3],
-                dtype=np.float32,
-            )
         return obs, info
 
     def render(self) -> np.ndarray | None:

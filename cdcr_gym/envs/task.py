@@ -127,10 +127,52 @@ def _distance(error):
     return _sqrt(ex * ex + ey * ey + ez * ez)
 
 
-def _params_state_features(tensions, lengths, params: RobotParams):
-    return _state_features(
-        tensions, lengths, params.max_tension, params.length, np.pi * params.cable_radius
+def _observation_constants(params: RobotParams) -> tuple[float, float, float]:
+    """(max_tension, backbone_length, length_span) for the observation kernels (floats)."""
+    return float(params.max_tension), float(params.length), float(np.pi * params.cable_radius)
+
+
+def _flat_entries(tip, goal, tensions, lengths, constants) -> tuple[list, tuple]:
+    """The 18 entries of the flat observation, in order, and the error goal − tip.
+
+    ``tip``, ``goal``, ``tensions``, ``lengths`` are 3-tuples of components (floats or arrays);
+    ``constants`` is :func:`_observation_constants`. Returns ``(entries, (ex, ey, ez))``.
+    """
+    t1, t2, t3 = tip
+    g1, g2, g3 = goal
+    (e1, s1), (e2, s2), (e3, s3) = (
+        _goal_features(t1, g1),
+        _goal_features(t2, g2),
+        _goal_features(t3, g3),
     )
+    entries = [t1, t2, t3, g1, g2, g3, e1, e2, e3, s1, s2, s3]
+    entries += _state_entries(tensions, lengths, constants)
+    return entries, (e1, e2, e3)
+
+
+def _state_entries(tensions, lengths, constants) -> list:
+    """[T1, T2, T3]/T_max and [(l_i − ℓ)/(π r)]: the last 6 entries of either observation."""
+    (n1, m1), (n2, m2), (n3, m3) = (
+        _state_features(tensions[0], lengths[0], *constants),
+        _state_features(tensions[1], lengths[1], *constants),
+        _state_features(tensions[2], lengths[2], *constants),
+    )
+    return [n1, n2, n3, m1, m2, m3]
+
+
+def _goal_entries(tip, tensions, lengths, constants) -> list:
+    """The 9 entries of the goal-conditioned ``observation``, in order (components as above)."""
+    return [tip[0], tip[1], tip[2], *_state_entries(tensions, lengths, constants)]
+
+
+def _components(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    x = np.asarray(x, dtype=np.float64)
+    return x[..., 0], x[..., 1], x[..., 2]
+
+
+def _stack_f32(entries: list) -> np.ndarray:
+    """Stack component entries along a new last axis as float32 (broadcasting them)."""
+    return np.stack(np.broadcast_arrays(*entries), axis=-1).astype(np.float32)
 
 
 def flat_observation(
@@ -145,11 +187,14 @@ def flat_observation(
     [tip (3) m, goal (3) m, goal − tip (3) m, tanh((goal − tip)/1 cm) (3),
     tensions/max_tension (3), (cable length − ℓ)/(π r) (3)]
     """
-    return np.concatenate(
-        [tip, goal, *_goal_features(tip, goal), *_params_state_features(tensions, lengths, params)],
-        axis=-1,
-        dtype=np.float32,
+    entries, _ = _flat_entries(
+        _components(tip),
+        _components(goal),
+        _components(tensions),
+        _components(lengths),
+        _observation_constants(params),
     )
+    return _stack_f32(entries)
 
 
 def goal_observation(
@@ -159,8 +204,13 @@ def goal_observation(
 
     [tip (3) m, tensions/max_tension (3), (cable length − ℓ)/(π r) (3)]
     """
-    return np.concatenate(
-        [tip, *_params_state_features(tensions, lengths, params)], axis=-1, dtype=np.float32
+    return _stack_f32(
+        _goal_entries(
+            _components(tip),
+            _components(tensions),
+            _components(lengths),
+            _observation_constants(params),
+        )
     )
 
 
