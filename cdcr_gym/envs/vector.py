@@ -323,7 +323,8 @@ class CCKAReachVectorEnv(VectorEnv):
                     f"{actions[bad]!r}"
                 )
             actions = np.where(resetting[:, None], 0.0, actions)
-        a = tuple(np.clip(actions[:, i], -1.0, 1.0) for i in range(3))
+        clipped = np.clip(actions, -1.0, 1.0)
+        a = (clipped[:, 0], clipped[:, 1], clipped[:, 2])
 
         # the same kernels as ReachEnv.step, on (N,) arrays instead of floats
         if self.action_mode == "length_delta":
@@ -439,7 +440,7 @@ class CCKAReachVectorEnv(VectorEnv):
     def _stacked(self, slot: str, rows: list, dtype: Any) -> np.ndarray:
         """``rows`` (each (N,)) as an (N, len(rows)) array (the transpose of a recycled buffer)."""
         out = self._recycler.take(slot, (len(rows), self.num_envs), dtype)
-        np.stack(rows, out=out)
+        np.concatenate(rows, out=out.reshape(-1))  # one call; casts to the buffer's dtype
         return out.T
 
     def _observe(self) -> tuple[Any, dict[str, Any]]:
