@@ -287,3 +287,27 @@ def test_sb3_ppo_learns_with_the_adapter_and_her_relabels():
               learning_starts=40, batch_size=16, seed=0, device="cpu")
     her.learn(total_timesteps=60)
     assert her.num_timesteps == 60
+
+
+# -- the bench command (formatting only: timings are not asserted) ---------------------------
+def test_bench_table_and_checks_format():
+    from training import bench
+
+    rows = [
+        {"key": "ccka_single", "name": "CCKAReach-v0 (gym.make)", "envs": 1, "note": "",
+         "median": 2e5, "min": 1.9e5, "max": 2.1e5},
+        {"key": "pendulum", "name": "Pendulum-v1 (gym.make)", "envs": 1, "note": "",
+         "median": 1e5, "min": 1e5, "max": 1e5},
+        {"key": "bullet", "name": "BulletReach-v0 (gym.make)", "envs": 1,
+         "note": "unavailable: ImportError: no pybullet"},
+    ]
+    result = {"machine": bench.machine(), "rows": rows, "load_before": "0", "load_after": "0",
+              "repeats": 1, "quick": True, "checks": bench._checks({r["key"]: r for r in rows})}
+    text = bench.to_markdown(result)
+    assert "| CCKAReach-v0 (gym.make) | 1 | 200 k | 190 k–210 k |" in text
+    assert "unavailable: ImportError" in text
+    assert "| CCKAReach-v0 / Pendulum-v1 (gym.make) | 2 | ≥ 1 | yes |" in text
+    measured = bench._single_env("Pendulum-v1", min_time=0.0, repeats=1)
+    assert measured["median"] > 0
+    with pytest.raises(SystemExit):
+        bench.main(["--out", "bench.txt"])

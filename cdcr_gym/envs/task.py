@@ -109,18 +109,6 @@ def _tanh(x):
     return math.tanh(x) if type(x) is float else np.tanh(x)
 
 
-def _goal_features(tip, goal):
-    """Elementwise (per axis; floats or arrays): goal − tip (m) and tanh((goal − tip)/1 cm)."""
-    error = goal - tip
-    return error, _tanh(error / ERROR_SCALE)
-
-
-def _state_features(tension, length, max_tension, backbone_length, length_span):
-    """Elementwise (per cable; floats or arrays): T/T_max and (l − ℓ)/length_span, the span
-    being π r."""
-    return tension / max_tension, (length - backbone_length) / length_span
-
-
 def _distance(error):
     """‖error‖ (m) of an error 3-tuple of components (floats or arrays)."""
     ex, ey, ez = error
@@ -136,28 +124,30 @@ def _flat_entries(tip, goal, tensions, lengths, constants) -> tuple[list, tuple]
     """The 18 entries of the flat observation, in order, and the error goal − tip.
 
     ``tip``, ``goal``, ``tensions``, ``lengths`` are 3-tuples of components (floats or arrays);
-    ``constants`` is :func:`_observation_constants`. Returns ``(entries, (ex, ey, ez))``.
+    ``constants`` is :func:`_observation_constants`. Returns ``(entries, (ex, ey, ez))``:
+    [tip, goal, goal − tip, tanh((goal − tip)/ERROR_SCALE), :func:`_state_entries`].
     """
     t1, t2, t3 = tip
     g1, g2, g3 = goal
-    (e1, s1), (e2, s2), (e3, s3) = (
-        _goal_features(t1, g1),
-        _goal_features(t2, g2),
-        _goal_features(t3, g3),
-    )
-    entries = [t1, t2, t3, g1, g2, g3, e1, e2, e3, s1, s2, s3]
+    e1, e2, e3 = g1 - t1, g2 - t2, g3 - t3
+    entries = [t1, t2, t3, g1, g2, g3, e1, e2, e3,
+               _tanh(e1 / ERROR_SCALE), _tanh(e2 / ERROR_SCALE), _tanh(e3 / ERROR_SCALE)]
     entries += _state_entries(tensions, lengths, constants)
     return entries, (e1, e2, e3)
 
 
 def _state_entries(tensions, lengths, constants) -> list:
-    """[T1, T2, T3]/T_max and [(l_i − ℓ)/(π r)]: the last 6 entries of either observation."""
-    (n1, m1), (n2, m2), (n3, m3) = (
-        _state_features(tensions[0], lengths[0], *constants),
-        _state_features(tensions[1], lengths[1], *constants),
-        _state_features(tensions[2], lengths[2], *constants),
-    )
-    return [n1, n2, n3, m1, m2, m3]
+    """[T_i / T_max] and [(l_i − ℓ)/(π r)] (i = 1, 2, 3): the last 6 entries of either
+    observation (components as in :func:`_flat_entries`)."""
+    max_tension, backbone_length, length_span = constants
+    return [
+        tensions[0] / max_tension,
+        tensions[1] / max_tension,
+        tensions[2] / max_tension,
+        (lengths[0] - backbone_length) / length_span,
+        (lengths[1] - backbone_length) / length_span,
+        (lengths[2] - backbone_length) / length_span,
+    ]
 
 
 def _goal_entries(tip, tensions, lengths, constants) -> list:

@@ -229,6 +229,7 @@ class CCKAReachVectorEnv(VectorEnv):
         self._steps = np.zeros(n, dtype=np.int64)
         self._autoreset = np.zeros(n, dtype=np.bool_)
         self._all_true = np.ones(n, dtype=np.bool_)
+        self._all_true.flags.writeable = False  # shared by every info's "_key" masks
         self._recycler = _Recycler()
         self._needs_reset = True
         zeros = np.zeros(n)
@@ -245,7 +246,7 @@ class CCKAReachVectorEnv(VectorEnv):
 
     @property
     def np_random_seed(self) -> tuple[int | None, ...]:
-        """The seeds the envs' generators were made from (-1 if not seeded explicitly)."""
+        """The seeds the envs' generators were made from (-1 where none was made yet)."""
         return tuple(-1 if s is None else s for s in self._rng_seeds)
 
     def _rng(self, i: int) -> np.random.Generator:
