@@ -147,10 +147,11 @@ def _bending_from_lengths(l1, l2, l3, r):
     """Bending vector w = θ·(cos φ, sin φ) (rad) from the cable lengths (paper eq. 2–3).
 
     wx = (l2 + l3 − 2 l1)/(3r), wy = √3 (l3 − l2)/(3r): |w| = 2 L_sqr/(3r) = θ and
-    atan2(wy, wx) = φ.
+    atan2(wy, wx) = φ. Differences of lengths first, which are exact for nearby lengths, so a
+    nearly straight robot keeps its relative precision.
     """
     k = 1.0 / (3.0 * r)
-    return (l2 + l3 - 2.0 * l1) * k, _SQRT3_F * (l3 - l2) * k
+    return ((l2 - l1) + (l3 - l1)) * k, _SQRT3_F * (l3 - l2) * k
 
 
 def _lengths_from_bending(wx, wy, length, r):
