@@ -99,12 +99,15 @@ def plot_error_histogram(errors_mm: dict[str, np.ndarray], out: Path, title: str
     """Histogram (log-spaced bins) of final tip errors, one series per label."""
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(6.5, 4))
-    allv = np.concatenate([np.asarray(v) for v in errors_mm.values()])
-    lo = max(np.min(allv[allv > 0]) if np.any(allv > 0) else 1e-4, 1e-4)
-    hi = max(np.max(allv), lo * 10)
-    bins = np.logspace(np.log10(lo) - 0.1, np.log10(hi) + 0.1, 40)
+    floor = 1e-3  # errors below 1 µm (the exact IK on its own model) are drawn at 1 µm
+    allv = np.clip(np.concatenate([np.asarray(v) for v in errors_mm.values()]), floor, None)
+    lo, hi = np.min(allv), max(np.max(allv), np.min(allv) * 10)
+    bins = np.logspace(np.log10(lo) - 0.05, np.log10(hi) + 0.05, 40)
     for label, v in errors_mm.items():
-        ax.hist(np.clip(v, bins[0], None), bins=bins, alpha=0.55, label=label)
+        v = np.asarray(v)
+        if np.any(v < floor):
+            label += f" ({np.mean(v < floor):.0%} < 1 µm, drawn at 1 µm)"
+        ax.hist(np.clip(v, floor, None), bins=bins, alpha=0.55, label=label)
     ax.set_xscale("log")
     for x, txt in ((1.0, "1 mm"), (5.0, "5 mm")):
         ax.axvline(x, color="k", ls=":", lw=1)
@@ -150,8 +153,8 @@ def plot_policy_vs_ik(policy_mm: np.ndarray, ik_mm: np.ndarray, out: Path, title
     """Per-goal final error: policy vs analytic IK (log–log), with the diagonal."""
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(5.5, 5))
-    x = np.clip(np.asarray(ik_mm), 1e-4, None)
-    y = np.clip(np.asarray(policy_mm), 1e-4, None)
+    x = np.clip(np.asarray(ik_mm), 1e-3, None)  # below 1 µm drawn at 1 µm
+    y = np.clip(np.asarray(policy_mm), 1e-3, None)
     ax.scatter(x, y, s=12, alpha=0.7)
     lo = min(x.min(), y.min()) * 0.8
     hi = max(x.max(), y.max()) * 1.2
