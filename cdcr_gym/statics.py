@@ -161,6 +161,8 @@ def bending_limit(phi: np.ndarray, params: RobotParams, pretension: float = 0.0)
         raise ValueError(
             f"pretension must be in [0, max_tension={params.max_tension}) N, got {pretension!r}"
         )
-    profile = _minimal_tension_profile(phi)  # tension per unit moment of the most loaded cable
-    moment_max = (params.max_tension - pretension) / profile.max(axis=-1)
+    phi = np.asarray(phi, dtype=np.float64)
+    # tension per unit moment of the most loaded cable (max of _minimal_tension_profile)
+    profile_max = _max3(*_tensions_from_bending(np.cos(phi), np.sin(phi), 1.0))
+    moment_max = (params.max_tension - pretension) / profile_max
     return moment_max * params.cable_radius * params.length / params.bending_stiffness
