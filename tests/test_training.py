@@ -122,6 +122,27 @@ def test_evaluate_cli_validates_arguments(tmp_path: Path) -> None:
     assert result.returncode == 2 and "RUN_DIR" in result.stderr
 
 
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--episodes", "0"], "--episodes"),
+        (["--env-id", "cdcr_gym/Nope-v0"], "--env-id"),
+        (["--env-kwarg", "gravity"], "--env-kwarg"),
+        (["--env-kwarg", "action_mode=sideways"], "action_mode"),
+        (["--model", "final"], "--model final"),
+        (["--tag", "a/b"], "--tag"),
+    ],
+)
+def test_evaluate_cli_names_the_bad_argument(tmp_path: Path, args: list[str], message: str) -> None:
+    run = tmp_path / "run"  # looks like a run directory; arguments are checked before loading
+    (run / "best_model").mkdir(parents=True)
+    (run / "best_model" / "model.zip").write_bytes(b"")
+    save_config(load_config(_tiny_config(tmp_path)), run / "config.yaml")
+    result = _run("training.evaluate", run, *args, timeout=60)
+    assert result.returncode == 2, result.stderr[-2000:]
+    assert message in result.stderr
+
+
 # -- smoke runs ---------------------------------------------------------------------------------
 EVAL_KEYS = {"success_rate", "within_1mm", "error_mm", "ik", "conditions", "headline_condition"}
 STAT_KEYS = {"mean", "median", "p95", "max"}
@@ -207,6 +228,14 @@ def test_resume_continues_steps_and_logs(tmp_path: Path) -> None:
     assert [s["status"] for s in meta["sessions"]] == ["complete", "complete"]
     assert meta["sessions"][1]["start_steps"] == 256 and meta["total_steps"] == 512
     assert len((run / "command.txt").read_text().splitlines()) == 2
+
+    # The resumed run evaluates, with a video (MP4 if ffmpeg is available, else GIF).
+    result = _run("training.evaluate", run, "--episodes", 2, "--video")
+    assert result.returncode == 0, result.stderr[-3000:]
+    _check_eval_json(run / "eval.json", {"straight_h100", "straight_h120", "random_h100",
+                                         "random_h120"})
+    videos = list((run / "eval").glob("episodes.*"))
+    assert videos and videos[0].stat().st_size > 0
 
 
 @pytest.mark.slow
