@@ -83,6 +83,8 @@ def test_misspelt_key_names_the_key() -> None:
         ({"normalize": {"enabled": "yes"}}, "normalize.enabled"),
         ({"evaluate": {"initial_states": ["upside_down"]}}, "evaluate.initial_states"),
         ({"ppo": {"policy": {"net_arch": [64, 0]}}}, "ppo.policy.net_arch"),
+        ({"env": {"kwargs": {"goal_conditioned": True}}}, "env.kwargs.goal_conditioned"),
+        ({"env": {"kwargs": {"max_episode_steps": 5}}}, "env.max_episode_steps"),
     ],
 )
 def test_bad_values_name_the_key(data: dict, key: str) -> None:

@@ -225,6 +225,11 @@ class ExperimentConfig:
         for i, extra in enumerate(e.per_env_kwargs):
             if not all(isinstance(k, str) for k in extra):
                 raise ConfigError(f"env.per_env_kwargs[{i}] keys must be strings, got {extra!r}")
+        if any(kw.get("goal_conditioned") for kw in (e.kwargs, *e.per_env_kwargs)):
+            raise ConfigError(
+                "env.kwargs.goal_conditioned: the Dict (HER) observation is not supported by "
+                "training.train (PPO with an MLP on the flat observation); remove the key"
+            )
         for key in ("max_episode_steps", "render_mode"):
             if any(key in kw for kw in (e.kwargs, *e.per_env_kwargs)):
                 hint = "env.max_episode_steps" if key == "max_episode_steps" else "(set by evaluate)"
