@@ -287,16 +287,7 @@ def test_resume_rejects_a_different_config(tmp_path: Path) -> None:
     assert result.returncode == 2 and "ppo.n_epochs" in result.stderr
 
 
-def _batched_available() -> bool:
-    try:
-        import training.sb3_vec  # noqa: F401
-    except ImportError:
-        return False
-    return True
-
-
 @pytest.mark.slow
-@pytest.mark.skipif(not _batched_available(), reason="training/sb3_vec.py not available")
 def test_train_with_the_batched_vec_env(tmp_path: Path) -> None:
     cfg = _tiny_config(tmp_path, env={**TINY["env"], "vec_env": "batched",
                                       "per_env_kwargs": [{"initial_state": "random"}]})
