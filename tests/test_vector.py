@@ -267,6 +267,8 @@ def test_sb3_adapter_matches_dummy_vec_env():
             np.testing.assert_allclose(rb["goal"], rd["goal"], atol=1e-12)
     assert terminal > n  # terminations and truncations both happened
     assert batched.get_attr("action_mode") == ["tension_delta"] * n
+    assert batched.get_attr("initial_state") == ["straight", "random"] * 2
+    assert batched.get_attr("np_random_seed", indices=[1]) == [6]
     assert batched.env_is_wrapped(gym.Wrapper) == [False] * n
 
 

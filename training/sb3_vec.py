@@ -112,9 +112,16 @@ class BatchedCCKAVecEnv(VecEnv):
         self.venv.close()
 
     def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
-        """The batched env's attribute (all envs share their configuration)."""
+        """Each env's value of an attribute of the batched env.
+
+        Per-env values (``np_random``, ``np_random_seed``, a per-env ``initial_state``) are
+        indexed; everything else is the configuration all envs share.
+        """
         value = getattr(self.venv, attr_name)
-        return [value for _ in self._get_indices(indices)]
+        per_env = attr_name in ("np_random", "np_random_seed") or (
+            attr_name == "initial_state" and isinstance(value, tuple)
+        )
+        return [value[i] if per_env else value for i in self._get_indices(indices)]
 
     def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
         """Set an attribute of the batched env: only for all envs at once."""
