@@ -10,7 +10,7 @@ Conventions (SI units):
       about +Z0; the tip moves towards φ), curvature κ = θ/ℓ (1/m).
     * At θ = 0 (straight robot) φ is undefined; we return φ = 0 by convention.
 
-Corrections to the paper (doi: see README): eq. 2 uses tan⁻¹ of a ratio, which loses the
+Corrections to the paper (see README): eq. 2 uses tan⁻¹ of a ratio, which loses the
 quadrant; we use atan2. Eq. 5's Z line reads (r·L_sum/L_sqr)·sin(2L_sqr/3r), but it must be
 (r·L_sum/(2·L_sqr))·sin(2L_sqr/3r) = sin θ/κ: with equal cable lengths the printed form gives
 Z = 2ℓ = 1.282 m instead of ℓ = 0.641 m.
