@@ -312,6 +312,7 @@ class BulletBackend(Backend):
         self.joint_stiffness = self.chain.joint_stiffness
         self._tensions = np.zeros(3)
         self._pose: ChainPose | None = None
+        self._points: tuple[np.ndarray, np.ndarray] | None = None
         # gravity in R0 coordinates, when it differs from the upright (0, 0, −g) (see _bias)
         g_base = self._base_rot.T @ np.array([0.0, 0.0, -GRAVITY])
         upright = np.allclose(g_base, (0.0, 0.0, -GRAVITY), rtol=0.0, atol=1e-12)
@@ -515,6 +516,23 @@ class BulletBackend(Backend):
             self._pose = self.chain.pose(self._state()[0])
         return self._pose
 
+    def _read_points(self) -> tuple[np.ndarray, np.ndarray]:
+        """World stations (n+1, 3) and pinholes (n_disks+1, 3, 3), m, of the current state.
+
+        What the tip and the sensed cable lengths need, without the joint axes and COMs of the
+        full :meth:`_read` (same values, same bits). Cached until the next step, like the pose.
+        """
+        if self._points is None:
+            if self._pose is not None:
+                self._points = (self._pose.stations, self._pose.pinholes)
+            else:
+                self._points = self.chain.stations_and_pinholes(self._state()[0])
+        return self._points
+
+    def _invalidate(self) -> None:
+        """Drop the cached state and geometry (after every change of the pybullet state)."""
+        self._q = self._qd = self._pose = self._points = None
+
     def _pybullet_link_frames(self) -> tuple[np.ndarray, np.ndarray]:
         """pybullet's own link-frame positions (2n, 3) and rotations (2n, 3, 3), world (for tests)."""
         self._check_open()
@@ -535,7 +553,7 @@ class BulletBackend(Backend):
             targetVelocities=[[float(v)] for v in qd],
             physicsClientId=self._client,
         )
-        self._q = self._qd = self._pose = None
+        self._invalidate()
 
     def _diverged(self, message: str, q: np.ndarray, qd: np.ndarray, t: np.ndarray) -> SimulationDivergedError:
         state = {"joint_positions": q.copy(), "joint_velocities": qd.copy(), "tensions": t.copy(), "time": self.time}
@@ -664,7 +682,7 @@ class BulletBackend(Backend):
             # TORQUE_CONTROL torques accumulate until the next step: exactly one call per step
             pb.setJointMotorControlArray(body, ids, torque_mode, forces=torque.tolist(), physicsClientId=cid)
             pb.stepSimulation(physicsClientId=cid)
-            self._q = self._qd = self._pose = None
+            self._invalidate()
             self.time += h
         q, qd = self._state()
         # NaN fails every comparison, so "not (x <= limit)" also catches non-finite values
@@ -680,13 +698,13 @@ class BulletBackend(Backend):
     def tip_world(self) -> np.ndarray:
         """Tip-disk centre in the world frame, shape (3,), m (= :attr:`tip` when upright)."""
         self._check_open()
-        return self._read().stations[-1].copy()
+        return self._read_points()[0][-1].copy()
 
     @property
     def cable_lengths(self) -> np.ndarray:
         """Sensed cable lengths (3,), m: summed pinhole-to-pinhole segment lengths, base → tip disk."""
         self._check_open()
-        return self.chain.cable_lengths_of(self._read())
+        return self.chain.lengths_between_pinholes(self._read_points()[1])
 
     @property
     def tensions(self) -> np.ndarray:
@@ -771,7 +789,7 @@ class BulletBackend(Backend):
         if frame not in ("base", "world"):
             raise ValueError(f"frame must be 'base' or 'world', got {frame!r}")
         self._check_open()
-        pins = self._read().pinholes.copy()
+        pins = self._read_points()[1].copy()
         return pins if frame == "world" else self._to_base(pins)
 
     # ---------------------------------------------------------------- rendering
@@ -841,4 +859,4 @@ class BulletBackend(Backend):
             return
         self._finalizer()
         self._client = None
-        self._q = self._qd = self._pose = None
+        self._invalidate()

@@ -176,8 +176,6 @@ class DiscreteBackbone:
         self.pinhole_local = params.cable_radius * np.stack(
             [np.cos(beta), np.sin(beta), np.zeros(3)], axis=-1
         )
-        # index (0-based) of the link carrying disk k = 1..n_disks
-        self._disk_links = np.arange(1, params.n_disks + 1) * m - 1
         self._base_pinholes = self.pinhole_local @ self.base_rotation.T
         self._base_rot_flat = self.base_rotation.reshape(9).copy()
         props = [self._link_properties(j) for j in range(1, self.n_links + 1)]
@@ -218,43 +216,81 @@ class DiscreteBackbone:
 
         Link j's orientation is R_j = R_base·Rx(a_1)·Ry(b_1)·…·Rx(a_j)·Ry(b_j); joint 1 sits
         Δs/2 above the base, each further joint Δs along the previous link, station j Δs/2 along
-        link j. The prefix products use a log-depth (Hillis–Steele) scan: ⌈log2(n+1)⌉ batched
-        matmuls instead of n small ones.
+        link j. :meth:`stations_and_pinholes` gives the same stations and pinholes (same bits)
+        without the joint axes and COMs.
         """
-        n, ds = self.n_links, self.segment_length
         c, s = np.cos(q), np.sin(q)
         ca, sa = c[0::2], s[0::2]
-        rot = np.empty((n + 1, 3, 3))
-        rot[0] = self.base_rotation
-        rot[1:] = _cardan(ca, sa, c[1::2], s[1::2])
-        d = 1
-        while d <= n:
-            rot[d:] = np.matmul(rot[:-d], rot[d:])
-            d *= 2
+        rot = self._orientations(ca, sa, c[1::2], s[1::2])
         prev, link_rot = rot[:-1], rot[1:]  # parent orientation of joint j, orientation of link j
-        axes = np.empty((n, 2, 3))
+        axes = np.empty((self.n_links, 2, 3))
         axes[:, 0] = prev[:, :, 0]  # X revolute: the parent's X axis
         # Y revolute: the intermediate frame's Y axis, parent·Rx(a)·e_y = parent·(0, cos a, sin a)
         axes[:, 1] = prev[:, :, 1] * ca[:, None] + prev[:, :, 2] * sa[:, None]
         tangent = rot[:, :, 2]  # (n+1, 3): base and link directions
-        joint_points = np.cumsum(tangent[:-1] * ds, axis=0)
-        joint_points -= (0.5 * ds) * tangent[0]
-        stations = np.empty((n + 1, 3))
-        stations[0] = 0.0
-        stations[1:] = joint_points + (0.5 * ds) * tangent[1:]
-        pins = np.empty((self.params.n_disks + 1, 3, 3))
-        pins[0] = self._base_pinholes
-        dl = self._disk_links
-        pins[1:] = stations[dl + 1][:, None, :] + np.matmul(
-            self.pinhole_local, link_rot[dl].transpose(0, 2, 1)
-        )
+        joint_points, stations = self._joint_points_and_stations(tangent)
+        pins = self._pinholes(rot, stations)
         coms = joint_points + self.link_com_offsets[:, None] * tangent[1:]
         return ChainPose(joint_points, axes, link_rot, stations, pins, coms)
+
+    def stations_and_pinholes(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The readings-only part of :meth:`pose`: stations (n+1, 3) and pinholes (n_disks+1, 3, 3), m.
+
+        World frame, bit-identical to ``pose(q).stations`` and ``pose(q).pinholes``; skips the
+        joint axes and link COMs, which the tip and the sensed cable lengths do not need
+        (what the env's observation reads every step).
+        """
+        c, s = np.cos(q), np.sin(q)
+        rot = self._orientations(c[0::2], s[0::2], c[1::2], s[1::2])
+        stations = self._joint_points_and_stations(rot[:, :, 2])[1]
+        return stations, self._pinholes(rot, stations)
+
+    def _orientations(self, ca, sa, cb, sb) -> np.ndarray:
+        """R_base and the link orientations R_1..R_n, shape (n+1, 3, 3), from the joints'
+        cosines and sines (each (n,)).
+
+        The prefix products use a log-depth (Hillis–Steele) scan: ⌈log2(n+1)⌉ batched matmuls
+        instead of n small ones.
+        """
+        n = self.n_links
+        rot = np.empty((n + 1, 3, 3))
+        rot[0] = self.base_rotation
+        rot[1:] = _cardan(ca, sa, cb, sb)
+        d = 1
+        while d <= n:
+            rot[d:] = np.matmul(rot[:-d], rot[d:])
+            d *= 2
+        return rot
+
+    def _joint_points_and_stations(self, tangent: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Joint centres (n, 3) and rod stations (n+1, 3), m, from the base and link directions
+        ``tangent`` (n+1, 3) (the third columns of :meth:`_orientations`)."""
+        ds = self.segment_length
+        joint_points = np.cumsum(tangent[:-1] * ds, axis=0)
+        joint_points -= (0.5 * ds) * tangent[0]
+        stations = np.empty((self.n_links + 1, 3))
+        stations[0] = 0.0
+        stations[1:] = joint_points + (0.5 * ds) * tangent[1:]
+        return joint_points, stations
+
+    def _pinholes(self, rot: np.ndarray, stations: np.ndarray) -> np.ndarray:
+        """Pinholes (n_disks+1, 3, 3) [disk (base first), cable, xyz], m, from the orientations
+        (n+1, 3, 3) and stations (n+1, 3): disk k sits at station k·m, on link k·m."""
+        m = self.links_per_span
+        pins = np.empty((self.params.n_disks + 1, 3, 3))
+        pins[0] = self._base_pinholes
+        pins[1:] = stations[m::m][:, None, :] + np.matmul(self.pinhole_local, rot[m::m].transpose(0, 2, 1))
+        return pins
 
     @staticmethod
     def cable_lengths_of(pose: ChainPose) -> np.ndarray:
         """Sensed cable lengths (3,) m: summed pinhole-to-pinhole segment lengths of ``pose``."""
-        seg = pose.pinholes[1:] - pose.pinholes[:-1]
+        return DiscreteBackbone.lengths_between_pinholes(pose.pinholes)
+
+    @staticmethod
+    def lengths_between_pinholes(pinholes: np.ndarray) -> np.ndarray:
+        """Cable lengths (3,) m from pinholes (n_disks+1, 3, 3): summed segment lengths."""
+        seg = pinholes[1:] - pinholes[:-1]
         return np.sqrt((seg * seg).sum(axis=-1)).sum(axis=0)
 
     # ------------------------------------------------------------------ loads
