@@ -178,6 +178,7 @@ class DiscreteBackbone:
         )
         self._base_pinholes = self.pinhole_local @ self.base_rotation.T
         self._base_rot_flat = self.base_rotation.reshape(9).copy()
+        self._one_link_map = self._build_one_link_map()  # (18, 9), see _cable_loads_one_link
         props = [self._link_properties(j) for j in range(1, self.n_links + 1)]
         #: Link masses (n,) kg, COM offsets along the link from its joint (n,) m, and principal
         #: inertias about the COM (n, 3) kg·m² (Ixx = Iyy, Izz about the link axis).
@@ -343,28 +344,62 @@ class DiscreteBackbone:
         return tau, seg_len.sum(axis=0)
 
     def _cable_loads_one_link(self, q: np.ndarray, tensions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`cable_loads` for one link per span (the default), with fewer numpy calls.
+        """:meth:`cable_loads` for one link per span (the default), in a handful of numpy calls.
 
-        One joint per span at o = (0, 0, Δs/2) in the span frame, axes e_x and (0, cos a, sin a):
-        τ_a = (o × F − G)_x = −(Δs/2)·F_y − G_x,
-        τ_b = (o × F − G)·(0, cos a, sin a) = ((Δs/2)·F_x − G_y)·cos a − G_z·sin a.
+        Each span has one joint, at o = (0, 0, Δs/2) in the span frame, turning the link by
+        R = Rx(a)·Ry(b) with columns X = (cos b, sin a·sin b, −cos a·sin b), Y = (0, cos a, sin a),
+        Z = (sin b, −sin a·cos b, cos a·cos b). Cable i runs from its pinhole p_i = (x_i, y_i, 0)
+        on the proximal disk to o + (Δs/2)·Z + x_i·X + y_i·Y on the distal one: segment d_i.
+        Its pull on the distal disk, −T_i·d_i/|d_i|, has the moment M_i = (T_i/|d_i|)·(o − p_i) × d_i
+        about the joint (taken at p_i, on the same line of action), and
+        τ_a = e_x·Σ_i M_i,  τ_b = (0, cos a, sin a)·Σ_i M_i
+        (the same τ_j = a·(o × F − G) as in the module docstring). Both d_i and (o − p_i) × d_i
+        are linear in the nine products u_α·v_β of u = (1, cos a, sin a) and v = (1, cos b, sin b):
+        ``self._one_link_map`` (built once from the geometry, :meth:`_build_one_link_map`) maps
+        them to all spans' segments and unit-tension moments in one matmul.
         """
-        half = 0.5 * self.segment_length
-        c, s = np.cos(q), np.sin(q)
-        ca, sa = c[0::2], s[0::2]
-        rot = _cardan(ca, sa, c[1::2], s[1::2])
-        pos = half * rot[:, :, 2]
-        pos[:, 2] += half
-        p_b = pos[:, None, :] + np.matmul(self.pinhole_local, rot.transpose(0, 2, 1))
-        seg = p_b - self.pinhole_local
-        seg_len = np.sqrt((seg * seg).sum(axis=-1))
-        tu = seg * (tensions / seg_len)[..., None]
-        force = tu.sum(axis=1)
-        couple = _cross(p_b, tu).sum(axis=1)
+        n = self.n_links
+        trig = np.empty((3, 2 * n))  # rows: 1, cos q, sin q
+        trig[0] = 1.0
+        np.cos(q, out=trig[1])
+        np.sin(q, out=trig[2])
+        trig = trig.reshape(3, n, 2)
+        u, v = trig[:, :, 0], trig[:, :, 1]  # (3, n): (1, cos, sin) of a and of b, per span
+        products = (u[:, None, :] * v[None, :, :]).reshape(9, n)  # u_α·v_β, row 3α + β
+        mapped = self._one_link_map @ products  # (18, n)
+        seg = mapped[:9].reshape(3, 3, n)  # d_i [cable, xyz, span], m
+        lever = mapped[9:].reshape(3, 3, n)  # (o − p_i) × d_i [xyz, cable, span], m²
+        seg_len = np.sqrt((seg * seg).sum(axis=1))  # |d_i| (3 cables, n), m
+        moment = (lever * (np.reshape(tensions, (3, 1)) / seg_len)).sum(axis=1)  # Σ_i M_i (3, n), N·m
         tau = np.empty(self.n_dof)
-        tau[0::2] = -half * force[:, 1] - couple[:, 0]
-        tau[1::2] = (half * force[:, 0] - couple[:, 1]) * ca - couple[:, 2] * sa
-        return tau, seg_len.sum(axis=0)
+        tau[0::2] = moment[0]
+        tau[1::2] = moment[1] * u[1] + moment[2] * u[2]
+        return tau, seg_len.sum(axis=1)
+
+    def _build_one_link_map(self) -> np.ndarray:
+        """The (18, 9) map of :meth:`_cable_loads_one_link`: from the products u_α·v_β (row
+        3α + β) of one span to its segments d_i (rows 0–8, [cable, xyz], m) and the levers
+        (o − p_i) × d_i (rows 9–17, [xyz, cable], m²)."""
+        one, cos, sin = 0, 1, 2  # indices into u = (1, cos a, sin a) and v = (1, cos b, sin b)
+
+        def term(alpha: int, beta: int, vector) -> np.ndarray:
+            """``vector`` (3,) times u_α·v_β, as coefficients (3, 9)."""
+            out = np.zeros((3, 9))
+            out[:, 3 * alpha + beta] = vector
+            return out
+
+        half = 0.5 * self.segment_length
+        col_x = term(one, cos, (1, 0, 0)) + term(sin, sin, (0, 1, 0)) + term(cos, sin, (0, 0, -1))
+        col_y = term(cos, one, (0, 1, 0)) + term(sin, one, (0, 0, 1))
+        col_z = term(one, sin, (1, 0, 0)) + term(sin, cos, (0, -1, 0)) + term(cos, cos, (0, 0, 1))
+        centre = half * (term(one, one, (0, 0, 1)) + col_z)  # the distal disk centre o + (Δs/2)·Z
+        joint = np.array([0.0, 0.0, half])
+        seg, lever = [], []
+        for p in self.pinhole_local:
+            d = centre + p[0] * col_x + p[1] * col_y - term(one, one, p)  # (3, 9)
+            seg.append(d)
+            lever.append(np.cross(joint - p, d.T).T)
+        return np.concatenate([np.stack(seg).reshape(9, 9), np.stack(lever, axis=1).reshape(9, 9)])
 
     def gravity_loads(self, q: np.ndarray, pose: ChainPose | None = None) -> np.ndarray:
         """Generalized gravity forces (2n,) N·m: joint j carries the weight of links j..n.
