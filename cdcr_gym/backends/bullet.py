@@ -38,7 +38,7 @@ Implicit spring–damper integration
     rest is a fixed point of the update iff K·q = τ_cable(q) − b(q, 0): the settled state is
     the static solution, independent of h. The default h = 0.01 s (two steps per 0.02 s
     control step) resolves the first mode (ω₁·h ≈ 0.19) and meets the speed target; h = 0.02 s
-    doubles the speed with the same equilibria and similar settling (docs).
+    is ≈ 1.7× as fast, with the same equilibria and similar settling (docs).
 
 Damping
     Per-joint, stiffness-proportional (Kelvin–Voigt material damping of the rod): D = β·K with
@@ -210,7 +210,7 @@ class BulletBackend(Backend):
             ``n_disks·m`` links and twice as many revolute joints. Larger m converges to a
             continuous rod between the disks (the span-mean cable moment-arm excess is
             (1 + 2/m²) times the physical one, see ``bullet_chain``) at a cost in speed (m = 4:
-            ≈ 4× slower). Use m = 4 for quantitative studies of the 9-disk robot (tip within
+            ≈ 4.7× slower). Use m = 4 for quantitative studies of the 9-disk robot (tip within
             0.5 mm of the m → ∞ limit at 40 N, 1.8 mm at 80 N). n_disks·m <= 60 (pybullet).
         control_timestep: simulated time (s) that one :meth:`apply_tensions` advances
             (default 0.02 s, i.e. 50 Hz control).
