@@ -228,8 +228,6 @@ def test_validation():
 
 
 # -- stable-baselines3 adapter ---------------------------------------------------------------
-import stable_baselines3 as sb3  # noqa: E402  (a hard dependency of cdcr_gym)
-
 
 def test_sb3_adapter_matches_dummy_vec_env():
     from stable_baselines3.common.vec_env import DummyVecEnv
