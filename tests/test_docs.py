@@ -1,0 +1,51 @@
+"""Documented defaults match the code (docstrings must not drift from signatures)."""
+
+from __future__ import annotations
+
+import ast
+import inspect
+import re
+
+import pytest
+
+from cdcr_gym.backends.bullet import BulletBackend
+from cdcr_gym.envs.reach import ReachEnv
+
+
+def _literal(text: str):
+    text = text.strip().strip("`")
+    try:
+        return ast.literal_eval(text)
+    except (ValueError, SyntaxError):
+        return text  # a bare word such as tension_delta
+
+
+def test_reach_env_arguments_table_matches_the_signature():
+    doc = inspect.getdoc(ReachEnv)
+    rows = re.findall(r"^\| ``(\w+)``\s*\|\s*([^|]+?)\s*\|", doc, flags=re.MULTILINE)
+    documented = {name: default for name, default in rows if name in
+                  inspect.signature(ReachEnv.__init__).parameters}
+    params = inspect.signature(ReachEnv.__init__).parameters
+    assert set(documented) == set(params) - {"self"}, "every argument has a row, and only those"
+    for name, default in documented.items():
+        if default == "(required)":
+            assert params[name].default is inspect.Parameter.empty
+        else:
+            assert _literal(default) == params[name].default, name
+
+
+@pytest.mark.parametrize(
+    "name",
+    ["gravity", "links_per_span", "control_timestep", "physics_timestep", "tip_payload",
+     "damping_ratio", "gui"],
+)
+def test_bullet_backend_documented_defaults_match_the_signature(name):
+    doc = inspect.getdoc(BulletBackend)
+    entry = re.search(rf"^\s*{name}:(.*?)(?=^\s*\w+:|\Z)", doc, flags=re.MULTILINE | re.DOTALL)
+    assert entry, f"{name} is documented"
+    match = re.search(r"\(default\s+``?([^`),]+?)``?[ ,)]|\(default\s+([^),\s]+)", entry.group(1)) \
+        or re.search(r"``(True|False)`` \(default\)", entry.group(1))
+    assert match, f"{name}: no default stated"
+    stated = next(g for g in match.groups() if g is not None)
+    stated = re.sub(r"\s*s$", "", stated.strip())  # drop a unit
+    assert _literal(stated) == inspect.signature(BulletBackend.__init__).parameters[name].default
