@@ -246,6 +246,19 @@ def test_masses_and_gravity_loads_match_pybullet(make, kwargs):
     np.testing.assert_allclose(b.chain.gravity_loads(q), b.gravity_generalized_forces(), atol=1e-12)
 
 
+
+def _virtual_work_forces(b, q, tensions, eps):
+    """−Σ T_i ∂l_i/∂q (n_dof,) by central differences of the sensed cable lengths at pose q."""
+    fd = np.empty(b.n_dof)
+    for j in range(b.n_dof):
+        dq = np.zeros(b.n_dof)
+        dq[j] = eps
+        b.set_joint_state(q + dq)
+        lp = b.cable_lengths
+        b.set_joint_state(q - dq)
+        fd[j] = -tensions @ (lp - b.cable_lengths) / (2 * eps)
+    return fd
+
 @pytest.mark.parametrize("m, orientation", [(1, (0.0, 0.0, 0.0, 1.0)), (3, TILTED)])
 def test_cable_loads_equal_virtual_work_of_sensed_lengths(make, m, orientation):
     """τ = −Σ T_i ∂l_i/∂q, with ∂l/∂q by central differences of the sensed cable lengths."""
@@ -256,15 +269,7 @@ def test_cable_loads_equal_virtual_work_of_sensed_lengths(make, m, orientation):
         q = _random_pose(b, rng, scale=0.4)
         tensions = rng.uniform(0.0, P.max_tension, 3)
         tau = b.cable_generalized_forces(tensions)
-        fd = np.empty(b.n_dof)
-        for j in range(b.n_dof):
-            dq = np.zeros(b.n_dof)
-            dq[j] = eps
-            b.set_joint_state(q + dq)
-            lp = b.cable_lengths
-            b.set_joint_state(q - dq)
-            lm = b.cable_lengths
-            fd[j] = -tensions @ (lp - lm) / (2 * eps)
+        fd = _virtual_work_forces(b, q, tensions, eps)
         np.testing.assert_allclose(tau, fd, rtol=0, atol=1e-6 * np.abs(tau).max())
         assert np.abs(tau).max() > 0.1  # the check is not vacuous
         b.set_joint_state(q)
@@ -292,14 +297,7 @@ def test_the_generalized_forces_pybullet_receives_are_the_cable_loads(make):
     q = _random_pose(b, rng, scale=0.3)
     tensions = np.array([55.0, 10.0, 30.0])
     eps = 1e-6
-    fd = np.empty(b.n_dof)
-    for j in range(b.n_dof):
-        dq = np.zeros(b.n_dof)
-        dq[j] = eps
-        b.set_joint_state(q + dq)
-        lp = b.cable_lengths
-        b.set_joint_state(q - dq)
-        fd[j] = -tensions @ (lp - b.cable_lengths) / (2 * eps)
+    fd = _virtual_work_forces(b, q, tensions, eps)
     b.set_joint_state(q)
     mass = b.mass_matrix()
     b.apply_tensions(tensions)

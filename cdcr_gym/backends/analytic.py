@@ -29,6 +29,7 @@ from cdcr_gym.kinematics import (
 )
 from cdcr_gym.params import RobotParams
 from cdcr_gym.statics import _bending_from_tensions, _tensions_from_bending
+from cdcr_gym.validation import three_finite_floats
 
 __all__ = ["AnalyticBackend", "ModelConstants", "shape_from_tensions", "shape_from_lengths"]
 
@@ -118,25 +119,14 @@ class AnalyticBackend(Backend):
         wx, wy = self._shape.bending
         return math.atan2(wy, wx) + 0.0 if self._shape.theta != 0.0 else 0.0
 
-    @staticmethod
-    def _floats(values: np.ndarray) -> tuple:
-        if type(values) is not np.ndarray or values.dtype != np.float64:
-            values = np.asarray(values, dtype=np.float64)
-        if values.shape != (3,):
-            raise ValueError(f"expected 3 values (one per cable), got shape {values.shape}")
-        v1, v2, v3 = values.tolist()
-        if not math.isfinite(v1 + v2 + v3) and not np.all(np.isfinite(values)):
-            raise ValueError(f"expected finite values, got {values!r}")
-        return v1, v2, v3
-
     def reset(self, tensions: np.ndarray) -> None:
-        self._shape = shape_from_tensions(self._floats(tensions), self.constants)
+        self._shape = shape_from_tensions(three_finite_floats(tensions, "tensions"), self.constants)
 
     def apply_tensions(self, tensions: np.ndarray) -> None:
-        self._shape = shape_from_tensions(self._floats(tensions), self.constants)
+        self._shape = shape_from_tensions(three_finite_floats(tensions, "tensions"), self.constants)
 
     def apply_cable_lengths(self, lengths: np.ndarray) -> None:
-        self._shape = shape_from_lengths(self._floats(lengths), self.constants)
+        self._shape = shape_from_lengths(three_finite_floats(lengths, "lengths"), self.constants)
 
     # -- readings -------------------------------------------------------------------------------
     @property

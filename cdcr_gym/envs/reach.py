@@ -12,6 +12,7 @@ from gymnasium import spaces
 from cdcr_gym import kinematics, statics
 from cdcr_gym.backends.base import Backend
 from cdcr_gym.envs import task
+from cdcr_gym.validation import three_finite_floats
 from cdcr_gym.workspace import sample_arcs
 
 __all__ = ["ReachEnv", "GoalReachEnv"]
@@ -296,14 +297,7 @@ class ReachEnv(gym.Env):
     @staticmethod
     def _clipped_action(action: Any) -> tuple[float, float, float]:
         """The action as three floats clipped to [−1, 1]; ValueError if misshapen or non-finite."""
-        if type(action) is not np.ndarray or action.dtype.kind != "f":
-            action = np.asarray(action, dtype=np.float64)
-        if action.shape != (3,):
-            raise ValueError(f"action must have shape (3,), got shape {action.shape}")
-        a1, a2, a3 = action.tolist()
-        # A NaN or an infinity makes the sum non-finite; a finite sum proves all three finite.
-        if not math.isfinite(a1 + a2 + a3) and not np.all(np.isfinite(action)):
-            raise ValueError(f"action must be finite, got {np.asarray(action, np.float64)!r}")
+        a1, a2, a3 = three_finite_floats(action, "action")
         return (
             -1.0 if a1 < -1.0 else 1.0 if a1 > 1.0 else a1,
             -1.0 if a2 < -1.0 else 1.0 if a2 > 1.0 else a2,
