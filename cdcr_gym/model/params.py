@@ -1,0 +1,412 @@
+"""The robot description: sections of a cable-driven continuum robot, in SI units.
+
+A robot is a sequence of :class:`SectionParams` stacked from the base (SPEC §6). Section j has a
+length ℓ_j, ``n_disks`` spacer disks (evenly spaced, the last at the section's end) and its own
+cables, which terminate at that last disk. A cable sits at a fixed position (radius r, angle β
+from the disk's x axis) in every disk it passes: a cable of section j runs parallel to the
+backbone through every disk of sections 1…j. :class:`RobotParams` adds the backbone material,
+the masses and the tension limit shared by all cables.
+
+Cable order (actions, tensions, cable lengths): section by section, proximal first; within a
+section, the order of its ``cable_angles``.
+
+The paper's robot (one section, 641 mm, 9 disks, r = 29 mm, cables at 0°/120°/240°) is the
+default, and the single-section keywords ``RobotParams(length=..., n_disks=..., cable_radius=...)``
+build a one-section robot as they always did.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, fields, replace
+from typing import Any
+
+import numpy as np
+
+__all__ = ["SectionParams", "RobotParams", "CABLE_ANGLES", "PRESETS", "STANDARD_GRAVITY"]
+
+#: Angular positions β_i of the paper's cables 1, 2, 3, from +X0 about +Z0 (rad).
+CABLE_ANGLES: tuple[float, float, float] = (0.0, 2.0 * math.pi / 3.0, 4.0 * math.pi / 3.0)
+
+#: Standard gravity (m/s²), the one value of g in the package (along −Z_world where enabled).
+STANDARD_GRAVITY = 9.81
+
+# the paper's section (Table 1)
+_PAPER_LENGTH = 0.641
+_PAPER_N_DISKS = 9
+_PAPER_CABLE_RADIUS = 0.029
+
+
+def _real(owner: str, name: str, value: Any, *, positive: bool = True) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ValueError(f"{owner}.{name} must be a real number, got {value!r}")
+    value = float(value)
+    if not math.isfinite(value) or (positive and value <= 0.0):
+        rule = "finite and > 0 (SI units)" if positive else "finite"
+        raise ValueError(f"{owner}.{name} must be {rule}, got {value!r}")
+    return value
+
+
+def _count(owner: str, name: str, value: Any, minimum: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
+        raise ValueError(f"{owner}.{name} must be an integer >= {minimum}, got {value!r}")
+    return int(value)
+
+
+@dataclass(frozen=True)
+class SectionParams:
+    """One constant-curvature section and the cables that end at its last disk (SI units).
+
+    Attributes:
+        length: backbone length ℓ_j of the section (m), inextensible.
+        n_disks: spacer disks of the section, evenly spaced, the last at the section's end
+            (the base disk at s = 0, or the previous section's last disk, comes in addition).
+        cable_radius: distance r of this section's cables from the backbone axis (m).
+        cable_angles: angles β (rad) of this section's cables, from the disk's x axis about the
+            backbone (+Z0 at the base). At least 3, distinct, and not all within a half-plane
+            (every bending direction must be reachable by pulling: the largest angular gap
+            between neighbouring cables is < π).
+
+    Raises:
+        ValueError: naming the field and the offending value.
+    """
+
+    length: float = _PAPER_LENGTH
+    n_disks: int = _PAPER_N_DISKS
+    cable_radius: float = _PAPER_CABLE_RADIUS
+    cable_angles: tuple[float, ...] = CABLE_ANGLES
+
+    def __post_init__(self) -> None:
+        owner = "SectionParams"
+        object.__setattr__(self, "length", _real(owner, "length", self.length))
+        object.__setattr__(self, "n_disks", _count(owner, "n_disks", self.n_disks, 1))
+        object.__setattr__(self, "cable_radius", _real(owner, "cable_radius", self.cable_radius))
+        angles = self.cable_angles
+        if isinstance(angles, (str, bytes)) or not isinstance(angles, (Sequence, np.ndarray)):
+            raise ValueError(f"{owner}.cable_angles must be a sequence of angles (rad), got {angles!r}")
+        angles = tuple(_real(owner, "cable_angles", a, positive=False) for a in angles)
+        if len(angles) < 3:
+            raise ValueError(
+                f"{owner}.cable_angles needs at least 3 cables to bend in every direction, "
+                f"got {len(angles)}: {angles!r}"
+            )
+        wrapped = np.sort(np.mod(np.asarray(angles), 2.0 * math.pi))
+        gaps = np.diff(np.concatenate([wrapped, wrapped[:1] + 2.0 * math.pi]))
+        if np.min(gaps) < 1e-9:
+            raise ValueError(f"{owner}.cable_angles must be distinct (mod 2π), got {angles!r}")
+        if np.max(gaps) >= math.pi - 1e-9:
+            raise ValueError(
+                f"{owner}.cable_angles {angles!r} leave a gap of {math.degrees(np.max(gaps)):.1f}° "
+                f">= 180° between neighbouring cables: some bending directions cannot be pulled"
+            )
+        object.__setattr__(self, "cable_angles", angles)
+
+    @property
+    def n_cables(self) -> int:
+        """Number of cables ending in this section."""
+        return len(self.cable_angles)
+
+    @property
+    def disk_spacing(self) -> float:
+        """Arc length between consecutive disks of this section (m)."""
+        return self.length / self.n_disks
+
+
+_SINGLE_SECTION_KEYS = ("length", "n_disks", "cable_radius")
+
+
+@dataclass(frozen=True)
+class RobotParams:
+    """A cable-driven continuum robot of one or more sections, in SI units (m, kg, Pa, N).
+
+    Defaults are the paper's Table 1 (one section: ℓ = 641 mm, d = 5 mm, r = 29 mm, 9 spacer
+    disks, cables at 0°/120°/240°), with one correction: the paper prints E = 35 MPa, which is a
+    unit slip. With d = 5 mm the second moment of area is I = πd⁴/64 ≈ 3.07e-11 m⁴, so
+    EI(35 MPa) ≈ 1.07e-3 N·m² and a pure moment of 80 N × 0.029 m would bend the rod through
+    θ = T·r·ℓ/EI ≈ 1 390 rad (≈ 80 000°). With E = 35 GPa (a glass-fibre composite) the same
+    load gives θ ≈ 1.39 rad ≈ 79°, consistent with the 0–80 N range the paper applies. We
+    therefore use 35 GPa.
+
+    Masses are not in the paper; the defaults are plausible documented choices: a glass-fibre
+    composite rod of density 1 900 kg/m³ (≈ 0.037 kg/m for d = 5 mm) and 10 g spacer disks.
+
+    Two ways to describe the geometry:
+
+    * ``sections=(SectionParams(...), ...)``: any number of sections (proximal first);
+    * the single-section keywords ``length``, ``n_disks``, ``cable_radius`` (cables at
+      0°/120°/240°), each defaulting to the paper's value.
+
+    After construction ``length`` is the total backbone length, ``n_disks`` the total number of
+    spacer disks, and ``cable_radius`` the routing radius shared by all cables (``None`` if the
+    cables sit at different radii). With one section, single-section keywords given beside
+    ``sections`` override that section's values (so ``dataclasses.replace(p, n_disks=5)``
+    works); with several they must agree with the sections.
+
+    Bending limit: every section's bend θ_j must stay ≤ π for all tensions in
+    [0, max_tension] (the model, the observation bounds and the physics backend assume it).
+    Parameters that allow more (a soft backbone, a high tension limit) are rejected with a
+    ``ValueError`` that gives the reachable bend; see :attr:`section_bend_limits`.
+
+    Attributes:
+        sections: the sections, proximal first (a tuple of :class:`SectionParams`).
+        length: total backbone length (m); with no ``sections``, the one section's length.
+        n_disks: total spacer disks; with no ``sections``, the one section's disks.
+        cable_radius: the cables' common radius (m); with no ``sections``, the one section's.
+        backbone_diameter: backbone rod diameter d (m), solid circular section.
+        youngs_modulus: Young's modulus E of the backbone (Pa).
+        max_tension: cable tension limit (N); tensions live in [0, max_tension].
+        backbone_density: volumetric density of the backbone rod (kg/m³).
+        disk_mass: mass of one spacer disk (kg).
+        disk_radius: outer radius of a spacer disk (m); used for inertia and drawing.
+        disk_thickness: thickness of a spacer disk along the backbone (m).
+
+    Raises:
+        ValueError: naming the field and the offending value, for any non-finite or
+            non-positive physical quantity, ``n_disks < 1``, ``disk_radius <= cable radius``,
+            inconsistent single-section keywords, or a section that can bend beyond π.
+    """
+
+    sections: tuple[SectionParams, ...] | None = None
+    length: float | None = None
+    n_disks: int | None = None
+    cable_radius: float | None = None
+    backbone_diameter: float = 0.005
+    youngs_modulus: float = 35e9
+    max_tension: float = 80.0
+    backbone_density: float = 1900.0
+    disk_mass: float = 0.010
+    disk_radius: float = 0.035
+    disk_thickness: float = 0.003
+
+    def __post_init__(self) -> None:
+        owner = "RobotParams"
+        sections = self.sections
+        given_sections = sections is not None
+        if sections is None:
+            section = SectionParams(
+                length=_PAPER_LENGTH if self.length is None else _real(owner, "length", self.length),
+                n_disks=_PAPER_N_DISKS
+                if self.n_disks is None
+                else _count(owner, "n_disks", self.n_disks, 1),
+                cable_radius=_PAPER_CABLE_RADIUS
+                if self.cable_radius is None
+                else _real(owner, "cable_radius", self.cable_radius),
+            )
+            sections = (section,)
+        else:
+            if isinstance(sections, SectionParams):
+                sections = (sections,)
+            if isinstance(sections, (str, bytes)) or not isinstance(sections, Sequence):
+                raise ValueError(
+                    f"{owner}.sections must be a sequence of SectionParams, got {sections!r}"
+                )
+            sections = tuple(sections)
+            if not sections:
+                raise ValueError(f"{owner}.sections must hold at least one section, got ()")
+            for k, s in enumerate(sections):
+                if not isinstance(s, SectionParams):
+                    raise ValueError(
+                        f"{owner}.sections[{k}] must be a SectionParams, got {s!r}"
+                    )
+        if given_sections and len(sections) == 1:
+            # one section: the single-section keywords override it (so dataclasses.replace works)
+            overrides = {k: getattr(self, k) for k in _SINGLE_SECTION_KEYS
+                         if getattr(self, k) is not None
+                         and getattr(self, k) != getattr(sections[0], k)}
+            if overrides:
+                sections = (replace(sections[0], **overrides),)
+        object.__setattr__(self, "sections", sections)
+        derived = {
+            "length": math.fsum(s.length for s in sections),
+            "n_disks": sum(s.n_disks for s in sections),
+            "cable_radius": _common_radius(sections),
+        }
+        for key in _SINGLE_SECTION_KEYS:
+            given = getattr(self, key)
+            if given_sections and given is not None and given != derived[key]:
+                raise ValueError(
+                    f"{owner}.{key}={given!r} disagrees with the sections (which give "
+                    f"{derived[key]!r}); describe the geometry by `sections` only"
+                )
+            object.__setattr__(self, key, derived[key])
+        for f in fields(self):
+            if f.name in ("sections",) + _SINGLE_SECTION_KEYS:
+                continue
+            object.__setattr__(self, f.name, _real(owner, f.name, getattr(self, f.name)))
+        largest_radius = max(max(s.cable_radius for s in sections), 0.0)
+        if self.disk_radius <= largest_radius:
+            raise ValueError(
+                f"{owner}.disk_radius ({self.disk_radius!r} m) must exceed the cable radius "
+                f"({largest_radius!r} m): the pinholes sit on the disks"
+            )
+        limits = self.section_bend_limits
+        for j, limit in enumerate(limits):
+            if limit > math.pi * (1.0 + 1e-12):
+                raise ValueError(
+                    f"{owner}: section {j + 1} can bend to θ = {math.degrees(limit):.1f}° > 180° "
+                    f"with tensions in [0, max_tension={self.max_tension!r}] N "
+                    f"(youngs_modulus={self.youngs_modulus!r} Pa, backbone_diameter="
+                    f"{self.backbone_diameter!r} m); the constant-curvature model and the "
+                    f"observation bounds need θ <= 180°: lower max_tension to "
+                    f"<= {self.max_tension * math.pi / limit:.6g} N or stiffen the backbone"
+                )
+
+    # -- presets -------------------------------------------------------------------------------
+    @classmethod
+    def preset(cls, name: str, **overrides: Any) -> RobotParams:
+        """A named robot (see :data:`PRESETS`), with optional field ``overrides``.
+
+        ``RobotParams.preset("paper")`` equals ``RobotParams()``; ``"tdcr2"`` is the two-section
+        reference robot of Rao et al. 2021.
+
+        Raises:
+            ValueError: for an unknown name (listing the known ones).
+        """
+        if not isinstance(name, str) or name not in PRESETS:
+            raise ValueError(f"robot must be one of {sorted(PRESETS)}, got {name!r}")
+        return replace(PRESETS[name], **overrides) if overrides else PRESETS[name]
+
+    # -- derived quantities --------------------------------------------------------------------
+    @property
+    def n_sections(self) -> int:
+        """Number of sections."""
+        return len(self.sections)  # type: ignore[arg-type]
+
+    @property
+    def n_cables(self) -> int:
+        """Number of cables (= action entries)."""
+        return sum(s.n_cables for s in self.sections)  # type: ignore[union-attr]
+
+    @property
+    def cable_section(self) -> tuple[int, ...]:
+        """Index (0-based) of the section each cable ends in, in cable order."""
+        return tuple(j for j, s in enumerate(self.sections) for _ in s.cable_angles)  # type: ignore[arg-type]
+
+    @property
+    def cable_angles(self) -> tuple[float, ...]:
+        """Angle β (rad) of every cable, in cable order."""
+        return tuple(a for s in self.sections for a in s.cable_angles)  # type: ignore[union-attr]
+
+    @property
+    def cable_radii(self) -> tuple[float, ...]:
+        """Routing radius r (m) of every cable, in cable order."""
+        return tuple(s.cable_radius for s in self.sections for _ in s.cable_angles)  # type: ignore[union-attr]
+
+    @property
+    def section_lengths(self) -> tuple[float, ...]:
+        """Length ℓ_j (m) of every section, proximal first."""
+        return tuple(s.length for s in self.sections)  # type: ignore[union-attr]
+
+    @property
+    def cable_run_lengths(self) -> tuple[float, ...]:
+        """Length (m) of backbone each cable runs along (base to its section's end), cable order."""
+        ends = np.cumsum(self.section_lengths)
+        return tuple(float(ends[j]) for j in self.cable_section)
+
+    @property
+    def second_moment_of_area(self) -> float:
+        """I = π d⁴ / 64 of the circular backbone section (m⁴)."""
+        return math.pi * self.backbone_diameter**4 / 64.0
+
+    @property
+    def bending_stiffness(self) -> float:
+        """EI (N·m²)."""
+        return self.youngs_modulus * self.second_moment_of_area
+
+    @property
+    def disk_spacing(self) -> float:
+        """Arc length h between consecutive disks (m) of a one-section robot.
+
+        Raises:
+            ValueError: for a robot of several sections (use ``sections[j].disk_spacing``).
+        """
+        if self.n_sections != 1:
+            raise ValueError(
+                f"disk_spacing is per section for a {self.n_sections}-section robot: "
+                f"use params.sections[j].disk_spacing"
+            )
+        return self.sections[0].disk_spacing  # type: ignore[index]
+
+    @property
+    def backbone_linear_density(self) -> float:
+        """Mass per unit length of the backbone rod (kg/m)."""
+        return self.backbone_density * math.pi * self.backbone_diameter**2 / 4.0
+
+    @property
+    def max_bending_angle(self) -> float:
+        """θ (rad) of the distal section pulled by one of its cables at ``max_tension``.
+
+        T·r·ℓ/EI in the pure-moment model; for the paper's robot (cables at 120°) it is also
+        the largest bend the tension limit allows (79.4°).
+        """
+        s = self.sections[-1]  # type: ignore[index]
+        return self.max_tension * s.cable_radius * s.length / self.bending_stiffness
+
+    @property
+    def section_bend_limits(self) -> tuple[float, ...]:
+        """Largest bend θ_j (rad) each section reaches with tensions in [0, max_tension].
+
+        Section j bends by κ_j ℓ_j with κ_j = |Σ T_i r_i u_i| / EI over the cables through it
+        (its own and every distal section's). The largest norm over the tension box is attained
+        at a vertex of the box: for a direction d the maximising vertex pulls exactly the cables
+        with r_i u_i·d > 0, and these sets only change where d is perpendicular to some u_i, so
+        one direction inside each of those arcs gives every candidate vertex (exact).
+        """
+        angles = np.asarray(self.cable_angles)
+        radii = np.asarray(self.cable_radii)
+        owner = np.asarray(self.cable_section)
+        limits = []
+        for j, section in enumerate(self.sections):  # type: ignore[arg-type]
+            through = owner >= j
+            gens = radii[through, None] * np.stack(
+                [np.cos(angles[through]), np.sin(angles[through])], axis=-1
+            )
+            crit = np.sort(np.mod(np.concatenate([angles[through] + 0.5 * np.pi,
+                                                  angles[through] - 0.5 * np.pi]), 2 * np.pi))
+            mids = 0.5 * (crit + np.roll(crit, -1))
+            mids[-1] += np.pi  # the arc that wraps through 2π
+            dirs = np.stack([np.cos(mids), np.sin(mids)], axis=-1)
+            pulled = (dirs @ gens.T) > 0.0
+            moments = pulled.astype(np.float64) @ gens
+            best = float(np.max(np.hypot(moments[:, 0], moments[:, 1]), initial=0.0))
+            limits.append(self.max_tension * best * section.length / self.bending_stiffness)
+        return tuple(limits)
+
+
+def _common_radius(sections: tuple[SectionParams, ...]) -> float | None:
+    radii = {s.cable_radius for s in sections}
+    return radii.pop() if len(radii) == 1 else None
+
+
+def _tdcr2() -> RobotParams:
+    """Rao et al. 2021's two-section reference robot (see :data:`PRESETS`)."""
+    angles = (math.radians(90.0), math.radians(-30.0), math.radians(210.0))
+    section = SectionParams(length=0.2, n_disks=10, cable_radius=0.010, cable_angles=angles)
+    diameter = 0.0014
+    return RobotParams(
+        sections=(section, section),
+        backbone_diameter=diameter,
+        youngs_modulus=54e9,
+        max_tension=6.0,
+        backbone_density=0.0115 / (math.pi * diameter**2 / 4.0),  # 0.0115 kg/m
+        disk_mass=0.0002,
+        disk_radius=0.012,
+        disk_thickness=0.001,
+    )
+
+
+#: Named robots for ``RobotParams.preset(name)`` and ``gymnasium.make(id, robot=name)``.
+#:
+#: * ``"paper"``: the paper's robot (one section, Table 1, E = 35 GPa) — the default.
+#: * ``"tdcr2"``: the two-section reference robot of Rao et al., *How to model tendon-driven
+#:   continuum robots and benchmark modelling performance*, Front. Robot. AI 2021: two sections
+#:   of 200 mm with 10 disks each, routing radius 10 mm, three cables per section at 90°, −30°,
+#:   210°, backbone E = 54 GPa, solid 1.4 mm diameter (EI ≈ 0.0102 N·m²), 0.0115 kg/m, disks of
+#:   0.2 g (disk radius 12 mm and thickness 1 mm are our choice). ``max_tension`` = 6 N: the
+#:   proximal section carries the moments of all six cables, so it bends up to
+#:   2·T·r·ℓ/EI = 135° at 6 N (the distal one 67.5°); 8 N would reach the 180° limit.
+PRESETS: dict[str, RobotParams] = {
+    "paper": RobotParams(),
+    "tdcr2": _tdcr2(),
+}
