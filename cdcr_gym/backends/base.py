@@ -1,105 +1,117 @@
-"""The interface between the reach task and a robot model (a *backend*).
+"""The interface between the env core and a robot model (a *backend*).
 
-A backend owns the robot's physical state and nothing else: it knows no goals, rewards or
-Gymnasium spaces. The env (``cdcr_gym.envs.reach.ReachEnv``) turns actions into cable
-commands, hands them to the backend, and reads the robot back through this interface.
+A backend owns the physical state of ``num_robots`` robots and nothing else: it knows no goals,
+rewards, tasks or Gymnasium spaces (dm_control's physics/task split). The env core
+(``cdcr_gym.envs.core``) turns actions into cable commands, hands them to the backend, and
+reads the robots back through :meth:`Backend.read`.
 
 Conventions: SI units (m, N, rad, s); base frame R0 at the base disk centre with the backbone
-along +Z0 and cable 1 at +X0; cable i sits at angle β_i = 0°, 120°, 240° about +Z0
-(``cdcr_gym.params.CABLE_ANGLES``). Tensions are the three cable tensions in N, ordered
-(cable 1, cable 2, cable 3), each in [0, params.max_tension]. Cable lengths are the lengths of the
-three cables between the base disk and the tip disk (m), ordered the same way.
+along +Z0 and the first cable of the first section at angle β from +X0 about +Z0. Cables are
+ordered section by section (proximal first), within a section in the order of its
+``cable_angles`` (``RobotParams.cable_angles``); ``C = params.n_cables``. Tensions are in
+[0, params.max_tension] N. A cable's length is its length from the base disk to the last disk of
+its section (m).
+
+Arrays are float64 with a leading robot axis of size ``N = num_robots`` (the analytic backend
+steps thousands of robots at once; a simulator backend has N = 1). Determinism: the same calls
+in the same order give bit-identical readings.
 """
 
 from __future__ import annotations
 
 import abc
+from typing import NamedTuple
 
 import numpy as np
 
-from cdcr_gym.params import RobotParams
+from cdcr_gym.model.params import RobotParams
 
-__all__ = ["Backend"]
+__all__ = ["Backend", "Readings"]
+
+
+class Readings(NamedTuple):
+    """What the env core reads from a backend after every command (all float64, SI units)."""
+
+    tip: np.ndarray  #: (N, 3) tip (last disk centre) position in R0, m
+    tip_direction: np.ndarray  #: (N, 3) unit backbone tangent at the tip in R0
+    cable_lengths: np.ndarray  #: (N, C) sensed cable lengths, m
+    tensions: np.ndarray  #: (N, C) cable tensions acting at the actuators, N
 
 
 class Backend(abc.ABC):
-    """A robot model the reach task can drive.
+    """A batch of ``num_robots`` robots that the env core can drive.
 
-    Subclasses set :attr:`params`, :attr:`control_timestep` and
-    :attr:`supports_length_control`, and implement the abstract methods. Every method takes and
-    returns float64 numpy arrays in SI units.
+    Subclasses set :attr:`params`, :attr:`num_robots`, :attr:`control_timestep` and
+    :attr:`supports_length_control`, and implement the abstract methods.
     """
 
-    #: The robot's parameters.
+    #: The robot's parameters (all robots of a backend share them).
     params: RobotParams
-    #: Simulated time (s) that one :meth:`apply_tensions` / :meth:`apply_cable_lengths` call
-    #: advances; 0.0 for a quasi-static model that jumps to equilibrium.
+    #: Number of robots N stepped together.
+    num_robots: int = 1
+    #: Simulated time (s) that one command advances; 0.0 for a quasi-static model that jumps to
+    #: equilibrium.
     control_timestep: float = 0.0
     #: Whether :meth:`apply_cable_lengths` is available (cable-displacement actions).
     supports_length_control: bool = False
 
-    @abc.abstractmethod
-    def reset(self, tensions: np.ndarray) -> None:
-        """Put the robot at rest in its static equilibrium under ``tensions`` (3,) N.
+    @property
+    def n_cables(self) -> int:
+        """Number of cables C."""
+        return self.params.n_cables
 
-        ``np.zeros(3)`` gives the straight robot (with gravity, where the backend has it, the
-        equilibrium under its own weight). Must be deterministic: the same call gives exactly the
-        same state, whatever happened before.
+    @abc.abstractmethod
+    def reset(self, tensions: np.ndarray, mask: np.ndarray | None = None) -> None:
+        """Put robots at rest in their static equilibrium under ``tensions`` (N, C) N.
+
+        ``mask`` (N,) bool selects the robots to reset (all if None); rows of ``tensions`` for
+        the others are ignored. Zero tensions give the straight robot (with gravity, where the
+        backend has it, the rest shape under its own weight). Deterministic: the same call gives
+        the same state, whatever happened before.
         """
 
     @abc.abstractmethod
     def apply_tensions(self, tensions: np.ndarray) -> None:
-        """Hold the cable tensions ``tensions`` (3,) N for one control step.
+        """Hold cable tensions ``tensions`` (N, C) N for one control step.
 
         The caller guarantees finite values in [0, params.max_tension].
         """
 
     def apply_cable_lengths(self, lengths: np.ndarray) -> None:
-        """Set the three cable lengths ``lengths`` (3,) m (cable-displacement control).
+        """Set cable lengths ``lengths`` (N, C) m (cable-displacement control).
 
-        The caller guarantees lengths of a reachable shape (sum = 3ℓ, inside the workspace).
-        Only backends with ``supports_length_control`` implement it.
+        The caller guarantees lengths of a reachable shape. Only backends with
+        :attr:`supports_length_control` implement it.
         """
         raise NotImplementedError(f"{type(self).__name__} does not support cable-length control")
 
-    @property
     @abc.abstractmethod
-    def tip(self) -> np.ndarray:
-        """Tip (tip-disk centre) position in R0, shape (3,), m."""
-
-    @property
-    @abc.abstractmethod
-    def cable_lengths(self) -> np.ndarray:
-        """Sensed cable lengths from base disk to tip disk, shape (3,), m."""
-
-    @property
-    @abc.abstractmethod
-    def tensions(self) -> np.ndarray:
-        """Cable tensions currently acting, shape (3,), N."""
+    def read(self) -> Readings:
+        """The current :class:`Readings` of all robots (fresh arrays the caller may keep)."""
 
     @abc.abstractmethod
-    def backbone_points(self) -> np.ndarray:
-        """Points along the backbone from base to tip, shape (n, 3), m, in R0.
+    def equilibrium(self, tensions: np.ndarray) -> Readings:
+        """Readings of the static equilibrium under ``tensions`` (M, C) N, for any M.
 
-        The first point is the base (0, 0, 0); the last is :attr:`tip`. Include at least every
-        disk station.
+        This backend's own statics (its reachable set), without changing its state: the task
+        samples goals with it, so a goal is always reachable on the backend that runs it.
         """
 
-    def render_rgb(self, goal: np.ndarray | None, width: int, height: int) -> np.ndarray:
-        """An RGB image (height, width, 3) uint8 of the robot and the ``goal`` (3,) m.
+    @abc.abstractmethod
+    def backbone_points(self, index: int = 0) -> np.ndarray:
+        """Points along robot ``index``'s backbone, base to tip, shape (P, 3), m, in R0.
 
-        The default draws :meth:`backbone_points` with matplotlib (see
-        ``cdcr_gym.rendering``); a simulator backend may use its own renderer.
+        The first point is the base (0, 0, 0), the last is the tip; every disk station is
+        included.
         """
-        from cdcr_gym.rendering import draw_robot
 
-        return draw_robot(self.backbone_points(), self.params, goal, width=width, height=height)
+    @abc.abstractmethod
+    def disk_frames(self, index: int = 0) -> tuple[np.ndarray, np.ndarray]:
+        """Robot ``index``'s disks, base disk first: centres (D + 1, 3) m and orientations
+        (D + 1, 3, 3) (columns: disk x, y axes and backbone tangent, in R0).
 
-    def render_human(self, goal: np.ndarray | None) -> None:
-        """Show the robot in a window (``render_mode="human"``). Default: a matplotlib window."""
-        from cdcr_gym.rendering import show_robot
-
-        show_robot(self.backbone_points(), self.params, goal)
+        The pinhole of a cable at (r, β) in disk k is ``centre_k + R_k @ (r cos β, r sin β, 0)``.
+        """
 
     def close(self) -> None:
         """Release any resource (simulator client, window). Safe to call more than once."""
