@@ -1,45 +1,45 @@
-"""cdcr_gym: Gymnasium environments for a 2-DOF cable-driven continuum robot.
+"""cdcr_gym: Gymnasium environments for cable-driven continuum robots.
 
-Importing the package registers the environment ids (cheap: string entry points only):
+Importing the package registers one id per (backend × task) (cheap: string entry points only):
 
-* ``cdcr_gym/CCKAReach-v0`` — tip reaching on the analytic constant-curvature model;
+* ``cdcr_gym/CCKAReach-v0`` — tip reaching on the analytic piecewise-constant-curvature model;
 * ``cdcr_gym/BulletReach-v0`` — tip reaching on a pybullet multibody backbone.
 
-The short ids ``CCKAReach-v0`` and ``BulletReach-v0`` are registered as well, so that
-Gymnasium's ``"module:id"`` form, ``gymnasium.make("cdcr_gym:CCKAReach-v0")``, works in a fresh
-interpreter without a prior ``import cdcr_gym``.
+The short ids (``CCKAReach-v0``, ...) are registered as well, so that Gymnasium's
+``"module:id"`` form, ``gymnasium.make("cdcr_gym:CCKAReach-v0")``, works in a fresh interpreter
+without a prior ``import cdcr_gym``. The robot is chosen by ``robot="paper"`` (default) or
+``"tdcr2"``, or ``params=RobotParams(...)``.
 """
 
 from __future__ import annotations
 
 from gymnasium.envs.registration import register, registry
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 #: Episode length (steps) of the registered ids.
 MAX_EPISODE_STEPS = 100
 
-_ENTRY_POINTS = {
-    "CCKAReach-v0": "cdcr_gym.envs.factory:make_ccka_reach",
-    "BulletReach-v0": "cdcr_gym.envs.factory:make_bullet_reach",
-}
-
-#: Batched implementations for ``gymnasium.make_vec(..., vectorization_mode="vector_entry_point")``.
-_VECTOR_ENTRY_POINTS = {
-    "CCKAReach-v0": "cdcr_gym.envs.vector:CCKAReachVectorEnv",
-}
+#: Backends (id prefix) and whether they have a batched vector entry point.
+_BACKENDS = {"CCKA": True, "Bullet": False}
+#: Tasks (id infix).
+_TASKS = ("Reach",)
 
 
 def _register_all() -> None:
-    for name, entry_point in _ENTRY_POINTS.items():
-        for env_id in (f"cdcr_gym/{name}", name):
-            if env_id not in registry:
-                register(
-                    id=env_id,
-                    entry_point=entry_point,
-                    vector_entry_point=_VECTOR_ENTRY_POINTS.get(name),
-                    max_episode_steps=MAX_EPISODE_STEPS,
-                )
+    for backend, batched in _BACKENDS.items():
+        for task in _TASKS:
+            name = f"{backend}{task}-v0"
+            for env_id in (f"cdcr_gym/{name}", name):
+                if env_id not in registry:
+                    register(
+                        id=env_id,
+                        entry_point="cdcr_gym.envs.factory:make_env",
+                        vector_entry_point="cdcr_gym.envs.vector:CDCRVectorEnv" if batched
+                        else None,
+                        max_episode_steps=MAX_EPISODE_STEPS,
+                        kwargs={"backend": backend, "task": task},
+                    )
 
 
 _register_all()

@@ -1,5 +1,5 @@
-"""Gymnasium environments: the reach task on any backend."""
+"""Gymnasium faces of the env core: the single env (N = 1) and the batched vector env."""
 
-from cdcr_gym.envs.reach import GoalReachEnv, ReachEnv
+from cdcr_gym.envs.env import CDCREnv, GoalCDCREnv, GoalReachEnv, ReachEnv
 
-__all__ = ["ReachEnv", "GoalReachEnv"]
+__all__ = ["CDCREnv", "GoalCDCREnv", "ReachEnv", "GoalReachEnv"]

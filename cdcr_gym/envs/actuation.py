@@ -1,0 +1,74 @@
+"""Actions → cable commands, batched: absolute tensions, tension increments, length increments.
+
+An action has one entry per cable in [−1, 1] (cable order of ``RobotParams``: section by section,
+proximal first). What it commands depends on the mode:
+
+| mode              | command                                                                |
+|-------------------|------------------------------------------------------------------------|
+| ``tension``       | T = max_tension·(a + 1)/2 (N), absolute                                |
+| ``tension_delta`` | T ← clip(T + a·tension_step·max_tension, 0, max_tension) (N)           |
+| ``length_delta``  | l ← l + a·length_step (m), made consistent with an inextensible        |
+|                   | backbone (least-squares projection onto the cable lengths of a PCC     |
+|                   | shape: for one section with symmetric cables, onto Σ Δl_i = 0), then   |
+|                   | the shape is scaled radially (every section's bending vector by the    |
+|                   | same factor) into the tension-reachable set. Quasi-static backends     |
+|                   | only (the analytic one).                                               |
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from cdcr_gym import validation
+from cdcr_gym.model.chain import PCCModel
+from cdcr_gym.model.params import RobotParams
+from cdcr_gym.model.statics import reachable_scale
+
+__all__ = ["ACTION_MODES", "Actuation"]
+
+#: Action modes: absolute tensions, tension increments, cable-length increments (CCKA only).
+ACTION_MODES = ("tension", "tension_delta", "length_delta")
+
+
+class Actuation:
+    """Turns clipped actions (N, C) into tension or cable-length commands (N, C).
+
+    Args:
+        mode: one of :data:`ACTION_MODES`.
+        params: the robot.
+        tension_step: largest tension change per step, as a fraction of max_tension, in (0, 1].
+        length_step: largest cable displacement per step (m), in (0, robot length].
+    """
+
+    def __init__(
+        self, mode: str, params: RobotParams, tension_step: float = 0.05,
+        length_step: float = 0.002,
+    ) -> None:
+        self.mode = validation.choice(mode, "action_mode", ACTION_MODES)
+        self.tension_step = validation.positive(tension_step, "tension_step", upper=1.0)
+        self.length_step = validation.positive(length_step, "length_step", upper=params.length)
+        self.params = params
+        self.max_tension = float(params.max_tension)
+        self._tension_increment = self.tension_step * self.max_tension
+        self._model = PCCModel(params) if mode == "length_delta" else None
+
+    @property
+    def commands_lengths(self) -> bool:
+        """Whether the commands are cable lengths (else tensions)."""
+        return self.mode == "length_delta"
+
+    def tensions(self, action: np.ndarray, held: np.ndarray) -> np.ndarray:
+        """Tensions (N, C) N commanded by clipped ``action`` (N, C) given the ``held`` ones."""
+        if self.mode == "tension":
+            return self.max_tension * 0.5 * (action + 1.0)
+        t = held + action * self._tension_increment
+        np.maximum(t, 0.0, out=t)
+        np.minimum(t, self.max_tension, out=t)
+        return t
+
+    def lengths(self, action: np.ndarray, held: np.ndarray) -> np.ndarray:
+        """Cable lengths (N, C) m after clipped ``action`` (N, C) from the ``held`` lengths."""
+        model = self._model
+        w = model.bending_from_lengths(held + action * self.length_step)
+        s = reachable_scale(model, w)
+        return model.lengths_from_bending(w * s[..., None, None])

@@ -1,0 +1,195 @@
+"""The env core: reset and step of N envs on one backend and one task, written once, batched.
+
+Both Gymnasium faces use it: the single env (``cdcr_gym.envs.env``) runs it with N = 1, the
+batched vector env (``cdcr_gym.envs.vector``) with N = num_envs. Order of a step:
+
+1. the clipped actions (N, C) become cable commands (``Actuation``);
+2. the backend holds them for one control step (``Backend.apply_tensions`` /
+   ``apply_cable_lengths``) and is read back (``Backend.read``);
+3. the task fills the observation (``Task.observe``) and computes reward, success and its info
+   entries (``Task.evaluate``); the core adds the robot's own entries (``tip``, ``tensions``,
+   ``cable_lengths``) to ``info``.
+
+Randomness: every env owns a generator (the single env's ``np_random``); at a reset the start
+shape (``initial_state="random"``) and then the goal are drawn from it, in that order.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+
+from cdcr_gym import validation
+from cdcr_gym.backends.base import Backend, Readings
+from cdcr_gym.envs.actuation import Actuation
+from cdcr_gym.model.workspace import sample_tensions_each
+from cdcr_gym.tasks.base import Task
+
+__all__ = ["EnvCore", "INITIAL_STATES"]
+
+#: Start shapes: straight (zero tensions) or a shape drawn like the goals.
+INITIAL_STATES = ("straight", "random")
+
+
+class EnvCore:
+    """N envs of one task on one backend (N = ``backend.num_robots``), and their spaces
+    (:attr:`action_space`, :attr:`observation_space` of one env; :attr:`spec` the flat layout).
+
+    Args:
+        backend: the robots (its ``num_robots`` sets N).
+        task: the task (bound to the robot and N here).
+        action_mode, tension_step, length_step: see :class:`~cdcr_gym.envs.actuation.Actuation`.
+        initial_state: ``"straight"`` or ``"random"``, or a sequence of N such values.
+        goal_conditioned: Dict observations (``observation``, ``achieved_goal``,
+            ``desired_goal``) instead of a flat vector.
+    """
+
+    def __init__(
+        self,
+        backend: Backend,
+        task: Task,
+        *,
+        action_mode: str = "tension_delta",
+        tension_step: float = 0.05,
+        length_step: float = 0.002,
+        initial_state: str | Sequence[str] = "straight",
+        goal_conditioned: bool = False,
+    ) -> None:
+        if not isinstance(backend, Backend):
+            raise ValueError(f"backend must be a cdcr_gym.backends.Backend, got {backend!r}")
+        if not isinstance(task, Task):
+            raise ValueError(f"task must be a cdcr_gym.tasks.Task, got {task!r}")
+        actuation = Actuation(action_mode, backend.params, tension_step, length_step)
+        if actuation.commands_lengths and not backend.supports_length_control:
+            raise ValueError(
+                f"action_mode='length_delta' needs a backend with cable-length control; "
+                f"{type(backend).__name__} has none (use 'tension' or 'tension_delta')"
+            )
+        self.goal_conditioned = validation.flag(goal_conditioned, "goal_conditioned")
+        if self.goal_conditioned and task.goal_size == 0:
+            raise ValueError(f"goal_conditioned=True: the {type(task).__name__} task has no goal")
+        self.backend = backend
+        self.params = backend.params
+        self.num_envs = n = backend.num_robots
+        self.n_cables = backend.n_cables
+        self.task = task
+        self.actuation = actuation
+        task.bind(self.params, n)
+        states = [initial_state] * n if isinstance(initial_state, str) else list(initial_state)
+        if len(states) != n:
+            raise ValueError(f"initial_state must be one value or a sequence of {n} values, "
+                             f"got {len(states)}")
+        for s in states:
+            validation.choice(s, "initial_state", INITIAL_STATES)
+        self.initial_states = tuple(states)
+        self._random_start = np.array([s == "random" for s in states])
+        self.spec = task.observation_spec(self.goal_conditioned)
+        c = self.n_cables
+        self.action_space = spaces.Box(-1.0, 1.0, shape=(c,), dtype=np.float32)
+        if self.goal_conditioned:
+            ell = self.params.length
+            goal = spaces.Box(-ell, ell, shape=(task.goal_size,), dtype=np.float32)
+            self.observation_space: spaces.Space = spaces.Dict({
+                "observation": self.spec.box(),
+                "achieved_goal": goal,
+                "desired_goal": goal,
+            })
+        else:
+            self.observation_space = self.spec.box()
+        self._readings = backend.read()
+        self._held_tensions = self._readings.tensions
+        self._held_lengths = self._readings.cable_lengths
+
+    # -- reset ----------------------------------------------------------------------------------
+    def reset(
+        self,
+        idx: np.ndarray,
+        rngs: list[np.random.Generator],
+        initial_tensions: Any = None,
+        goal: Any = None,
+    ) -> None:
+        """Reset envs ``idx`` (sorted indices), drawing from ``rngs`` (one generator per env).
+
+        ``initial_tensions`` ((C,) or (len(idx), C) N) and ``goal`` (task goal, one or one per
+        env) override the draws.
+        """
+        m, c = idx.size, self.n_cables
+        if initial_tensions is not None:
+            tensions = validation.per_cable(initial_tensions, "options['initial_tensions']", c,
+                                            0.0, self.params.max_tension)
+            if tensions.shape not in ((c,), (m, c)):
+                raise ValueError(f"options['initial_tensions'] must have shape ({c},) or "
+                                 f"({m}, {c}), got shape {tensions.shape}")
+            tensions = np.broadcast_to(tensions, (m, c))
+        else:
+            tensions = np.zeros((m, c))
+            random = self._random_start[idx]
+            if random.any():
+                tensions[random] = sample_tensions_each(
+                    [r for r, k in zip(rngs, random) if k], self.params)
+        full = np.zeros((self.num_envs, c))
+        full[idx] = tensions
+        if m == self.num_envs:
+            self.backend.reset(full)
+        else:
+            mask = np.zeros(self.num_envs, dtype=bool)
+            mask[idx] = True
+            self.backend.reset(full, mask)
+        self.task.reset_goals(idx, rngs, self.backend, goal)
+        r = self._readings = self.backend.read()
+        if m == self.num_envs:
+            self._held_tensions = r.tensions.copy()
+            self._held_lengths = r.cable_lengths.copy()
+        else:
+            self._held_tensions = self._held_tensions.copy()
+            self._held_lengths = self._held_lengths.copy()
+            self._held_tensions[idx] = r.tensions[idx]
+            self._held_lengths[idx] = r.cable_lengths[idx]
+
+    # -- step -----------------------------------------------------------------------------------
+    def step(self, action: np.ndarray) -> None:
+        """Apply clipped, finite actions (N, C) in [−1, 1] for one control step."""
+        act = self.actuation
+        if act.commands_lengths:
+            self._held_lengths = act.lengths(action, self._held_lengths)
+            self.backend.apply_cable_lengths(self._held_lengths)
+        else:
+            self._held_tensions = act.tensions(action, self._held_tensions)
+            self.backend.apply_tensions(self._held_tensions)
+        self._readings = self.backend.read()
+
+    @property
+    def readings(self) -> Readings:
+        """The backend's readings after the last reset or step."""
+        return self._readings
+
+    # -- outputs --------------------------------------------------------------------------------
+    def observe(self) -> tuple[Any, np.ndarray, np.ndarray, dict[str, Any]]:
+        """(observation, reward (N,), success (N,), info) of the current state, batched.
+
+        The observation is an (N, size) float32 array, or the Dict of (N, ·) float32 arrays.
+        ``info`` holds the task's entries plus ``tip`` (N, 3) m, ``tensions`` (N, C) N and
+        ``cable_lengths`` (N, C) m.
+        """
+        r = self._readings
+        task = self.task
+        flat = np.empty((self.num_envs, self.spec.size), dtype=np.float32)
+        task.observe(r, flat, self.goal_conditioned)
+        reward, success, info = task.evaluate(r)
+        if self.goal_conditioned:
+            obs = {
+                "observation": flat,
+                "achieved_goal": task.achieved_goal(r).astype(np.float32),
+                "desired_goal": task.desired_goal().astype(np.float32),
+            }
+            # from the observed float32 goals, so that reward == compute_reward(obs goals)
+            reward = task.compute_reward(obs["achieved_goal"], obs["desired_goal"])
+        else:
+            obs = flat
+        info["tip"] = r.tip
+        info["tensions"] = r.tensions
+        info["cable_lengths"] = r.cable_lengths
+        return obs, reward, success, info

@@ -1,0 +1,257 @@
+"""The Gymnasium env: one robot, one task, one backend — the env core at N = 1."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from cdcr_gym import validation
+from cdcr_gym.backends.base import Backend
+from cdcr_gym.envs.core import EnvCore
+from cdcr_gym.tasks.base import Task
+from cdcr_gym.tasks.reach import Reach
+
+__all__ = ["CDCREnv", "GoalCDCREnv", "ReachEnv", "GoalReachEnv"]
+
+_ONE = np.array([0])
+
+class CDCREnv(gym.Env):
+    r"""A cable-driven continuum robot that must do a task, by pulling its cables.
+
+    ## Description
+    A flexible backbone stands on a fixed base disk along +Z0; cables run through spacer disks
+    at fixed positions (radius r, angle β) and each is anchored at the last disk of its
+    section, so pulling cables bends the sections towards them (a cable also bends every
+    section it passes). The robot is a *backend* object (``cdcr_gym.backends``): the analytic
+    piecewise-constant-curvature model (``CCKA*-v0``) or a pybullet multibody backbone
+    (``Bullet*-v0``); what the agent must do is a *task* object (``cdcr_gym.tasks``). The
+    default robot is the paper's (one section, ℓ = 0.641 m, r = 29 mm, cables at
+    0°/120°/240°); ``robot="tdcr2"`` selects the two-section reference robot.
+
+    ## Action Space
+    ``Box(-1, 1, (C,), float32)``, one entry per cable (C = ``params.n_cables``; section by
+    section, proximal first). Out-of-range actions are clipped; a non-finite or non-real action
+    raises ``ValueError``. Meaning by ``action_mode`` (``cdcr_gym.envs.actuation``):
+
+    | mode              | effect of a_i                                                        |
+    |-------------------|----------------------------------------------------------------------|
+    | ``tension``       | T_i = max_tension·(a_i + 1)/2 (N), absolute                          |
+    | ``tension_delta`` | T_i ← clip(T_i + a_i·tension_step·max_tension, 0, max_tension) (N)   |
+    | ``length_delta``  | l_i ← l_i + a_i·length_step (m), projected onto the lengths of an    |
+    |                   | inextensible PCC shape, then scaled into the tension-reachable set.  |
+    |                   | Backends with length control only (the analytic one).                |
+
+    ## Observation Space
+    A flat ``Box(float32)`` whose fields the task declares (an ``ObservationSpec``:
+    ``env.unwrapped.observation_spec``; ``observation_spec.table()`` prints the index table).
+    For reach on the paper robot (18 entries):
+
+    | index | observation | min | max | unit |
+    |-------|-------------|-----|-----|------|
+    | 0–2 | tip position x, y, z in R0 | -0.641 | 0.641 | m |
+    | 3–5 | goal position x, y, z in R0 | -0.641 | 0.641 | m |
+    | 6–8 | goal − tip | -1.282 | 1.282 | m |
+    | 9–11 | tanh((goal − tip) / 0.01 m) | -1 | 1 | – |
+    | 12–14 | cable tensions / max_tension | 0 | 1 | – |
+    | 15–17 | (cable length − L_i) / (π r_i m_i), L_i: backbone length the cable spans | -1 | 1 | – |
+
+    Goal-conditioned (``GoalCDCREnv``, or ``goal_conditioned=True`` in ``gymnasium.make``): a
+    ``Dict`` in the Gymnasium-Robotics convention — ``observation`` (the task's goal-free
+    fields), ``achieved_goal``, ``desired_goal`` — with a ``compute_reward`` vectorised over
+    leading dimensions, for HER.
+
+    ## Rewards
+    The task's (reach: dense −‖goal − tip‖ in m, or sparse). ``info`` always holds the task's
+    entries (reach: ``distance`` m, ``is_success``, ``goal`` m) and the robot's: ``tip`` (3,) m,
+    ``tensions`` (C,) N, ``cable_lengths`` (C,) m, as float64 arrays.
+
+    ## Starting State
+    ``initial_state="straight"`` (default): all tensions zero, the straight robot (or, on a
+    backend with gravity, its rest shape). ``"random"``: a shape drawn like the goals and held
+    by its minimal tensions. ``reset(options=...)`` accepts ``goal`` (the task's goal; reach:
+    (3,) m, projected onto the reachable set) and ``initial_tensions`` ((C,) N in
+    [0, max_tension]).
+
+    ## Episode End
+    No termination (reach: reach *and hold*) unless ``terminate_on_success=True``. Truncation
+    after ``max_episode_steps`` (100 for the registered ids) by Gymnasium's ``TimeLimit``.
+
+    ## Arguments
+    ``gymnasium.make("cdcr_gym/CCKAReach-v0", **kwargs)`` passes the backend's arguments
+    (``params``/``robot``, and for bullet ``gravity``, ``physics_timestep``, ...) to the backend,
+    the task's (reach: ``reward_type``, ``distance_threshold``) to the task, and these to the env:
+
+    | argument               | default           | effect                                           |
+    |------------------------|-------------------|--------------------------------------------------|
+    | ``backend``            | (required)        | the robot model, a ``Backend`` instance (N = 1)  |
+    | ``task``               | ``Reach()``       | the task object                                  |
+    | ``action_mode``        | ``tension_delta`` | see Action Space                                 |
+    | ``tension_step``       | 0.05              | max tension change per step, fraction of T_max   |
+    | ``length_step``        | 0.002             | max cable displacement per step (m)              |
+    | ``initial_state``      | ``straight``      | ``straight`` or ``random``                       |
+    | ``terminate_on_success``| False            | end the episode once the task succeeds           |
+    | ``render_mode``        | None              | ``rgb_array`` or ``human``                       |
+    | ``render_width``       | 480               | image width (px)                                 |
+    | ``render_height``      | 480               | image height (px)                                |
+
+    ## Version History
+    * v0: initial release (one-section reach); the n-section core keeps its layout and results.
+    """
+
+    #: Whether observations are the Gymnasium-Robotics Dict (set by :class:`GoalCDCREnv`).
+    goal_conditioned = False
+
+    metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 25}
+
+    def __init__(
+        self,
+        backend: Backend,
+        task: Task | None = None,
+        *,
+        action_mode: str = "tension_delta",
+        tension_step: float = 0.05,
+        length_step: float = 0.002,
+        initial_state: str = "straight",
+        terminate_on_success: bool = False,
+        render_mode: str | None = None,
+        render_width: int = 480,
+        render_height: int = 480,
+    ) -> None:
+        if not isinstance(backend, Backend):
+            raise ValueError(f"backend must be a cdcr_gym.backends.Backend, got {backend!r}")
+        if backend.num_robots != 1:
+            raise ValueError(f"backend must hold one robot, got num_robots={backend.num_robots}")
+        task = Reach() if task is None else task
+        validation.choice(initial_state, "initial_state", ("straight", "random"))
+        self.backend = backend
+        self.params = backend.params
+        self.core = EnvCore(backend, task, action_mode=action_mode, tension_step=tension_step,
+                            length_step=length_step, initial_state=initial_state,
+                            goal_conditioned=self.goal_conditioned)
+        self.task = task
+        self.action_mode = action_mode
+        self.tension_step = self.core.actuation.tension_step
+        self.length_step = self.core.actuation.length_step
+        self.initial_state = initial_state
+        self.terminate_on_success = validation.flag(terminate_on_success, "terminate_on_success")
+        if render_mode is not None:
+            validation.choice(render_mode, "render_mode", tuple(self.metadata["render_modes"]))
+        self.render_mode = render_mode
+        self.render_width = validation.integer(render_width, "render_width", 16)
+        self.render_height = validation.integer(render_height, "render_height", 16)
+        self._action_shape = (self.params.n_cables,)
+        self.action_space = self.core.action_space
+        self.observation_space = self.core.observation_space
+        self.observation_spec = self.core.spec
+
+    # -- task API -------------------------------------------------------------------------------
+    @property
+    def goal(self) -> np.ndarray:
+        """The current goal of the task (a copy)."""
+        return self.task.desired_goal()[0].copy()
+
+    # -- Gymnasium API --------------------------------------------------------------------------
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[Any, dict[str, Any]]:
+        super().reset(seed=seed)
+        options = {} if options is None else dict(options)
+        unknown = set(options) - {"goal", "initial_tensions"}
+        if unknown:
+            raise ValueError(f"options has unknown keys {sorted(unknown)}; "
+                             f"allowed: 'goal', 'initial_tensions'")
+        self.core.reset(_ONE, [self.np_random], options.get("initial_tensions"),
+                        options.get("goal"))
+        obs, _, _, info = self._outputs()
+        if self.render_mode == "human":
+            self.render()
+        return obs, info
+
+    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+        a = validation.action_array(action, self._action_shape)
+        np.maximum(a, -1.0, out=a)
+        np.minimum(a, 1.0, out=a)
+        self.core.step(a[None])
+        obs, reward, success, info = self._outputs()
+        terminated = bool(self.terminate_on_success and success)
+        if self.render_mode == "human":
+            self.render()
+        return obs, reward, terminated, False, info
+
+    def _outputs(self) -> tuple[Any, float, bool, dict[str, Any]]:
+        """Row 0 of the core's batched outputs: obs, reward, success, info."""
+        obs, reward, success, info = self.core.observe()
+        if self.goal_conditioned:
+            obs = {key: value[0] for key, value in obs.items()}
+        else:
+            obs = obs[0]
+        for key, value in info.items():
+            value = value[0]
+            info[key] = value.item() if value.ndim == 0 else value
+        return obs, float(reward[0]), bool(success[0]), info
+
+    def render(self) -> np.ndarray | None:
+        if self.render_mode is None:
+            return None
+        from cdcr_gym import rendering
+
+        centres, rotations = self.backend.disk_frames(0)
+        scene = dict(
+            backbone_points=self.backend.backbone_points(0),
+            disk_centres=centres,
+            disk_rotations=rotations,
+            params=self.params,
+            tensions=self.core.readings.tensions[0],
+            **self.task.render_markers(),
+        )
+        if self.render_mode == "rgb_array":
+            return rendering.draw_scene(width=self.render_width, height=self.render_height,
+                                        **scene)
+        rendering.show_scene(**scene)
+        return None
+
+    def close(self) -> None:
+        self.backend.close()
+        super().close()
+
+
+class GoalCDCREnv(CDCREnv):
+    """:class:`CDCREnv` with a Gymnasium-Robotics ``Dict`` observation, for HER.
+
+    ``observation``: the task's goal-free fields; ``achieved_goal`` / ``desired_goal``: the
+    task's goal vectors. The reward of every step equals
+    ``compute_reward(obs["achieved_goal"], obs["desired_goal"], info)``. Same arguments as
+    :class:`CDCREnv`.
+    """
+
+    goal_conditioned = True
+
+    def compute_reward(
+        self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any = None
+    ) -> np.ndarray | float:
+        """Reward for ``achieved_goal`` and ``desired_goal`` (..., goal size), vectorised over
+        leading dimensions (HER relabels batches): shape (...), or a float for one pair."""
+        reward = self.task.compute_reward(achieved_goal, desired_goal, info)
+        return float(reward) if np.ndim(reward) == 0 else reward
+
+
+def _reach(kwargs: dict[str, Any]) -> Reach:
+    task_kwargs = {k: kwargs.pop(k) for k in ("reward_type", "distance_threshold") if k in kwargs}
+    return Reach(**task_kwargs)
+
+
+class ReachEnv(CDCREnv):
+    """:class:`CDCREnv` with the :class:`~cdcr_gym.tasks.reach.Reach` task, built from the
+    reach arguments (``reward_type``, ``distance_threshold``) and the env's."""
+
+    def __init__(self, backend: Backend, **kwargs: Any) -> None:
+        super().__init__(backend, _reach(kwargs), **kwargs)
+
+
+class GoalReachEnv(GoalCDCREnv):
+    """:class:`GoalCDCREnv` with the :class:`~cdcr_gym.tasks.reach.Reach` task."""
+
+    def __init__(self, backend: Backend, **kwargs: Any) -> None:
+        super().__init__(backend, _reach(kwargs), **kwargs)

@@ -1,0 +1,129 @@
+"""The task interface: what the agent must do, separate from the robot (dm_control's split).
+
+A :class:`Task` samples each episode's goal from the env's generator, declares its observation
+fields, and turns the backend's :class:`~cdcr_gym.backends.base.Readings` into observations,
+rewards, success flags and ``info`` entries. It reads the robot only through the readings and
+``Backend.equilibrium`` (to draw goals the backend can reach); it never commands the robot.
+
+Everything is batched over the N envs of the core (the single env is N = 1): goals are (N, ·)
+arrays, readings (N, ·) arrays.
+"""
+
+from __future__ import annotations
+
+import abc
+from typing import Any
+
+import numpy as np
+
+from cdcr_gym.backends.base import Backend, Readings
+from cdcr_gym.envs.observation import Field, ObservationSpec
+from cdcr_gym.model.params import RobotParams
+
+__all__ = ["Task", "robot_state_fields", "fill_robot_state", "REWARD_TYPES"]
+
+#: Reward types: dense (a negative cost each step) or sparse (−1 until success, then 0).
+REWARD_TYPES = ("dense", "sparse")
+
+
+def robot_state_fields(params: RobotParams) -> list[Field]:
+    """The robot-state fields every task observes: normalised tensions and cable lengths.
+
+    * ``tensions``: T_i / max_tension, in [0, 1];
+    * ``cable_lengths``: (l_i − L_i)/(π r_i m_i), in [−1, 1], where L_i is the backbone length
+      cable i runs along, r_i its radius and m_i the number of sections it passes (each bends
+      by at most π, so |l_i − L_i| <= π r_i m_i).
+    """
+    c = params.n_cables
+    return [
+        Field.uniform("tensions", c, 0.0, 1.0, "–", "cable tensions / max_tension"),
+        Field.uniform("cable_lengths", c, -1.0, 1.0, "–",
+                      "(cable length − L_i) / (π r_i m_i), L_i: backbone length the cable spans"),
+    ]
+
+
+class RobotStateScale:
+    """Constants of :func:`fill_robot_state` for a robot (precomputed once)."""
+
+    def __init__(self, params: RobotParams) -> None:
+        sections = np.asarray(params.cable_section)
+        self.inv_max_tension = 1.0 / params.max_tension
+        self.run_lengths = np.asarray(params.cable_run_lengths)
+        self.inv_length_span = 1.0 / (np.pi * np.asarray(params.cable_radii) * (sections + 1))
+
+
+def fill_robot_state(
+    out: np.ndarray, tension_slice: slice, length_slice: slice, readings: Readings,
+    scale: RobotStateScale,
+) -> None:
+    """Write the ``tensions`` and ``cable_lengths`` fields of ``readings`` into ``out`` (N, ·)."""
+    out[:, tension_slice] = readings.tensions * scale.inv_max_tension
+    out[:, length_slice] = (readings.cable_lengths - scale.run_lengths) * scale.inv_length_span
+
+
+class Task(abc.ABC):
+    """A task on the env core (batched over N envs).
+
+    Subclasses implement the abstract methods; the env core calls :meth:`bind` once, then
+    :meth:`reset_goals` at every (partial) reset and :meth:`evaluate` after every step.
+    """
+
+    #: Short name used in registered ids (``"Reach"`` → ``CCKAReach-v0``).
+    name: str = ""
+    #: Size of the goal vector of the goal-conditioned (Dict) observation; 0 = no GoalEnv form.
+    goal_size: int = 0
+
+    params: RobotParams
+    num_envs: int
+
+    def bind(self, params: RobotParams, num_envs: int) -> None:
+        """Attach the task to a robot and a number of envs (allocates the goal arrays)."""
+        self.params = params
+        self.num_envs = int(num_envs)
+
+    @abc.abstractmethod
+    def observation_spec(self, goal_conditioned: bool) -> ObservationSpec:
+        """The flat observation layout, or with ``goal_conditioned`` the ``observation`` part
+        of the Dict observation (achieved/desired goals are separate)."""
+
+    @abc.abstractmethod
+    def reset_goals(
+        self,
+        idx: np.ndarray,
+        rngs: list[np.random.Generator],
+        backend: Backend,
+        goal: np.ndarray | None = None,
+    ) -> None:
+        """Draw new goals for envs ``idx`` from their generators ``rngs`` (one per env, in
+        order), or set the given ``goal`` (len(idx), goal size) — validated and projected by
+        the task."""
+
+    @abc.abstractmethod
+    def observe(self, readings: Readings, out: np.ndarray, goal_conditioned: bool) -> None:
+        """Fill the (N, spec size) observation ``out`` from ``readings``."""
+
+    @abc.abstractmethod
+    def achieved_goal(self, readings: Readings) -> np.ndarray:
+        """(N, goal_size) achieved goals (goal-conditioned form)."""
+
+    @abc.abstractmethod
+    def desired_goal(self) -> np.ndarray:
+        """(N, goal_size) desired goals (goal-conditioned form)."""
+
+    @abc.abstractmethod
+    def evaluate(self, readings: Readings) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
+        """(reward (N,), success (N,) bool, task info entries of (N, ...) arrays)."""
+
+    @abc.abstractmethod
+    def compute_reward(
+        self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any = None
+    ) -> np.ndarray:
+        """Goal-conditioned reward, vectorised over leading dimensions (for HER)."""
+
+    def info_keys(self) -> tuple[str, ...]:
+        """Names of the ``info`` entries :meth:`evaluate` returns."""
+        return ()
+
+    def render_markers(self, index: int = 0) -> dict[str, Any]:
+        """What the renderer draws for env ``index`` besides the robot (e.g. ``goal``)."""
+        return {}

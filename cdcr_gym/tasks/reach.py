@@ -1,0 +1,145 @@
+"""Tip reaching: bring the tip to a goal point and hold it there."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from cdcr_gym import validation
+from cdcr_gym.backends.base import Backend, Readings
+from cdcr_gym.envs.observation import Field, ObservationSpec
+from cdcr_gym.model.ik import solve_ik
+from cdcr_gym.model.workspace import sample_tensions_each
+from cdcr_gym.tasks.base import (
+    REWARD_TYPES,
+    RobotStateScale,
+    Task,
+    fill_robot_state,
+    robot_state_fields,
+)
+
+__all__ = ["Reach", "ERROR_SCALE"]
+
+#: Length scale (m) of the saturated error feature tanh((goal − tip)/ERROR_SCALE).
+ERROR_SCALE = 0.01
+
+
+class Reach(Task):
+    """Reach a goal point with the tip (and hold it).
+
+    **Goal**: a point (m, in R0) drawn each episode from the backend's own reachable set: a
+    shape is drawn by ``model.workspace.sample_tensions`` (one section: area-uniform on the
+    tension-reachable surface; several: see that function) and the goal is the tip of the
+    backend's static equilibrium under those tensions (``Backend.equilibrium``). A goal given
+    in ``reset(options={"goal": ...})`` is projected onto the reachable set of the model (the
+    nearest tip within the tension limits, ``model.ik.solve_ik``).
+
+    **Observation fields** (flat): ``tip`` (3, m), ``goal`` (3, m), ``error`` = goal − tip
+    (3, m), ``error_tanh`` = tanh(error / 1 cm) (3), then the robot state (normalised
+    ``tensions`` and ``cable_lengths``, one per cable). Goal-conditioned: ``observation`` =
+    tip and robot state, ``achieved_goal`` = tip, ``desired_goal`` = goal.
+
+    **Reward**: ``"dense"``: −‖goal − tip‖ (m) per step; ``"sparse"``: −1 while the distance
+    exceeds ``distance_threshold``, else 0. **Success**: distance <= ``distance_threshold``.
+    **info**: ``distance`` (m), ``is_success``, ``goal`` (m).
+
+    Args:
+        reward_type: ``"dense"`` or ``"sparse"``.
+        distance_threshold: success radius (m), > 0.
+    """
+
+    name = "Reach"
+    goal_size = 3
+
+    def __init__(self, reward_type: str = "dense", distance_threshold: float = 0.005) -> None:
+        self.reward_type = validation.choice(reward_type, "reward_type", REWARD_TYPES)
+        self.distance_threshold = validation.positive(distance_threshold, "distance_threshold")
+        self._dense = reward_type == "dense"
+
+    def bind(self, params, num_envs: int) -> None:
+        super().bind(params, num_envs)
+        self.goal = np.zeros((self.num_envs, 3))
+        self.goal[:, 2] = params.length
+        self._scale = RobotStateScale(params)
+        self._specs = {gc: self._build_spec(gc) for gc in (False, True)}
+        self._slices = {gc: spec.slices for gc, spec in self._specs.items()}
+
+    def _build_spec(self, goal_conditioned: bool) -> ObservationSpec:
+        ell = self.params.length
+        xyz = ("x", "y", "z")
+        tip = Field.uniform("tip", 3, -ell, ell, "m", "tip position x, y, z in R0", xyz)
+        if goal_conditioned:
+            return ObservationSpec([tip, *robot_state_fields(self.params)])
+        return ObservationSpec([
+            tip,
+            Field.uniform("goal", 3, -ell, ell, "m", "goal position x, y, z in R0", xyz),
+            Field.uniform("error", 3, -2 * ell, 2 * ell, "m", "goal − tip", xyz),
+            Field.uniform("error_tanh", 3, -1.0, 1.0, "–", "tanh((goal − tip) / 0.01 m)", xyz),
+            *robot_state_fields(self.params),
+        ])
+
+    def observation_spec(self, goal_conditioned: bool) -> ObservationSpec:
+        return self._specs[goal_conditioned]
+
+    # -- goals ----------------------------------------------------------------------------------
+    def reset_goals(
+        self,
+        idx: np.ndarray,
+        rngs: list[np.random.Generator],
+        backend: Backend,
+        goal: np.ndarray | None = None,
+    ) -> None:
+        if goal is None:
+            goals = backend.equilibrium(sample_tensions_each(rngs, self.params)).tip
+        else:
+            goal = validation.real_array(goal, "options['goal']")
+            if goal.shape not in ((3,), (idx.size, 3)):
+                raise ValueError(f"options['goal'] must have shape (3,) or ({idx.size}, 3), "
+                                 f"got shape {goal.shape}")
+            goals = solve_ik(np.broadcast_to(goal, (idx.size, 3)), self.params).tip
+        self.goal[idx] = goals
+
+    # -- per step -------------------------------------------------------------------------------
+    def observe(self, readings: Readings, out: np.ndarray, goal_conditioned: bool) -> None:
+        s = self._slices[goal_conditioned]
+        tip = readings.tip
+        out[:, s["tip"]] = tip
+        if not goal_conditioned:
+            error = self.goal - tip
+            out[:, s["goal"]] = self.goal
+            out[:, s["error"]] = error
+            out[:, s["error_tanh"]] = np.tanh(error * (1.0 / ERROR_SCALE))
+        fill_robot_state(out, s["tensions"], s["cable_lengths"], readings, self._scale)
+
+    def achieved_goal(self, readings: Readings) -> np.ndarray:
+        return readings.tip
+
+    def desired_goal(self) -> np.ndarray:
+        return self.goal
+
+    def _reward(self, distance: np.ndarray) -> np.ndarray:
+        if self._dense:
+            return -distance
+        return -((distance > self.distance_threshold) * 1.0)
+
+    def evaluate(self, readings: Readings) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
+        e = self.goal - readings.tip
+        distance = np.sqrt(e[:, 0] * e[:, 0] + e[:, 1] * e[:, 1] + e[:, 2] * e[:, 2])
+        success = distance <= self.distance_threshold
+        info = {"distance": distance, "is_success": success, "goal": self.goal.copy()}
+        return self._reward(distance), success, info
+
+    def compute_reward(
+        self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any = None
+    ) -> np.ndarray:
+        distance = np.linalg.norm(
+            np.asarray(achieved_goal, np.float64) - np.asarray(desired_goal, np.float64), axis=-1
+        )
+        return self._reward(distance)
+
+    def info_keys(self) -> tuple[str, ...]:
+        return ("distance", "is_success", "goal")
+
+    def render_markers(self, index: int = 0) -> dict[str, Any]:
+        return {"goal": self.goal[index].copy()}
