@@ -1,0 +1,296 @@
+"""Piecewise constant curvature (PCC) model of a robot of S sections and C cables (SPEC §6).
+
+Pure numpy (no simulator, no Gymnasium), float64, SI units. Every method broadcasts over leading
+batch dimensions.
+
+Shape state: the per-section *bending vectors* w_j = θ_j·(cos φ_j, sin φ_j) (rad), an array of
+shape (..., S, 2), proximal section first. w_j is expressed in section j's base frame (the frame
+of the previous section's end disk, whose x axis is the disks' x axis: the sections compose
+without torsion), so the cable geometry, the same in every disk, is the same vector in every
+section's frame. Nothing is singular at θ_j = 0 in this representation, and both the cable
+lengths and the tension statics are linear in it:
+
+* statics (frictionless cables, pure moments, dense disks):
+  w_j = (ℓ_j/EI)·Σ_{cables i through section j} T_i·r_i·(cos β_i, sin β_i); a cable of section
+  m passes (and bends) sections 1…m;
+* cable lengths: a cable of section m at (r, β) has length Σ_{j≤m} (ℓ_j − r·(w_j·(cos β, sin β))).
+
+Section j's transform (in its base frame) is R_j = Rz(φ_j)·Ry(θ_j)·Rz(−φ_j), written as
+R_j = I + (sin θ/θ)·[a]× + ((1 − cos θ)/θ²)·[a]×² with a = (−w_y, w_x, 0), and
+p_j = ℓ_j·(f·w_x, f·w_y, g) with (f, g) = ((1 − cos θ)/θ², sin θ/θ) (:func:`arc.arc_profile`),
+all exact at θ = 0. The tip is the composition of the S transforms in the base frame R0 (base
+disk centre, backbone along +Z0, the disks' x axis along +X0).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from cdcr_gym.model.arc import arc_from_bending, arc_profile, as_finite, bending_from_arc
+from cdcr_gym.model.params import RobotParams
+
+__all__ = ["PCCModel"]
+
+
+def _finite(name: str, x) -> np.ndarray:
+    """float64 array of ``x``; ValueError naming ``name`` if any entry is NaN or infinite."""
+    x = np.asarray(x, dtype=np.float64)
+    if not math.isfinite(np.add.reduce(x, axis=None)):  # one reduction: NaN/inf propagate
+        raise ValueError(f"{name} must be finite, got {x!r}")
+    return x
+
+
+def _rotation_matrices(wx, wy, f, g) -> np.ndarray:
+    """R = I + g[a]× + f[a]×², a = (−wy, wx, 0): shape (..., 3, 3) from components (...)."""
+    fx, fy = f * wx, f * wy
+    rot = np.empty(np.shape(wx) + (3, 3))
+    rot[..., 0, 0] = 1.0 - fx * wx
+    rot[..., 0, 1] = -fx * wy
+    rot[..., 0, 2] = g * wx
+    rot[..., 1, 0] = rot[..., 0, 1]
+    rot[..., 1, 1] = 1.0 - fy * wy
+    rot[..., 1, 2] = g * wy
+    rot[..., 2, 0] = -rot[..., 0, 2]
+    rot[..., 2, 1] = -rot[..., 1, 2]
+    rot[..., 2, 2] = 1.0 - (fx * wx + fy * wy)
+    return rot
+
+
+def _rotate(wx, wy, f, g, h, v1, v2, v3):
+    """Components of R(w)·v with R = I + g[a]× + f[a]×², h = cos θ = 1 − f θ²."""
+    c = wx * v1 + wy * v2
+    d = wx * v2 - wy * v1
+    gv3 = g * v3
+    fd = f * d
+    return h * v1 + wx * gv3 - wy * fd, h * v2 + wy * gv3 + wx * fd, h * v3 - g * c
+
+
+class PCCModel:
+    """The PCC kinematics and statics of a :class:`RobotParams` robot, batched.
+
+    Constant matrices (tensions → bending, bending → lengths, lengths → bending) are computed once
+    at construction; every method then costs a few numpy calls regardless of the batch size.
+
+    Attributes:
+        params: the robot.
+        n_sections: S, number of sections.
+        n_cables: C, number of cables (cable order of ``params``: section by section).
+        section_lengths: ℓ_j (m), shape (S,).
+        cable_vectors: r_i·(cos β_i, sin β_i) (m), shape (C, 2), in the disks' frame.
+        cable_section: section index (0-based) each cable ends in, shape (C,).
+        straight_lengths: cable lengths (m) of the straight robot, shape (C,).
+        tension_to_bending: A, shape (C, 2S): w.reshape(..., 2S) = T @ A (rad/N).
+        bending_to_lengths: B, shape (2S, C): lengths = straight_lengths + w.reshape(..., 2S) @ B.
+        lengths_to_bending: G, shape (C, 2S): the sequential least squares of
+            :meth:`bending_from_lengths` as one matrix.
+    """
+
+    def __init__(self, params: RobotParams) -> None:
+        if not isinstance(params, RobotParams):
+            raise ValueError(f"params must be a RobotParams, got {params!r}")
+        self.params = params
+        self.n_sections = S = params.n_sections
+        self.n_cables = C = params.n_cables
+        self.section_lengths = np.asarray(params.section_lengths, dtype=np.float64)
+        angles = np.asarray(params.cable_angles, dtype=np.float64)
+        radii = np.asarray(params.cable_radii, dtype=np.float64)
+        self.cable_section = owner = np.asarray(params.cable_section, dtype=np.intp)
+        self.cable_vectors = v = radii[:, None] * np.stack([np.cos(angles), np.sin(angles)], -1)
+        ei = params.bending_stiffness
+        through = owner[:, None] >= np.arange(S)[None, :]  # (C, S): cable i passes section j
+        self.cable_through = through
+        a = through[:, :, None] * (self.section_lengths[None, :, None] / ei) * v[:, None, :]
+        self.tension_to_bending = a.reshape(C, 2 * S)
+        b = -(through[:, :, None] * v[:, None, :])  # (C, S, 2)
+        self.bending_to_lengths = np.ascontiguousarray(b.reshape(C, 2 * S).T)
+        self.straight_lengths = through.astype(np.float64) @ self.section_lengths
+        self.lengths_to_bending = self._sequential_least_squares()
+        self.disk_fractions = tuple(
+            np.arange(1, s.n_disks + 1, dtype=np.float64) / s.n_disks for s in params.sections
+        )
+
+    def __repr__(self) -> str:
+        return f"PCCModel(n_sections={self.n_sections}, n_cables={self.n_cables})"
+
+    # -- statics and cable lengths (linear) ----------------------------------------------------
+    def _sequential_least_squares(self) -> np.ndarray:
+        """G (C, 2S) with w.reshape(2S) = (lengths − straight_lengths) @ G.
+
+        Section by section from the base: subtract each cable's run through the (known) proximal
+        sections, then fit the section's own cables, Δl_i = c − v_i·w_j, by least squares with a
+        free common offset c (a common-mode length error does not bend; exact for consistent
+        lengths, and for 3 cables always exact).
+        """
+        S, C, v, owner = self.n_sections, self.n_cables, self.cable_vectors, self.cable_section
+        maps = np.zeros((S, 2, C))  # w_j = maps[j] @ Δl
+        for j in range(S):
+            own = np.flatnonzero(owner == j)
+            rows = np.eye(C)[own]  # y_i = Δl_i + Σ_{k<j} v_i·w_k, as linear maps of Δl
+            for k in range(j):
+                rows = rows + v[own] @ maps[k]
+            design = np.concatenate([np.ones((own.size, 1)), -v[own]], axis=1)
+            maps[j] = (np.linalg.pinv(design) @ rows)[1:]
+        return np.ascontiguousarray(maps.transpose(2, 0, 1).reshape(C, 2 * S))
+
+    def bending_from_tensions(self, tensions) -> np.ndarray:
+        """Bending vectors w (..., S, 2) (rad) under cable tensions (..., C) (N) (SPEC §6 statics).
+
+        w_j = (ℓ_j/EI)·Σ_{cables i through section j} T_i r_i (cos β_i, sin β_i). Linear; negative
+        tensions are computed as given (callers keep tensions in [0, max_tension]).
+        """
+        t = _finite("tensions", tensions)
+        if t.shape[-1:] != (self.n_cables,):
+            raise ValueError(f"tensions must have shape (..., {self.n_cables}), got {t.shape}")
+        return (t @ self.tension_to_bending).reshape(t.shape[:-1] + (self.n_sections, 2))
+
+    def _flat_bending(self, w) -> np.ndarray:
+        w = _finite("w", w)
+        if w.shape[-2:] != (self.n_sections, 2):
+            raise ValueError(f"w must have shape (..., {self.n_sections}, 2), got {w.shape}")
+        return w.reshape(w.shape[:-2] + (2 * self.n_sections,))
+
+    def lengths_from_bending(self, w) -> np.ndarray:
+        """Cable lengths (..., C) (m) of the shape w (..., S, 2) (rad).
+
+        A cable of section m at (r, β): Σ_{j≤m} (ℓ_j − r·(w_j·(cos β, sin β))).
+        """
+        return self.straight_lengths + self._flat_bending(w) @ self.bending_to_lengths
+
+    def bending_from_lengths(self, lengths) -> np.ndarray:
+        """Bending vectors w (..., S, 2) (rad) from cable lengths (..., C) (m).
+
+        Sequential least squares per section from the base (SPEC §6; see
+        :attr:`lengths_to_bending`): exact for consistent lengths; a common-mode length change of
+        a section's cables does not bend it.
+        """
+        lengths = _finite("lengths", lengths)
+        if lengths.shape[-1:] != (self.n_cables,):
+            raise ValueError(f"lengths must have shape (..., {self.n_cables}), got {lengths.shape}")
+        if np.any(lengths < 0.0):
+            raise ValueError(f"lengths (cable lengths) must be >= 0 m, got {lengths!r}")
+        flat = (lengths - self.straight_lengths) @ self.lengths_to_bending
+        return flat.reshape(lengths.shape[:-1] + (self.n_sections, 2))
+
+    # -- arcs ----------------------------------------------------------------------------------
+    @staticmethod
+    def arcs_from_bending(w) -> tuple[np.ndarray, np.ndarray]:
+        """(θ, φ) per section, each (..., S) (rad), of w (..., S, 2); φ = 0 where θ = 0."""
+        return arc_from_bending(_finite("w", w))
+
+    @staticmethod
+    def bending_from_arcs(theta, phi) -> np.ndarray:
+        """w (..., S, 2) (rad) from θ, φ (..., S) (rad): w_j = θ_j (cos φ_j, sin φ_j)."""
+        return bending_from_arc(as_finite("theta", theta), as_finite("phi", phi))
+
+    # -- forward kinematics ----------------------------------------------------------------------
+    def _profile(self, w):
+        w = _finite("w", w)
+        if w.shape[-2:] != (self.n_sections, 2):
+            raise ValueError(f"w must have shape (..., {self.n_sections}, 2), got {w.shape}")
+        wx, wy = w[..., 0], w[..., 1]
+        th2 = wx * wx + wy * wy
+        f, g = arc_profile(np.sqrt(th2))
+        return wx, wy, f, g, 1.0 - f * th2
+
+    def tip_from_bending(self, w) -> np.ndarray:
+        """Tip position (..., 3) (m) in R0 of the shape w (..., S, 2) (rad)."""
+        wx, wy, f, g, h = self._profile(w)
+        ell = self.section_lengths
+        lf = ell * f
+        x, y, z = lf * wx, lf * wy, ell * g  # each section's tip in its own base frame
+        S = self.n_sections
+        v1, v2, v3 = x[..., S - 1], y[..., S - 1], z[..., S - 1]
+        for j in range(S - 2, -1, -1):
+            v1, v2, v3 = _rotate(wx[..., j], wy[..., j], f[..., j], g[..., j], h[..., j],
+                                 v1, v2, v3)
+            v1, v2, v3 = v1 + x[..., j], v2 + y[..., j], v3 + z[..., j]
+        out = np.empty(np.shape(v3) + (3,))
+        out[..., 0], out[..., 1], out[..., 2] = v1, v2, v3
+        return out
+
+    def tip_direction_from_bending(self, w) -> np.ndarray:
+        """Unit backbone tangent at the tip, (..., 3), in R0 (the tip frame's z axis)."""
+        wx, wy, f, g, h = self._profile(w)
+        S = self.n_sections
+        v1, v2, v3 = g[..., S - 1] * wx[..., S - 1], g[..., S - 1] * wy[..., S - 1], h[..., S - 1]
+        for j in range(S - 2, -1, -1):
+            v1, v2, v3 = _rotate(wx[..., j], wy[..., j], f[..., j], g[..., j], h[..., j],
+                                 v1, v2, v3)
+        out = np.empty(np.shape(v3) + (3,))
+        out[..., 0], out[..., 1], out[..., 2] = v1, v2, v3
+        return out
+
+    def section_frames(self, w) -> np.ndarray:
+        """Homogeneous frames (..., S+1, 4, 4) in R0: the base frame, then every section's end.
+
+        Translations in m. Frame j+1 = frame j · [R_j, p_j; 0, 1] (no torsion).
+        """
+        wx, wy, f, g, _ = self._profile(w)
+        rot = _rotation_matrices(wx, wy, f, g)  # (..., S, 3, 3)
+        ell = self.section_lengths
+        pos = np.stack([ell * f * wx, ell * f * wy, ell * g], axis=-1)  # (..., S, 3)
+        batch = wx.shape[:-1]
+        frames = np.zeros(batch + (self.n_sections + 1, 4, 4))
+        frames[..., :, 3, 3] = 1.0
+        frames[..., 0, :3, :3] = np.eye(3)
+        for j in range(self.n_sections):
+            r_prev, p_prev = frames[..., j, :3, :3], frames[..., j, :3, 3]
+            frames[..., j + 1, :3, :3] = r_prev @ rot[..., j, :, :]
+            frames[..., j + 1, :3, 3] = p_prev + (r_prev @ pos[..., j, :, None])[..., 0]
+        return frames
+
+    def pose_from_bending(self, w) -> np.ndarray:
+        """Tip frame (..., 4, 4) in R0 (rotation; translation in m)."""
+        return self.section_frames(w)[..., -1, :, :]
+
+    def _stations(self, w, fractions) -> tuple[np.ndarray, np.ndarray]:
+        """Centres (..., 1+Σn_j, 3) and rotations (..., 1+Σn_j, 3, 3) at arc fractions of sections.
+
+        ``fractions[j]`` (shape (n_j,), in (0, 1]) are positions within section j; a sub-arc of
+        length σℓ_j has bending vector σw_j. The base (identity at the origin) comes first.
+        """
+        frames = self.section_frames(w)
+        w = np.asarray(w, dtype=np.float64)
+        centres, rotations = [np.zeros(w.shape[:-2] + (1, 3))], [
+            np.broadcast_to(np.eye(3), w.shape[:-2] + (1, 3, 3))
+        ]
+        for j, sigma in enumerate(fractions):
+            sub = w[..., j, None, :] * sigma[:, None]  # (..., n, 2)
+            sx, sy = sub[..., 0], sub[..., 1]
+            f, g = arc_profile(np.sqrt(sx * sx + sy * sy))
+            length = self.section_lengths[j] * sigma
+            local_p = np.stack([length * f * sx, length * f * sy, length * g], axis=-1)
+            local_r = _rotation_matrices(sx, sy, f, g)
+            r_base = frames[..., j, None, :3, :3]
+            p_base = frames[..., j, None, :3, 3]
+            centres.append(p_base + (r_base @ local_p[..., None])[..., 0])
+            rotations.append(r_base @ local_r)
+        return np.concatenate(centres, axis=-2), np.concatenate(rotations, axis=-3)
+
+    def backbone_points(self, w, points_per_section: int = 16) -> np.ndarray:
+        """Points along the backbone (..., P, 3) in R0 (m), base first, tip last.
+
+        Each section contributes the points at arc fractions k/points_per_section
+        (k = 1…points_per_section) and at every one of its disk stations (duplicates merged),
+        in order along the backbone; P = 1 + Σ_j (that count).
+        """
+        if (isinstance(points_per_section, bool)
+                or not isinstance(points_per_section, (int, np.integer)) or points_per_section < 1):
+            raise ValueError(
+                f"points_per_section must be an integer >= 1, got {points_per_section!r}"
+            )
+        fractions = []
+        for disks in self.disk_fractions:
+            even = np.arange(1, points_per_section + 1) / points_per_section
+            near = np.min(np.abs(even[:, None] - disks[None, :]), axis=1) < 1e-9
+            fractions.append(np.sort(np.concatenate([disks, even[~near]])))
+        return self._stations(w, fractions)[0]
+
+    def disk_frames(self, w) -> tuple[np.ndarray, np.ndarray]:
+        """Centres (..., D+1, 3) (m) and rotations (..., D+1, 3, 3) of the base disk and every
+        spacer disk (D = params.n_disks; n_disks_j per section, evenly spaced, the last at the
+        section's end), in R0, proximal first. A rotation's z column is the backbone tangent, its
+        x column the disk's x axis (cable angles β are measured from it)."""
+        return self._stations(w, self.disk_fractions)
