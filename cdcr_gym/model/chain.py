@@ -28,7 +28,12 @@ import math
 
 import numpy as np
 
-from cdcr_gym.model.arc import arc_from_bending, arc_profile, as_finite, bending_from_arc
+from cdcr_gym.model.arc import (
+    arc_from_bending,
+    as_finite,
+    bending_from_arc,
+    profile_nonnegative,
+)
 from cdcr_gym.model.params import RobotParams
 
 __all__ = ["PCCModel"]
@@ -56,15 +61,6 @@ def _rotation_matrices(wx, wy, f, g) -> np.ndarray:
     rot[..., 2, 1] = -rot[..., 1, 2]
     rot[..., 2, 2] = 1.0 - (fx * wx + fy * wy)
     return rot
-
-
-def _rotate(wx, wy, f, g, h, v1, v2, v3):
-    """Components of R(w)·v with R = I + g[a]× + f[a]×², h = cos θ = 1 − f θ²."""
-    c = wx * v1 + wy * v2
-    d = wx * v2 - wy * v1
-    gv3 = g * v3
-    fd = f * d
-    return h * v1 + wx * gv3 - wy * fd, h * v2 + wy * gv3 + wx * fd, h * v3 - g * c
 
 
 class PCCModel:
@@ -107,6 +103,8 @@ class PCCModel:
         self.bending_to_lengths = np.ascontiguousarray(b.reshape(C, 2 * S).T)
         self.straight_lengths = through.astype(np.float64) @ self.section_lengths
         self.lengths_to_bending = self._sequential_least_squares()
+        self._tiled: dict[int, np.ndarray] = {}
+        self._buffers: dict[int, np.ndarray] = {}
         self.disk_fractions = tuple(
             np.arange(1, s.n_disks + 1, dtype=np.float64) / s.n_disks for s in params.sections
         )
@@ -156,7 +154,25 @@ class PCCModel:
 
         A cable of section m at (r, β): Σ_{j≤m} (ℓ_j − r·(w_j·(cos β, sin β))).
         """
-        return self.straight_lengths + self._flat_bending(w) @ self.bending_to_lengths
+        out = self._flat_bending(w) @ self.bending_to_lengths
+        out += self._tiled_straight_lengths(out.shape)
+        return out
+
+    def _tiled_straight_lengths(self, shape: tuple[int, ...]) -> np.ndarray:
+        """straight_lengths broadcast to ``shape`` as a contiguous array (cached per size).
+
+        Adding a contiguous array is ~10x faster in numpy than broadcasting a (C,) row over many
+        rows (a C-long inner loop per row).
+        """
+        rows = math.prod(shape[:-1])
+        tiled = self._tiled.get(rows)
+        if tiled is None:
+            tiled = np.tile(self.straight_lengths, rows)
+            tiled.flags.writeable = False
+            if len(self._tiled) > 8:
+                self._tiled.clear()
+            self._tiled[rows] = tiled
+        return tiled.reshape(shape)
 
     def bending_from_lengths(self, lengths) -> np.ndarray:
         """Bending vectors w (..., S, 2) (rad) from cable lengths (..., C) (m).
@@ -185,53 +201,148 @@ class PCCModel:
         return bending_from_arc(as_finite("theta", theta), as_finite("phi", phi))
 
     # -- forward kinematics ----------------------------------------------------------------------
+    # The hot path (called every env step on (N, S, 2) arrays) works component-major on
+    # (S, N) rows, so every numpy call runs over the whole batch, and writes its intermediates into
+    # scratch buffers kept per batch size: allocating fresh 128 kB temporaries costs more than the
+    # arithmetic (page faults). Consequently a PCCModel must not be shared between threads.
+    def _scratch(self, rows: int) -> np.ndarray:
+        buf = self._buffers.get(rows)
+        if buf is None:
+            if len(self._buffers) > 8:
+                self._buffers.clear()
+            buf = self._buffers[rows] = np.empty((10 * self.n_sections + 7, rows))
+        return buf
+
     def _profile(self, w):
+        """(wx, wy, f, g, h = cos θ), each (S, M) rows of a scratch buffer, 7 free scratch rows
+        (7, M) and the batch shape; M = batch size."""
         w = _finite("w", w)
-        if w.shape[-2:] != (self.n_sections, 2):
-            raise ValueError(f"w must have shape (..., {self.n_sections}, 2), got {w.shape}")
-        wx, wy = w[..., 0], w[..., 1]
-        th2 = wx * wx + wy * wy
-        f, g = arc_profile(np.sqrt(th2))
-        return wx, wy, f, g, 1.0 - f * th2
+        S = self.n_sections
+        if w.shape[-2:] != (S, 2):
+            raise ValueError(f"w must have shape (..., {S}, 2), got {w.shape}")
+        batch = w.shape[:-2]
+        flat = w.reshape(-1, 2 * S)
+        buf = self._scratch(flat.shape[0])
+        comp, rest, tmp = buf[: 2 * S], buf[2 * S: 10 * S], buf[10 * S:]
+        np.copyto(comp, flat.T)
+        wx, wy = comp[0::2], comp[1::2]
+        th2, x, safe, p, t, den, g, f = (rest[k * S:(k + 1) * S] for k in range(8))
+        np.multiply(wx, wx, out=th2)
+        np.multiply(wy, wy, out=x)
+        th2 += x
+        np.sqrt(th2, out=x)
+        x *= 0.25  # θ/4
+        np.add(x, 1e-300, out=safe)  # == x unless x < 1e-284; tan(1e-300)/1e-300 == 1.0 exactly
+        np.tan(safe, out=p)
+        p /= safe  # tan(θ/4)/(θ/4)
+        np.multiply(p, x, out=t)
+        t *= t  # tan²(θ/4)
+        np.add(t, 1.0, out=den)
+        p /= den  # q = sin(θ/2)/(θ/2)
+        np.subtract(1.0, t, out=g)
+        g *= p
+        g /= den  # sin θ/θ = q·cos(θ/2)
+        np.multiply(p, p, out=f)
+        f *= 0.5  # (1 − cos θ)/θ² = q²/2
+        h = x  # reuse: cos θ = 1 − f θ²
+        np.multiply(f, th2, out=h)
+        np.subtract(1.0, h, out=h)
+        return wx, wy, f, g, h, tmp, batch
+
+    @staticmethod
+    def _rotate_into(wx, wy, f, g, h, v, tmp) -> None:
+        """v (3, M) <- R(w)·v, R = I + g[a]× + f[a]×², h = cos θ; tmp: (4, M) scratch."""
+        c, d, gv3, fd = tmp[0], tmp[1], tmp[2], tmp[3]
+        np.multiply(wx, v[0], out=c)
+        np.multiply(wy, v[1], out=d)
+        c += d  # w·v
+        np.multiply(wx, v[1], out=d)
+        np.multiply(wy, v[0], out=gv3)
+        d -= gv3  # (−wy, wx)·v
+        np.multiply(g, v[2], out=gv3)
+        np.multiply(f, d, out=fd)
+        v *= h
+        np.multiply(wx, gv3, out=d)
+        v[0] += d
+        np.multiply(wy, fd, out=d)
+        v[0] -= d
+        np.multiply(wy, gv3, out=d)
+        v[1] += d
+        np.multiply(wx, fd, out=d)
+        v[1] += d
+        np.multiply(g, c, out=d)
+        v[2] -= d
+
+    def _tip_into(self, wx, wy, f, g, h, v, tmp) -> None:
+        """v (3, M) <- the tip (m) from the (S, M) components."""
+        ell = self.section_lengths
+        for j in range(self.n_sections - 1, -1, -1):
+            if j < self.n_sections - 1:
+                self._rotate_into(wx[j], wy[j], f[j], g[j], h[j], v, tmp)
+                np.multiply(f[j], wx[j], out=tmp[0])
+                tmp[0] *= ell[j]
+                v[0] += tmp[0]
+                np.multiply(f[j], wy[j], out=tmp[0])
+                tmp[0] *= ell[j]
+                v[1] += tmp[0]
+                np.multiply(g[j], ell[j], out=tmp[0])
+                v[2] += tmp[0]
+            else:
+                np.multiply(f[j], wx[j], out=v[0])
+                np.multiply(f[j], wy[j], out=v[1])
+                v[:2] *= ell[j]
+                np.multiply(g[j], ell[j], out=v[2])
+
+    def _direction_into(self, wx, wy, f, g, h, v, tmp) -> None:
+        """v (3, M) <- the unit tangent at the tip from the (S, M) components."""
+        last = self.n_sections - 1
+        np.multiply(g[last], wx[last], out=v[0])
+        np.multiply(g[last], wy[last], out=v[1])
+        np.copyto(v[2], h[last])
+        for j in range(last - 1, -1, -1):
+            self._rotate_into(wx[j], wy[j], f[j], g[j], h[j], v, tmp)
+
+    @staticmethod
+    def _pack(v: np.ndarray, batch: tuple[int, ...]) -> np.ndarray:
+        """A fresh (..., 3) array from the rows v (3, M) (column writes: v.T.copy() is slower)."""
+        out = np.empty((v.shape[1], 3))
+        out[:, 0], out[:, 1], out[:, 2] = v
+        return out.reshape(batch + (3,))
 
     def tip_from_bending(self, w) -> np.ndarray:
         """Tip position (..., 3) (m) in R0 of the shape w (..., S, 2) (rad)."""
-        wx, wy, f, g, h = self._profile(w)
-        ell = self.section_lengths
-        lf = ell * f
-        x, y, z = lf * wx, lf * wy, ell * g  # each section's tip in its own base frame
-        S = self.n_sections
-        v1, v2, v3 = x[..., S - 1], y[..., S - 1], z[..., S - 1]
-        for j in range(S - 2, -1, -1):
-            v1, v2, v3 = _rotate(wx[..., j], wy[..., j], f[..., j], g[..., j], h[..., j],
-                                 v1, v2, v3)
-            v1, v2, v3 = v1 + x[..., j], v2 + y[..., j], v3 + z[..., j]
-        out = np.empty(np.shape(v3) + (3,))
-        out[..., 0], out[..., 1], out[..., 2] = v1, v2, v3
-        return out
+        wx, wy, f, g, h, tmp, batch = self._profile(w)
+        self._tip_into(wx, wy, f, g, h, tmp[:3], tmp[3:])
+        return self._pack(tmp[:3], batch)
 
     def tip_direction_from_bending(self, w) -> np.ndarray:
         """Unit backbone tangent at the tip, (..., 3), in R0 (the tip frame's z axis)."""
-        wx, wy, f, g, h = self._profile(w)
-        S = self.n_sections
-        v1, v2, v3 = g[..., S - 1] * wx[..., S - 1], g[..., S - 1] * wy[..., S - 1], h[..., S - 1]
-        for j in range(S - 2, -1, -1):
-            v1, v2, v3 = _rotate(wx[..., j], wy[..., j], f[..., j], g[..., j], h[..., j],
-                                 v1, v2, v3)
-        out = np.empty(np.shape(v3) + (3,))
-        out[..., 0], out[..., 1], out[..., 2] = v1, v2, v3
-        return out
+        wx, wy, f, g, h, tmp, batch = self._profile(w)
+        self._direction_into(wx, wy, f, g, h, tmp[:3], tmp[3:])
+        return self._pack(tmp[:3], batch)
+
+    def tip_and_direction_from_bending(self, w) -> tuple[np.ndarray, np.ndarray]:
+        """``(tip_from_bending(w), tip_direction_from_bending(w))``, sharing the arc profile."""
+        wx, wy, f, g, h, tmp, batch = self._profile(w)
+        self._tip_into(wx, wy, f, g, h, tmp[:3], tmp[3:])
+        tip = self._pack(tmp[:3], batch)
+        self._direction_into(wx, wy, f, g, h, tmp[:3], tmp[3:])
+        return tip, tmp[:3].T.copy().reshape(batch + (3,))
 
     def section_frames(self, w) -> np.ndarray:
         """Homogeneous frames (..., S+1, 4, 4) in R0: the base frame, then every section's end.
 
         Translations in m. Frame j+1 = frame j · [R_j, p_j; 0, 1] (no torsion).
         """
-        wx, wy, f, g, _ = self._profile(w)
+        w = _finite("w", w)
+        if w.shape[-2:] != (self.n_sections, 2):
+            raise ValueError(f"w must have shape (..., {self.n_sections}, 2), got {w.shape}")
+        wx, wy = w[..., 0], w[..., 1]
+        f, g = profile_nonnegative(np.sqrt(wx * wx + wy * wy))
         rot = _rotation_matrices(wx, wy, f, g)  # (..., S, 3, 3)
         ell = self.section_lengths
         pos = np.stack([ell * f * wx, ell * f * wy, ell * g], axis=-1)  # (..., S, 3)
-        batch = wx.shape[:-1]
+        batch = w.shape[:-2]
         frames = np.zeros(batch + (self.n_sections + 1, 4, 4))
         frames[..., :, 3, 3] = 1.0
         frames[..., 0, :3, :3] = np.eye(3)
@@ -259,7 +370,7 @@ class PCCModel:
         for j, sigma in enumerate(fractions):
             sub = w[..., j, None, :] * sigma[:, None]  # (..., n, 2)
             sx, sy = sub[..., 0], sub[..., 1]
-            f, g = arc_profile(np.sqrt(sx * sx + sy * sy))
+            f, g = profile_nonnegative(np.sqrt(sx * sx + sy * sy))
             length = self.section_lengths[j] * sigma
             local_p = np.stack([length * f * sx, length * f * sy, length * g], axis=-1)
             local_r = _rotation_matrices(sx, sy, f, g)
