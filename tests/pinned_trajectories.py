@@ -1,6 +1,6 @@
 """Trajectories of the paper robot's envs on fixed seeds and actions, pinned across refactors.
 
-``python -m tests.pinned_trajectories`` (from the repository root) writes
+``python tests/pinned_trajectories.py`` writes
 ``tests/data/pinned_v0.npz`` from the code as it is; ``tests/test_pinned.py`` checks that the
 current code reproduces the file to 1e-12. The file was written once, before the n-section
 core replaced the one-section code (commit "Pin today's paper-robot trajectories"), and must
@@ -49,8 +49,9 @@ def _rollout(env, seed: int, actions: np.ndarray, options=None) -> np.ndarray:
     return np.stack(rows)
 
 
-def trajectories() -> dict[str, np.ndarray]:
-    """Every pinned trajectory, by name (rows: obs, reward, tip, tensions, lengths, goal)."""
+def trajectories(bullet: bool = True) -> dict[str, np.ndarray]:
+    """Every pinned trajectory, by name (rows: obs, reward, tip, tensions, lengths, goal);
+    ``bullet=False`` leaves out the pybullet ones."""
     out: dict[str, np.ndarray] = {}
     for mode in ("tension", "tension_delta", "length_delta"):
         for goal_conditioned in (False, True):
@@ -78,6 +79,8 @@ def trajectories() -> dict[str, np.ndarray]:
     out["ccka_vector/random/seed11"] = np.stack(
         [np.resize(r, max(len(x) for x in rows)) for r in rows])
     venv.close()
+    if not bullet:
+        return out
 
     for gravity in (False, True):
         env = gym.make("cdcr_gym/BulletReach-v0", gravity=gravity)

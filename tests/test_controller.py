@@ -51,4 +51,4 @@ def test_controller_rejects_foreign_observations():
     with pytest.raises(ValueError, match="obs"):
         controller(np.zeros(5, dtype=np.float32))
     with pytest.raises(ValueError, match="action_mode"):
-        AnalyticIKController(controller.params, action_mode="torque")
+        AnalyticIKController(controller.params, controller.spec, action_mode="torque")

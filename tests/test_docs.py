@@ -9,7 +9,9 @@ import re
 import pytest
 
 from cdcr_gym.backends.bullet import BulletBackend
-from cdcr_gym.envs.reach import ReachEnv
+from cdcr_gym.envs.env import CDCREnv
+from cdcr_gym.envs.factory import make_env
+from cdcr_gym.tasks.reach import Reach
 
 
 def _literal(text: str):
@@ -20,18 +22,32 @@ def _literal(text: str):
         return text  # a bare word such as tension_delta
 
 
-def test_reach_env_arguments_table_matches_the_signature():
-    doc = inspect.getdoc(ReachEnv)
+def test_env_arguments_table_matches_the_signature():
+    doc = inspect.getdoc(CDCREnv)
     rows = re.findall(r"^\| ``(\w+)``\s*\|\s*([^|]+?)\s*\|", doc, flags=re.MULTILINE)
-    documented = {name: default for name, default in rows if name in
-                  inspect.signature(ReachEnv.__init__).parameters}
-    params = inspect.signature(ReachEnv.__init__).parameters
+    params = inspect.signature(CDCREnv.__init__).parameters
+    documented = {name: default for name, default in rows if name in params}
     assert set(documented) == set(params) - {"self"}, "every argument has a row, and only those"
     for name, default in documented.items():
         if default == "(required)":
             assert params[name].default is inspect.Parameter.empty
+        elif name == "task":
+            assert params[name].default is None  # None means Reach()
         else:
             assert _literal(default) == params[name].default, name
+
+
+def test_env_observation_table_is_the_spec_table_of_the_paper_reach_env():
+    env = make_env("CCKA", "Reach")
+    table = env.observation_spec.table()
+    assert table in inspect.getdoc(CDCREnv)
+
+
+def test_reach_task_documents_its_arguments():
+    doc = inspect.getdoc(Reach)
+    for name in inspect.signature(Reach.__init__).parameters:
+        if name != "self":
+            assert f"{name}:" in doc, name
 
 
 @pytest.mark.parametrize(

@@ -15,9 +15,9 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 import cdcr_gym
 from cdcr_gym import kinematics as K
 from cdcr_gym.backends.analytic import AnalyticBackend
-from cdcr_gym.envs.reach import GoalReachEnv, ReachEnv
+from cdcr_gym.envs.env import GoalReachEnv, ReachEnv
 from cdcr_gym.params import RobotParams
-from cdcr_gym.statics import bending_limit
+from cdcr_gym.model.statics import bending_limit
 
 ENV_ID = "cdcr_gym/CCKAReach-v0"
 MODES = ["tension", "tension_delta", "length_delta"]

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tests.pinned_trajectories import PATH, trajectories
+from pinned_trajectories import PATH, trajectories
 
 
 @pytest.fixture(scope="module")

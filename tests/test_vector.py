@@ -16,7 +16,7 @@ from gymnasium.vector import AutoresetMode
 import cdcr_gym
 from cdcr_gym.envs.vector import CCKAReachVectorEnv
 from cdcr_gym.params import RobotParams
-from cdcr_gym.workspace import sample_arcs, sample_arcs_each
+from cdcr_gym.model.workspace import sample_arcs, sample_arcs_each
 
 ENV_ID = "cdcr_gym/CCKAReach-v0"
 INFO_FLOAT_KEYS = ("distance", "tip", "goal", "tensions", "cable_lengths")

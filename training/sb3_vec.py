@@ -28,7 +28,7 @@ from stable_baselines3.common.vec_env.base_vec_env import (
 )
 
 from cdcr_gym import MAX_EPISODE_STEPS
-from cdcr_gym.envs.vector import CCKAReachVectorEnv
+from cdcr_gym.envs.vector import CDCRVectorEnv
 
 __all__ = ["BatchedCCKAVecEnv"]
 
@@ -67,7 +67,7 @@ class BatchedCCKAVecEnv(VecEnv):
                 per_env_kwargs[i % len(per_env_kwargs)].get("initial_state", default)
                 for i in range(num_envs)
             ]
-        self.venv = CCKAReachVectorEnv(
+        self.venv = CDCRVectorEnv(
             num_envs, autoreset_mode=AutoresetMode.SAME_STEP, **env_kwargs
         )
         self.env_kwargs = dict(env_kwargs)
@@ -168,24 +168,18 @@ class BatchedCCKAVecEnv(VecEnv):
     def _split_info(
         self, info: dict[str, Any], only: np.ndarray | None = None
     ) -> list[dict[str, Any]]:
-        """The vector info dict as one dict per env (empty for envs outside ``only``)."""
-        distance = info["distance"].tolist()
-        success = info["is_success"].tolist()
-        tip, goal = info["tip"], info["goal"]
-        tensions, lengths = info["tensions"], info["cable_lengths"]
+        """The vector info dict as one dict per env (empty for envs outside ``only``).
+
+        Every entry of the batched info (the task's and the robot's, without the ``_key`` masks
+        and the ``final_*`` entries) becomes the single env's: a Python scalar for (N,) arrays,
+        a copied row otherwise."""
+        keys = [k for k in info if not k.startswith("_") and not k.startswith("final_")]
+        columns = {k: info[k].tolist() if info[k].ndim == 1 else info[k] for k in keys}
         out: list[dict[str, Any]] = []
         for i in range(self.num_envs):
             if only is not None and not only[i]:
                 out.append({})
                 continue
-            out.append(
-                {
-                    "distance": distance[i],
-                    "is_success": success[i],
-                    "tip": tip[i].copy(),
-                    "goal": goal[i].copy(),
-                    "tensions": tensions[i].copy(),
-                    "cable_lengths": lengths[i].copy(),
-                }
-            )
+            out.append({k: (v[i] if isinstance(v, list) else v[i].copy())
+                        for k, v in columns.items()})
         return out

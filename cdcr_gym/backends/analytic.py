@@ -44,10 +44,8 @@ class AnalyticBackend(Backend):
 
     def _shape(self, tensions: np.ndarray, w: np.ndarray) -> Readings:
         m = self.model
-        return Readings(
-            m.tip_from_bending(w), m.tip_direction_from_bending(w), m.lengths_from_bending(w),
-            tensions,
-        )
+        tip, direction = m.tip_and_direction_from_bending(w)
+        return Readings(tip, direction, m.lengths_from_bending(w), tensions)
 
     def _set(self, tensions: np.ndarray) -> None:
         self._w = self.model.bending_from_tensions(tensions)
