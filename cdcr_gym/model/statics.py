@@ -37,6 +37,7 @@ __all__ = [
     "minimal_tensions",
     "reachable_scale",
     "common_mode",
+    "cached_model",
     "arc_from_tensions",
     "tensions_from_arc",
     "bending_limit",
@@ -83,6 +84,13 @@ def _tables(params: RobotParams):
         solvers.append(solver)
         cables.append(own)
     return model, solvers, cables, np.concatenate(modes)
+
+
+def cached_model(params: RobotParams) -> PCCModel:
+    """The :class:`PCCModel` of ``params``, built once per robot (cached)."""
+    if not isinstance(params, RobotParams):
+        raise ValueError(f"params must be a RobotParams, got {params!r}")
+    return _tables(params)[0]
 
 
 def common_mode(params: RobotParams) -> np.ndarray:
