@@ -15,7 +15,7 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 import cdcr_gym
 from cdcr_gym import kinematics as K
 from cdcr_gym.backends.analytic import AnalyticBackend
-from cdcr_gym.envs.env import GoalReachEnv, ReachEnv
+from cdcr_gym.envs.env import GoalCDCREnv, ReachEnv
 from cdcr_gym.params import RobotParams
 from cdcr_gym.model.statics import bending_limit
 
@@ -216,7 +216,7 @@ def test_tension_delta_holds_tensions_and_clips_at_the_limits():
 
 def test_goal_conditioned_variant_and_vectorised_compute_reward():
     env = gym.make(ENV_ID, goal_conditioned=True)
-    assert isinstance(env.unwrapped, GoalReachEnv)
+    assert isinstance(env.unwrapped, GoalCDCREnv)
     obs, info = env.reset(seed=1)
     obs, reward, _, _, info = env.step(env.action_space.sample())
     assert reward == env.unwrapped.compute_reward(obs["achieved_goal"], obs["desired_goal"], info)
