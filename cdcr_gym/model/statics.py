@@ -129,16 +129,18 @@ def minimal_tensions(model: PCCModel, w, pretension: float = 0.0) -> tuple[np.nd
 
     Returns:
         ``(tensions, clipped)``: tensions (..., C) in N, clipped to [0, max_tension]; ``clipped``
-        (...) bool, True where clipping changed a tension (the shape is outside what the tension
-        limit allows, see :func:`reachable_scale`).
+        (...) bool, True where clipping changed a tension by more than 1e-12·max_tension (the
+        shape is outside what the tension limit allows, see :func:`reachable_scale`).
     """
     model = _model_of(model)
     pretension = _check_pretension(pretension, model.params)
     tensions = _minimal(model, w)
     if pretension:
         tensions = tensions + pretension * _tables(model.params)[3]
-    limited = np.clip(tensions, 0.0, model.params.max_tension)
-    return limited, np.any(limited != tensions, axis=-1)
+    t_max = model.params.max_tension
+    limited = np.clip(tensions, 0.0, t_max)
+    # rounding on the boundary (a shape scaled by reachable_scale) is not reported as clipping
+    return limited, np.any(np.abs(limited - tensions) > 1e-12 * t_max, axis=-1)
 
 
 def _minimal(model: PCCModel, w) -> np.ndarray:
