@@ -66,7 +66,9 @@ class _SectionSolver:
 
     def __call__(self, moment: np.ndarray) -> np.ndarray:
         """Tensions (..., n) (N) for moments (..., 2) (N·m)."""
-        cand = (moment @ self.q).reshape(moment.shape[:-1] + (self.n, self.n))
+        # elementwise, not a matmul: a row's result must not depend on the batch it is in
+        cand = (moment[..., 0, None] * self.q[0] + moment[..., 1, None] * self.q[1]).reshape(
+            moment.shape[:-1] + (self.n, self.n))
         best = np.argmax(cand.min(axis=-1), axis=-1)  # the edge whose two tensions are >= 0
         return np.take_along_axis(cand, best[..., None, None], axis=-2)[..., 0, :]
 
