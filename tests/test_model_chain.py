@@ -65,7 +65,7 @@ def _integrate(params, w, steps_per_section=400):
         K = _hat(omega)
         h = ell / steps_per_section
 
-        def f(state):
+        def f(state, K=K):
             Rm = state[:9].reshape(3, 3)
             return np.concatenate([(Rm @ K).ravel(), Rm[:, 2]])
 
@@ -251,7 +251,7 @@ def test_disk_frames_and_backbone_points(name):
     assert np.allclose(rotations @ np.swapaxes(rotations, -1, -2), np.eye(3), atol=1e-12)
     # consecutive disks of a section sit at equal chords (equal arc spacing on one arc)
     start = 0
-    for s, end in zip(params.sections, ends):
+    for end in ends:
         chords = np.linalg.norm(np.diff(centres[start:end + 1], axis=0), axis=-1)
         assert np.allclose(chords, chords[0], rtol=1e-12)
         start = end

@@ -9,9 +9,9 @@ from cdcr_gym import kinematics as old_kinematics
 from cdcr_gym import statics as old_statics
 from cdcr_gym.model import ik
 from cdcr_gym.model.chain import PCCModel
+from cdcr_gym.model.params import RobotParams
 from cdcr_gym.model.statics import bending_limit
 from cdcr_gym.model.workspace import sample_arcs, sample_tensions
-from cdcr_gym.model.params import RobotParams
 
 pytestmark = pytest.mark.filterwarnings("error")
 
