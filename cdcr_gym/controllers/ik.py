@@ -94,6 +94,12 @@ class AnalyticIKController:
             action = (target_tensions - tensions) / (self.tension_step * p.max_tension)
         else:
             action = (target_lengths - lengths) / self.length_step
+        if self.action_mode != "tension":
+            # scale, not clip: the commands move straight towards the target, and the reachable
+            # set is convex (a linear image of the tension box), so length steps never leave it
+            # (per-cable clipping can stall at the set's boundary, where the env scales back)
+            largest = np.max(np.abs(action), axis=-1, keepdims=True)
+            action = action / np.maximum(largest, 1.0)
         return np.clip(action, -1.0, 1.0).astype(np.float32)
 
     def predict(
