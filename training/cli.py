@@ -1,0 +1,200 @@
+"""``cdcr-gym``: one command in front of the ``python -m training.<module>`` entry points.
+
+::
+
+    cdcr-gym train ppo_ccka_reach [--run-dir DIR] ...   # python -m training.train configs/ppo_ccka_reach.yaml
+    cdcr-gym evaluate RUN_DIR [--video] ...             # python -m training.evaluate
+    cdcr-gym reproduce [--out DIR] ...                  # python -m training.reproduce
+    cdcr-gym bench [--quick] ...                        # python -m training.bench
+    cdcr-gym sweep ...                                  # python -m training.sweep (if installed)
+    cdcr-gym demo [--env-id ID] ...                     # python -m training.ik_demo
+    cdcr-gym configs                                    # the packaged experiment configs
+
+Everything after the subcommand goes to that module's ``main`` unchanged (``cdcr-gym train
+--help`` prints the trainer's own help). A config argument that is not an existing file is
+looked up among the packaged configs by name, with or without ``.yaml``: the checkout's
+``configs/`` directory, which a wheel ships as ``training/configs/``.
+"""
+
+from __future__ import annotations
+
+import importlib
+import sys
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+__all__ = ["main", "configs_dir", "resolve_config", "COMMANDS"]
+
+#: subcommand -> (module, one-line description, the extra it needs)
+COMMANDS: dict[str, tuple[str, str, str]] = {
+    "train": ("training.train", "train a PPO agent from a YAML config", "train"),
+    "evaluate": ("training.evaluate", "evaluate a run against the analytic-IK oracle", "train"),
+    "reproduce": (
+        "training.reproduce",
+        "the paper's CCKA-vs-physics study (figures, report)",
+        "train",
+    ),
+    "bench": ("training.bench", "throughput of the envs and of PPO training", "train"),
+    "sweep": ("training.sweep", "hyperparameter sweep (Ray Tune)", "sweep"),
+    "demo": ("training.ik_demo", "the analytic-IK controller on a few goals (no training)", ""),
+}
+
+
+def configs_dir() -> Path | None:
+    """The directory of the packaged experiment configs, or None if there is none.
+
+    A wheel install has them in ``training/configs/``; a checkout (editable install) has them in
+    ``configs/`` beside ``training/``.
+    """
+    here = Path(__file__).resolve().parent
+    packaged = here / "configs"
+    if packaged.is_dir():
+        return packaged
+    checkout = here.parent / "configs"
+    if checkout.is_dir() and (here.parent / "pyproject.toml").is_file():
+        return checkout
+    return None
+
+
+def available_configs() -> list[str]:
+    """Names (relative paths without ``.yaml``) of the packaged configs."""
+    root = configs_dir()
+    if root is None:
+        return []
+    return sorted(str(p.relative_to(root).with_suffix("")) for p in root.rglob("*.yaml"))
+
+
+def resolve_config(name: str) -> str:
+    """``name`` itself if it is an existing file, else the packaged config of that name.
+
+    ``ppo_ccka_reach``, ``ppo_ccka_reach.yaml`` and ``configs/ppo_ccka_reach.yaml`` all find
+    ``configs/ppo_ccka_reach.yaml``. An unknown name is returned unchanged (the trainer then
+    reports the missing file).
+    """
+    if Path(name).is_file():
+        return name
+    root = configs_dir()
+    if root is None:
+        return name
+    stem = Path(name)
+    if stem.parts and stem.parts[0] == "configs":
+        stem = Path(*stem.parts[1:])
+    for candidate in (root / stem, root / stem.with_suffix(".yaml")):
+        if candidate.is_file():
+            return str(candidate)
+    return name
+
+
+def _first_positional(argv: list[str], options_with_value: set[str]) -> int | None:
+    skip = False
+    for i, arg in enumerate(argv):
+        if skip:
+            skip = False
+            continue
+        if arg == "--":
+            return i + 1 if i + 1 < len(argv) else None
+        if arg.startswith("-"):
+            skip = arg in options_with_value
+            continue
+        return i
+    return None
+
+
+def _rewrite(command: str, argv: list[str]) -> list[str]:
+    """Resolve config names in ``argv`` for the subcommands that take a config."""
+    argv = list(argv)
+    if command == "train":
+        i = _first_positional(argv, {"--run-dir", "--total-timesteps", "--seed"})
+        if i is not None:
+            argv[i] = resolve_config(argv[i])
+    elif command in ("bench", "sweep"):
+        for i, arg in enumerate(argv):
+            if arg == "--config" and i + 1 < len(argv):
+                argv[i + 1] = resolve_config(argv[i + 1])
+            elif arg.startswith("--config="):
+                argv[i] = "--config=" + resolve_config(arg.split("=", 1)[1])
+        if command == "bench" and not any(
+            a == "--config" or a.startswith("--config=") for a in argv
+        ):
+            default = resolve_config("ppo_ccka_reach")
+            if not Path("configs/ppo_ccka_reach.yaml").is_file() and Path(default).is_file():
+                argv += ["--config", default]  # outside a checkout: the packaged default
+    return argv
+
+
+def _load_main(command: str) -> Callable[[list[str]], int | None]:
+    module_name, _, extra = COMMANDS[command]
+    try:
+        module = importlib.import_module(module_name)
+    except ModuleNotFoundError as exc:
+        if exc.name == module_name:
+            raise SystemExit(
+                f"cdcr-gym {command}: {module_name} is not part of this installation "
+                f"(it has not been written yet, or this is an older cdcr-gym)"
+            ) from None
+        hint = f"pip install 'cdcr-gym[{extra}]'" if extra else "reinstall cdcr-gym"
+        raise SystemExit(
+            f"cdcr-gym {command} needs the Python package {exc.name!r}, which is not installed: "
+            f"{hint}"
+        ) from None
+    entry = getattr(module, "main", None)
+    if not callable(entry):
+        raise SystemExit(f"cdcr-gym {command}: {module_name} has no main()")
+    return entry
+
+
+def _usage() -> str:
+    width = max(len(c) for c in COMMANDS) + 2
+    lines = [
+        "usage: cdcr-gym COMMAND [ARGS...]",
+        "",
+        "Cable-driven continuum robot gym: training, evaluation, the paper's study.",
+        "",
+        "commands:",
+    ]
+    for name, (module, text, _) in COMMANDS.items():
+        lines.append(f"  {name:<{width}}{text} (python -m {module})")
+    lines.append(f"  {'configs':<{width}}list the packaged experiment configs")
+    lines += [
+        "",
+        "`cdcr-gym COMMAND --help` shows that command's options.",
+        "Config names are looked up among the packaged configs: `cdcr-gym train ppo_ccka_reach`.",
+    ]
+    return "\n".join(lines)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run ``cdcr-gym COMMAND ARGS``; returns the exit status (2 for usage errors)."""
+    args = list(sys.argv[1:] if argv is None else argv)
+    if not args or args[0] in ("-h", "--help", "help"):
+        print(_usage())
+        return 0 if args else 2
+    if args[0] in ("-V", "--version"):
+        from cdcr_gym import __version__
+
+        print(f"cdcr-gym {__version__}")
+        return 0
+    command, rest = args[0], args[1:]
+    if command == "configs":
+        root = configs_dir()
+        if root is None:
+            print("no packaged configs found", file=sys.stderr)
+            return 2
+        print(f"# {root}")
+        for name in available_configs():
+            print(name)
+        return 0
+    if command not in COMMANDS:
+        print(f"cdcr-gym: unknown command {command!r}\n\n{_usage()}", file=sys.stderr)
+        return 2
+    try:
+        entry = _load_main(command)
+    except SystemExit as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    status = entry(_rewrite(command, rest))
+    return int(status or 0)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
