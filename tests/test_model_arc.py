@@ -7,7 +7,7 @@ import warnings
 import numpy as np
 import pytest
 
-from cdcr_gym import kinematics as old
+from legacy import kinematics_v0 as old
 from cdcr_gym.model import arc as A
 from cdcr_gym.model.params import RobotParams
 

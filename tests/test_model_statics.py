@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from cdcr_gym import statics as old_statics
+from legacy import statics_v0 as old_statics
 from cdcr_gym.model import statics as S
 from cdcr_gym.model.chain import PCCModel
 from cdcr_gym.model.params import RobotParams, SectionParams

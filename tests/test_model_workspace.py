@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cdcr_gym import kinematics as old_kinematics
-from cdcr_gym import workspace as old_workspace
+from legacy import kinematics_v0 as old_kinematics
+from legacy import workspace_v0 as old_workspace
 from cdcr_gym.model import workspace as W
 from cdcr_gym.model.chain import PCCModel
 from cdcr_gym.model.params import RobotParams

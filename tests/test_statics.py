@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cdcr_gym import statics as S
+from cdcr_gym.model import statics as S
 from cdcr_gym.params import CABLE_ANGLES, RobotParams
 
 pytestmark = pytest.mark.filterwarnings("error")

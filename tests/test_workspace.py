@@ -7,8 +7,8 @@ import pytest
 
 from cdcr_gym import kinematics as K
 from cdcr_gym.params import RobotParams
-from cdcr_gym.statics import bending_limit
-from cdcr_gym.workspace import clip_to_workspace, sample_arcs
+from cdcr_gym.model.statics import bending_limit
+from cdcr_gym.model.workspace import clip_to_workspace, sample_arcs
 
 P = RobotParams()
 N_THETA_BINS, N_PHI_BINS = 8, 6
