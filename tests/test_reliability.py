@@ -1,0 +1,102 @@
+"""Regression tests for the adversarial probe's findings (one test per item, its reproduction).
+
+Items 4, 6, 7 (bullet copies, GUI without display, few disks) are in tests/test_bullet*.py;
+items 5, 9, 10, 11 (bench, config errors, corrupt files, Ctrl-C) in tests/test_training_errors.py.
+"""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import cdcr_gym  # noqa: F401  (registers the ids)
+from cdcr_gym import kinematics as K
+from cdcr_gym.backends.analytic import AnalyticBackend
+from cdcr_gym.controllers import AnalyticIKController
+from cdcr_gym.envs.factory import split_kwargs
+from cdcr_gym.model import statics
+from cdcr_gym.model.params import RobotParams
+
+ENV_ID = "cdcr_gym/CCKAReach-v0"
+
+
+# 1. observations left their space for valid-looking parameters -----------------------------
+@pytest.mark.parametrize("kwargs", [{"max_tension": 200.0}, {"youngs_modulus": 1e9}])
+def test_parameters_that_bend_beyond_pi_are_rejected_with_the_reason(kwargs):
+    with pytest.raises(ValueError, match="180°"):
+        RobotParams(**kwargs)
+
+
+def test_the_largest_allowed_tension_keeps_observations_in_their_space():
+    # just below the rejection threshold: absolute tension actions at the extremes
+    limit = RobotParams().max_tension * np.pi / RobotParams().section_bend_limits[0]
+    env = gym.make(ENV_ID, params=RobotParams(max_tension=0.999 * limit), action_mode="tension")
+    env.reset(seed=0)
+    for action in ([1, -1, -1], [1, 1, -1], [-1, 1, -1], [-1, -1, 1], [1, -1, 1]):
+        obs, *_ = env.step(np.array(action, dtype=np.float32))
+        assert env.observation_space.contains(obs), obs
+
+
+# 2. goals far off the workspace were projected beyond the tension limit ---------------------
+@pytest.mark.parametrize("goal", [(0.0, 0.0, 0.0), (0.0, 0.0, -1.0), (10.0, 10.0, 10.0)])
+def test_far_goals_are_projected_onto_the_reachable_set_and_the_oracle_reaches_them(goal):
+    env = gym.make(ENV_ID, action_mode="tension")
+    obs, info = env.reset(seed=0, options={"goal": goal})
+    p = env.unwrapped.params
+    theta, phi, residual = K.arc_from_tip(info["goal"], p.length)
+    assert residual < 1e-9
+    assert theta <= statics.bending_limit(phi, p) + 1e-9  # within the tension limit
+    controller = AnalyticIKController.from_env(env)
+    _, _, _, _, info = env.step(controller(obs))
+    assert info["distance"] < 1e-6
+
+
+# 3. NaN and out-of-domain input passed silently through the model ----------------------------
+@pytest.mark.parametrize(
+    "call, name",
+    [
+        (lambda: K.tip_from_arc(np.nan, 0.0, 0.641), "theta"),
+        (lambda: K.lengths_from_arc(0.1, np.nan, 0.641, 0.029), "phi"),
+        (lambda: K.backbone_points(np.nan, 0.0, 0.641), "theta"),
+        (lambda: K.tip_rotation(0.1, np.inf), "phi"),
+        (lambda: statics.tensions_from_arc(np.nan, 0.0, RobotParams()), "theta"),
+        (lambda: statics.bending_limit(np.nan, RobotParams()), "phi"),
+        (lambda: K.arc_from_lengths([-0.6, 0.6, 0.6], 0.029), "lengths"),
+        (lambda: statics.arc_from_tensions([-1.0, 0.0, 0.0], RobotParams()), "tensions"),
+    ],
+)
+def test_non_finite_or_out_of_domain_model_input_raises_value_error_naming_it(call, name):
+    with pytest.raises(ValueError, match=name):
+        call()
+
+
+def test_analytic_backend_rejects_negative_tensions_like_the_bullet_backend():
+    backend = AnalyticBackend()
+    with pytest.raises(ValueError, match="tensions"):
+        backend.reset(np.array([[-1.0, 0.0, 0.0]]))
+    with pytest.raises(ValueError, match="tensions"):
+        backend.equilibrium(np.array([[0.0, np.nan, 0.0]]))
+
+
+# 8. a documented backend argument missing from the factory's pass-through list ---------------
+def test_every_backend_constructor_argument_reaches_the_backend():
+    from cdcr_gym.backends.bullet import BulletBackend
+    from cdcr_gym.envs.factory import keyword_names
+
+    names = set(keyword_names(BulletBackend)) - {"params"}
+    assert "damping_ratio" in names
+    backend_kw = split_kwargs("Bullet", "Reach", {n: None for n in names})[1]
+    assert set(backend_kw) == names
+    env = gym.make("cdcr_gym/BulletReach-v0", damping_ratio=0.5, gravity=False)
+    assert env.unwrapped.backend.damping_ratio == 0.5
+    env.close()
+
+
+# 12. actions given as strings or complex numbers were accepted silently ----------------------
+@pytest.mark.parametrize("action", ["abc", "0.1", {"a": 1}, [1j, 0, 0], [0, None, 0]])
+def test_non_real_actions_raise_value_error_naming_action(action):
+    env = gym.make(ENV_ID)
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="action"):
+        env.unwrapped.step(action)
