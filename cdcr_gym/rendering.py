@@ -39,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from cdcr_gym.model.params import RobotParams
+from cdcr_gym.model.params import RobotParams, SectionParams
 
 __all__ = ["Camera", "draw_scene", "show_scene", "tension_colour", "GOAL_COLOUR", "TARGET_COLOUR"]
 
@@ -403,15 +403,17 @@ def draw_scene(
         ValueError: naming the argument, for a wrong shape or a non-finite value.
     """
     width, height = _check_size("width", width), _check_size("height", height)
-    d = params.n_disks
+    sections: tuple[SectionParams, ...] = tuple(params.sections or ())
+    disks_per_section = [s.n_disks for s in sections]
+    d = sum(disks_per_section)
     pts = _check_array("backbone_points", backbone_points, (None, 3))
     centres = _check_array("disk_centres", disk_centres, (d + 1, 3))
     rots = _check_array("disk_rotations", disk_rotations, (d + 1, 3, 3))
     tens = _check_array("tensions", tensions, (params.n_cables,))
-    length = params.length
+    length = math.fsum(s.length for s in sections)
     scale = min(width, height) / 480.0
     static_image, zbuf_static, cam, rays = _static_layer(
-        float(length), float(params.disk_radius), width, height, max(1.0, round(scale))
+        length, float(params.disk_radius), width, height, max(1.0, round(scale))
     )
     image = static_image.copy()
     frags = _Fragments(cam)
@@ -449,7 +451,7 @@ def draw_scene(
     )
 
     # cables through their pinholes, coloured by tension
-    ends = np.cumsum([0] + [s.n_disks for s in params.sections])  # type: ignore[union-attr]
+    ends = np.cumsum([0, *disks_per_section])
     fraction = tens / params.max_tension
     colours = tension_colour(fraction)
     segments, seg_colours = [], []
