@@ -76,7 +76,6 @@ def test_the_wheel_ships_the_configs_and_the_package_data(tmp_path):
             "pip",
             "wheel",
             "--no-deps",
-            "--no-build-isolation",
             "-q",
             "-w",
             str(tmp_path),
