@@ -5,11 +5,15 @@ as ``training/configs/``, so ``cdcr-gym train ppo_ccka_reach`` works from a whee
 Everything else (metadata, dependencies, extras, scripts, tools) is in pyproject.toml.
 """
 
-from setuptools import find_packages, setup
+from setuptools import find_namespace_packages, setup
 
 setup(
     packages=[
-        *find_packages(include=["cdcr_gym", "cdcr_gym.*", "training", "training.*"]),
+        # namespace-aware: a sub-package without __init__.py still ships
+        *find_namespace_packages(
+            include=["cdcr_gym", "cdcr_gym.*", "training", "training.*"],
+            exclude=["*.__pycache__", "*.__pycache__.*"],
+        ),
         "training.configs",
     ],
     package_dir={"training.configs": "configs"},

@@ -90,6 +90,8 @@ def test_the_wheel_ships_the_configs_and_the_package_data(tmp_path):
     names = set(zipfile.ZipFile(wheel).namelist())
     for config in (REPO / "configs").rglob("*.yaml"):
         assert f"training/configs/{config.relative_to(REPO / 'configs').as_posix()}" in names
+    for module in [*(REPO / "cdcr_gym").rglob("*.py"), *(REPO / "training").rglob("*.py")]:
+        assert module.relative_to(REPO).as_posix() in names, "every module ships (namespace too)"
     assert "cdcr_gym/py.typed" in names
     assert "training/cli.py" in names and "cdcr_gym/rendering.py" in names
     assert not any(n.startswith(("tests/", "configs/")) for n in names)
