@@ -24,7 +24,7 @@ import gymnasium as gym
 import numpy as np
 
 from cdcr_gym.backends.analytic import AnalyticBackend
-from cdcr_gym.envs.reach import ReachEnv
+from cdcr_gym.envs.env import ReachEnv
 
 __all__ = [
     "EpisodeSpecs",
