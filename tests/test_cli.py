@@ -111,3 +111,19 @@ def test_python_m_training_cli_runs():
     )
     assert out.returncode == 0, out.stderr
     assert "analytic-IK controller, 1 episodes" in out.stdout
+
+
+def test_an_optional_dependency_missing_at_run_time_names_its_extra(monkeypatch, capsys):
+    def main(argv):
+        raise ModuleNotFoundError("No module named 'stable_baselines3'", name="stable_baselines3")
+
+    monkeypatch.setitem(sys.modules, "training.bench", types.SimpleNamespace(main=main))
+    assert cli.main(["bench", "--quick"]) == 2
+    assert "cdcr-gym[train]" in capsys.readouterr().err
+
+    def broken(argv):
+        raise ModuleNotFoundError("No module named 'cdcr_gym.nothing'", name="cdcr_gym.nothing")
+
+    monkeypatch.setitem(sys.modules, "training.bench", types.SimpleNamespace(main=broken))
+    with pytest.raises(ModuleNotFoundError):  # a real bug is not disguised as a missing extra
+        cli.main(["bench"])

@@ -40,6 +40,26 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
 }
 
 
+#: importable name of an optional dependency -> the extra that installs it
+OPTIONAL_MODULES: dict[str, str] = {
+    **dict.fromkeys(
+        (
+            "torch",
+            "stable_baselines3",
+            "sb3_contrib",
+            "tensorboard",
+            "rich",
+            "tqdm",
+            "yaml",
+            "matplotlib",
+        ),
+        "train",
+    ),
+    **dict.fromkeys(("imageio", "imageio_ffmpeg"), "video"),
+    "ray": "sweep",
+}
+
+
 def configs_dir() -> Path | None:
     """The directory of the packaged experiment configs, or None if there is none.
 
@@ -132,6 +152,8 @@ def _load_main(command: str) -> Callable[[list[str]], int | None]:
                 f"cdcr-gym {command}: {module_name} is not part of this installation "
                 f"(it has not been written yet, or this is an older cdcr-gym)"
             ) from None
+        top = (exc.name or "").partition(".")[0]
+        extra = OPTIONAL_MODULES.get(top, extra)
         hint = f"pip install 'cdcr-gym[{extra}]'" if extra else "reinstall cdcr-gym"
         raise SystemExit(
             f"cdcr-gym {command} needs the Python package {exc.name!r}, which is not installed: "
@@ -192,7 +214,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     except SystemExit as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    status = entry(_rewrite(command, rest))
+    try:
+        status = entry(_rewrite(command, rest))
+    except ModuleNotFoundError as exc:  # a lazily imported optional dependency
+        top = (exc.name or "").partition(".")[0]
+        if top not in OPTIONAL_MODULES:
+            raise
+        print(
+            f"error: cdcr-gym {command} needs {top!r}, which is not installed: "
+            f"pip install 'cdcr-gym[{OPTIONAL_MODULES[top]}]'",
+            file=sys.stderr,
+        )
+        return 2
     return int(status or 0)
 
 
