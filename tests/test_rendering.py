@@ -102,6 +102,15 @@ def test_no_display_raises_a_runtime_error(monkeypatch):
         show_scene(**_scene(RobotParams()))
 
 
+def test_a_non_interactive_matplotlib_backend_raises_a_runtime_error(monkeypatch):
+    matplotlib = pytest.importorskip("matplotlib")
+    monkeypatch.setenv("DISPLAY", ":0")
+    monkeypatch.setattr(matplotlib, "get_backend", lambda: "agg")
+    with pytest.raises(RuntimeError, match="interactive"):
+        show_scene(**_scene(RobotParams()))
+    rendering.close_window()  # nothing open: a no-op
+
+
 def test_rendering_is_fast():
     """Old matplotlib renderer: ~12 frames/s at 320x320; this one is ~10x faster."""
     scene = _scene(RobotParams())
