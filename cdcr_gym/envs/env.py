@@ -222,6 +222,10 @@ class CDCREnv(gym.Env):
         return None
 
     def close(self) -> None:
+        if self.render_mode == "human":
+            from cdcr_gym import rendering
+
+            rendering.close_window()
         self.backend.close()
         super().close()
 
