@@ -167,9 +167,11 @@ class RobotParams:
             inconsistent single-section keywords, or a section that can bend beyond π.
     """
 
-    sections: tuple[SectionParams, ...] | None = None
-    length: float | None = None
-    n_disks: int | None = None
+    # None at construction means "derive": after __post_init__ sections, length and n_disks are
+    # always set (typed as such), cable_radius is None only for cables at different radii.
+    sections: tuple[SectionParams, ...] = None  # type: ignore[assignment]
+    length: float = None  # type: ignore[assignment]
+    n_disks: int = None  # type: ignore[assignment]
     cable_radius: float | None = None
     backbone_diameter: float = 0.005
     youngs_modulus: float = 35e9
@@ -271,32 +273,32 @@ class RobotParams:
     @property
     def n_sections(self) -> int:
         """Number of sections."""
-        return len(self.sections)  # type: ignore[arg-type]
+        return len(self.sections)
 
     @property
     def n_cables(self) -> int:
         """Number of cables (= action entries)."""
-        return sum(s.n_cables for s in self.sections)  # type: ignore[union-attr]
+        return sum(s.n_cables for s in self.sections)
 
     @property
     def cable_section(self) -> tuple[int, ...]:
         """Index (0-based) of the section each cable ends in, in cable order."""
-        return tuple(j for j, s in enumerate(self.sections) for _ in s.cable_angles)  # type: ignore[arg-type]
+        return tuple(j for j, s in enumerate(self.sections) for _ in s.cable_angles)
 
     @property
     def cable_angles(self) -> tuple[float, ...]:
         """Angle β (rad) of every cable, in cable order."""
-        return tuple(a for s in self.sections for a in s.cable_angles)  # type: ignore[union-attr]
+        return tuple(a for s in self.sections for a in s.cable_angles)
 
     @property
     def cable_radii(self) -> tuple[float, ...]:
         """Routing radius r (m) of every cable, in cable order."""
-        return tuple(s.cable_radius for s in self.sections for _ in s.cable_angles)  # type: ignore[union-attr]
+        return tuple(s.cable_radius for s in self.sections for _ in s.cable_angles)
 
     @property
     def section_lengths(self) -> tuple[float, ...]:
         """Length ℓ_j (m) of every section, proximal first."""
-        return tuple(s.length for s in self.sections)  # type: ignore[union-attr]
+        return tuple(s.length for s in self.sections)
 
     @property
     def cable_run_lengths(self) -> tuple[float, ...]:
@@ -326,7 +328,7 @@ class RobotParams:
                 f"disk_spacing is per section for a {self.n_sections}-section robot: "
                 f"use params.sections[j].disk_spacing"
             )
-        return self.sections[0].disk_spacing  # type: ignore[index]
+        return self.sections[0].disk_spacing
 
     @property
     def backbone_linear_density(self) -> float:
@@ -340,7 +342,7 @@ class RobotParams:
         T·r·ℓ/EI in the pure-moment model; for the paper's robot (cables at 120°) it is also
         the largest bend the tension limit allows (79.4°).
         """
-        s = self.sections[-1]  # type: ignore[index]
+        s = self.sections[-1]
         return self.max_tension * s.cable_radius * s.length / self.bending_stiffness
 
     @property
@@ -357,7 +359,7 @@ class RobotParams:
         radii = np.asarray(self.cable_radii)
         owner = np.asarray(self.cable_section)
         limits = []
-        for j, section in enumerate(self.sections):  # type: ignore[arg-type]
+        for j, section in enumerate(self.sections):
             through = owner >= j
             gens = radii[through, None] * np.stack(
                 [np.cos(angles[through]), np.sin(angles[through])], axis=-1
