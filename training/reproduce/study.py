@@ -1,10 +1,12 @@
-"""``python -m training.reproduce``: the paper's CCKA-vs-simulation study, and beyond.
+"""The paper's CCKA-vs-simulation study (``python -m training.reproduce``), and beyond.
 
 The paper (section 4) pulls cable 1 with 0–80 N in a nonlinear SolidWorks simulation, feeds the
 resulting cable lengths to the constant-curvature forward kinematics (CCKA, its eq. 5) and compares
 the two tips: mean Euclidean error 4.95 mm (0.77 % of ℓ) against the simulation, 2.4 mm (0.37 %)
 against an experiment. This module repeats that study with the pybullet backbone
-(``cdcr_gym.backends.bullet.BulletBackend``) in place of SolidWorks:
+(``cdcr_gym.backends.bullet.BulletBackend``) in place of SolidWorks. The study is about the paper's
+one-section robot with its three cables (``C = params.n_cables = 3``); a backend is driven through
+the batched :class:`cdcr_gym.backends.base.Backend` interface with one robot (N = 1):
 
 1. CCKA alone (paper Fig. 6/7): cable lengths l1 = ℓ − Δl, l2 = l3 = ℓ + Δl/2 → tip X, Y, Z, and a
    few backbone shapes in 3-D.
@@ -21,8 +23,9 @@ equilibrium under the tensions, then keeps applying the same tensions until the 
 than a tolerance (1 µm by default) over a window of control steps, and raises
 :class:`SettleError` if it does not within a cap.
 
-Outputs (one folder, ``--out``): PNG figures, one CSV per sweep (SI units, unit in each column
-name), ``summary.csv`` (the table), ``report.md`` and ``run.json`` (configuration, timings).
+Outputs (one folder, ``--out``): PNG figures (:mod:`training.reproduce.plots`), one CSV per
+sweep (SI units, unit in each column name), ``summary.csv`` (the table), ``report.md``
+(:mod:`training.reproduce.report`) and ``run.json`` (configuration, timings).
 
 Usage::
 
@@ -40,15 +43,15 @@ import platform
 import sys
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from cdcr_gym import kinematics as K
-from cdcr_gym import statics
 from cdcr_gym.backends.base import Backend
-from cdcr_gym.params import RobotParams
+from cdcr_gym.model import statics
+from cdcr_gym.model.params import RobotParams
 
 __all__ = [
     "PAPER_RESULTS",
@@ -58,7 +61,13 @@ __all__ = [
     "Sweep",
     "StudyResults",
     "settle",
+    "tip_of",
+    "cable1_tensions",
+    "bullet_factory",
     "ccka_cable_sweep",
+    "quick_config",
+    "robot_mass",
+    "summary_rows",
     "run_force_sweep",
     "run_study",
     "write_outputs",
@@ -77,9 +86,6 @@ DEFAULT_OUT = Path("runs") / "reproduce"
 #: Quaternion (x, y, z, w) of a base rotated by −90° about world Y: the backbone (+Z0) points
 #: along world −X, cable 1 (+X0) points up, so pulling cable 1 lifts the sagging cantilever.
 HORIZONTAL_BASE = (0.0, -math.sin(math.pi / 4.0), 0.0, math.cos(math.pi / 4.0))
-
-G = 9.81  # m/s², for reporting masses as weights
-
 
 # ---------------------------------------------------------------------------------------------
 # Settling
@@ -109,6 +115,11 @@ class SettleInfo:
     route: str = "reset"
 
 
+def tip_of(backend: Backend) -> np.ndarray:
+    """Tip position (3,) m of the backend's robot 0 (a fresh float64 copy)."""
+    return np.array(backend.read().tip[0], dtype=np.float64)
+
+
 def settle(
     backend: Backend,
     tensions: np.ndarray,
@@ -120,15 +131,15 @@ def settle(
 ) -> SettleInfo:
     """Put ``backend`` at its static equilibrium under ``tensions`` and verify it is settled.
 
-    Calls ``backend.reset(tensions)``, then applies the same tensions in windows of ``window``
+    Calls ``backend.reset(tensions[None])``, then applies the same tensions in windows of ``window``
     control steps until the tip moves by at most ``tol`` over one window. If the backend's
     reset raises (a ``RuntimeError``, e.g. its equilibrium solver did not converge), takes the
-    dynamic route instead: ``reset(0)``, tensions ramped linearly over ``ramp_steps`` control
+    dynamic route instead: reset to zero tension, tensions ramped linearly over ``ramp_steps`` control
     steps, then held and checked the same way.
 
     Args:
-        backend: the robot model.
-        tensions: cable tensions (3,), N.
+        backend: the robot model, one robot (N = 1).
+        tensions: cable tensions (C,), N (``C = backend.params.n_cables``).
         tol: settling tolerance on the tip displacement over one window, m.
         window: control steps per check.
         max_steps: cap on the control steps after the reset (ramp included).
@@ -142,36 +153,37 @@ def settle(
             ``max_steps`` steps; the message gives the tensions, the motion and how to proceed.
     """
     tensions = np.asarray(tensions, dtype=np.float64)
+    command = tensions[None]  # (1, C): the backend's batch of one robot
     route = "reset"
     steps = 0
     try:
-        backend.reset(tensions)
+        backend.reset(command)
     except RuntimeError as exc:
         route = "dynamic"
         reset_error = exc
         try:
-            backend.reset(np.zeros(3))
+            backend.reset(np.zeros_like(command))
             for k in range(1, ramp_steps + 1):
-                backend.apply_tensions(tensions * (k / ramp_steps))
+                backend.apply_tensions(command * (k / ramp_steps))
         except RuntimeError as exc2:
             raise SettleError(
                 f"the backend's reset to tensions {tensions} N failed ({reset_error}), and so did "
                 f"the dynamic route from zero tension ({exc2})"
             ) from exc2
         steps = ramp_steps
-    start = np.asarray(backend.tip, dtype=np.float64)
+    start = tip_of(backend)
     prev = start
     while True:
         try:
             for _ in range(window):
-                backend.apply_tensions(tensions)
+                backend.apply_tensions(command)
         except RuntimeError as exc:  # e.g. the backend's divergence error
             raise SettleError(
                 f"the backend failed while settling under tensions {tensions} N after {steps} "
                 f"control steps ({route} route): {exc}"
             ) from exc
         steps += window
-        tip = np.asarray(backend.tip, dtype=np.float64)
+        tip = tip_of(backend)
         if not np.all(np.isfinite(tip)):
             raise SettleError(
                 f"backend state became non-finite while settling under tensions {tensions} N "
@@ -243,6 +255,12 @@ class StudyConfig:
         p = self.params
         if not isinstance(p, RobotParams):
             raise ValueError(f"params must be a RobotParams, got {p!r}")
+        if p.n_sections != 1 or p.n_cables != 3:
+            raise ValueError(
+                f"the study is about one section driven by three cables (the paper's robot, "
+                f"CCKA from three cable lengths), got {p.n_sections} section(s) and "
+                f"{p.n_cables} cables"
+            )
         f = np.asarray(self.forces, dtype=np.float64)
         if f.ndim != 1 or f.size < 2 or not np.all(np.isfinite(f)):
             raise ValueError(f"forces must be >= 2 finite values (N), got {self.forces!r}")
@@ -283,7 +301,8 @@ class StudyConfig:
         """Largest Δl of the CCKA sweep (m)."""
         if self.dl_max is not None:
             return float(self.dl_max)
-        theta, _ = statics.arc_from_tensions(np.array([max(self.forces), 0.0, 0.0]), self.params)
+        theta, _ = statics.arc_from_tensions(cable1_tensions(max(self.forces), self.params),
+                                             self.params)
         return float(self.params.cable_radius * theta)
 
 
@@ -403,6 +422,14 @@ def bullet_factory(
     )
 
 
+def cable1_tensions(forces, params: RobotParams) -> np.ndarray:
+    """Tensions (..., C) N pulling cable 1 with ``forces`` (...) N, every other cable slack."""
+    forces = np.asarray(forces, dtype=np.float64)
+    t = np.zeros(forces.shape + (params.n_cables,))
+    t[..., 0] = forces
+    return t
+
+
 def ccka_cable_sweep(params: RobotParams, dl_max: float, n: int, shape_dls=None) -> CCKASweep:
     """The paper's Fig. 6/7 input: l1 = ℓ − Δl, l2 = l3 = ℓ + Δl/2 for Δl in [0, dl_max] (m)."""
     ell = params.length
@@ -435,16 +462,18 @@ def run_force_sweep(
 ) -> Sweep:
     """Tension ``forces`` (N) on cable 1, one verified equilibrium each; CCKA from sensed lengths.
 
+    The factory builds a backend of one robot (N = 1) for a one-section robot of three cables
+    (CCKA reads its three sensed cable lengths).
+
     Raises:
         SettleError: if a state does not settle (the message names the sweep).
     """
     t0 = time.perf_counter()
     forces = np.asarray(forces, dtype=np.float64)
     n = forces.size
-    tensions = np.zeros((n, 3))
-    tensions[:, 0] = forces
+    tensions = cable1_tensions(forces, params)
     tip_sim = np.empty((n, 3))
-    lengths = np.empty((n, 3))
+    lengths = np.empty((n, params.n_cables))
     steps = np.empty(n, dtype=int)
     motion = np.empty(n)
     drift = np.empty(n)
@@ -466,11 +495,13 @@ def run_force_sweep(
                 )
             except SettleError as exc:
                 raise SettleError(f"[{label}] {exc}") from exc
-            tip_sim[i] = backend.tip
-            lengths[i] = backend.cable_lengths
+            readings = backend.read()
+            tip_sim[i] = readings.tip[0]
+            lengths[i] = readings.cable_lengths[0]
             steps[i], motion[i], drift[i], route[i] = info.steps, info.motion, info.drift, info.route
             if any(abs(forces[i] - f) < 1e-9 for f in shape_forces):
-                shapes[float(forces[i])] = np.asarray(backend.backbone_points(), dtype=np.float64)
+                shapes[float(forces[i])] = np.asarray(backend.backbone_points(0),
+                                                      dtype=np.float64)
     finally:
         backend.close()
     tip_ccka = K.forward_kinematics(lengths, params.cable_radius)
@@ -612,9 +643,8 @@ def preflight(config: StudyConfig, factory: BackendFactory) -> None:
 
 
 def _with_disks(params: RobotParams, n_disks: int) -> RobotParams:
-    d = asdict(params)
-    d["n_disks"] = int(n_disks)
-    return RobotParams(**d)
+    """The one-section robot ``params`` with ``n_disks`` spacer disks."""
+    return replace(params, n_disks=int(n_disks))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -693,7 +723,7 @@ def summary_rows(res: StudyResults) -> list[dict]:
 
 def write_outputs(res: StudyResults, out: Path, *, dpi: int = 100, command: str = "") -> dict:
     """Write CSVs, figures, ``report.md`` and ``run.json`` into ``out``; return the paths."""
-    from training import reproduce_plots, reproduce_report
+    from training.reproduce import plots, report
 
     out.mkdir(parents=True, exist_ok=True)
     p = res.config.params
@@ -725,11 +755,11 @@ def write_outputs(res: StudyResults, out: Path, *, dpi: int = 100, command: str 
     keys = ("case", "source", "mean_mm", "mean_pct", "max_mm", "max_pct", "force_at_max_N")
     _write_csv(paths["summary_csv"], keys, [[r[k] for k in keys] for r in summary])
 
-    paths.update(reproduce_plots.make_figures(res, out, dpi=dpi))
-    findings = reproduce_report.findings(res)
+    paths.update(plots.make_figures(res, out, dpi=dpi))
+    findings = report.findings(res)
     paths["report"] = out / "report.md"
     paths["report"].write_text(
-        reproduce_report.render(res, summary, findings, figures=paths, fig_dir=out,
+        report.render(res, summary, findings, figures=paths, fig_dir=out,
                                 report_dir=out, command=command)
     )
     run = {
@@ -939,12 +969,12 @@ def main(argv: Sequence[str] | None = None, factory: BackendFactory = bullet_fac
         return 2
     paths = write_outputs(res, args.out, dpi=args.dpi, command=command.strip())
     if args.report_copy is not None:
-        from training import reproduce_report
+        from training.reproduce import report
 
-        findings = reproduce_report.findings(res)
+        findings = report.findings(res)
         args.report_copy.parent.mkdir(parents=True, exist_ok=True)
         args.report_copy.write_text(
-            reproduce_report.render(res, summary_rows(res), findings, figures=paths,
+            report.render(res, summary_rows(res), findings, figures=paths,
                                     fig_dir=args.out, report_dir=args.report_copy.parent,
                                     command=command.strip())
         )
@@ -952,6 +982,3 @@ def main(argv: Sequence[str] | None = None, factory: BackendFactory = bullet_fac
           f"(report: {paths['report']})")
     return 0
 
-
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())

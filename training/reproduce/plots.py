@@ -12,7 +12,8 @@ from pathlib import Path
 import numpy as np
 
 from cdcr_gym import kinematics as K
-from cdcr_gym import statics
+from cdcr_gym.model import statics
+from training.reproduce.study import PAPER_RESULTS, cable1_tensions
 
 __all__ = ["make_figures"]
 
@@ -22,8 +23,6 @@ AXIS_COLOURS = {"X": "tab:red", "Y": "tab:green", "Z": "tab:blue"}
 
 def _paper_sim_mean_mm() -> float:
     """The paper's mean CCKA-vs-SolidWorks error (mm), from :data:`training.reproduce.PAPER_RESULTS`."""
-    from training.reproduce import PAPER_RESULTS
-
     return PAPER_RESULTS[0][1]
 
 
@@ -153,9 +152,7 @@ def fig07_ccka_shapes(res, path: Path, dpi: int) -> Path:
 
 def _elastica_tips(res, forces: np.ndarray) -> np.ndarray:
     p = res.config.params
-    t = np.zeros((forces.size, 3))
-    t[:, 0] = forces
-    theta, phi = statics.arc_from_tensions(t, p)
+    theta, phi = statics.arc_from_tensions(cable1_tensions(forces, p), p)
     return K.tip_from_arc(theta, phi, p.length)
 
 
@@ -325,7 +322,7 @@ def fig_resolution(res, path: Path, dpi: int) -> Path:
     (a, b), (c, d) = fig.subplots(2, 2)
     any_sweep = (res.resolution_links or res.resolution_disks)[0]
     f_top = float(any_sweep.forces[-1])
-    theta_el = math.degrees(float(statics.arc_from_tensions(np.array([f_top, 0.0, 0.0]), p)[0]))
+    theta_el = math.degrees(float(statics.arc_from_tensions(cable1_tensions(f_top, p), p)[0]))
 
     def draw(ax_err, ax_th, sweeps, x, label, style, colour):
         if not sweeps:
