@@ -16,10 +16,10 @@ import numpy as np
 import pytest
 
 from cdcr_gym.backends.analytic import AnalyticBackend
-from cdcr_gym.backends.base import Backend
-from cdcr_gym.params import RobotParams
+from cdcr_gym.backends.base import Backend, Readings
+from cdcr_gym.model.params import RobotParams
 from training import reproduce as R
-from training.reproduce_report import cantilever_sag, crossing
+from training.reproduce.report import cantilever_sag, crossing
 
 P = RobotParams()
 ELL = P.length
@@ -32,7 +32,7 @@ class _Analytic(AnalyticBackend):
     """The CCKA backend behind the study's factory signature (ignores gravity and payload)."""
 
     def __init__(self, params, *, gravity, links_per_span, tip_payload, base_orientation):
-        super().__init__(params)
+        super().__init__(params, num_robots=1)
 
 
 def analytic_factory(params, **kwargs):
@@ -40,53 +40,65 @@ def analytic_factory(params, **kwargs):
 
 
 class _Drifting(Backend):
-    """A robot whose tip creeps forever (or turns NaN): settle() must refuse it."""
+    """One robot (N = 1) whose tip creeps forever (or turns NaN): settle() must refuse it.
+
+    Checks that every command comes as a batch of one robot, shape (1, C).
+    """
 
     def __init__(self, params=P, *, nan=False, **_):
         self.params = params
         self.nan = nan
         self._tip = np.array([0.0, 0.0, ELL])
+        self._tensions = np.zeros((1, params.n_cables))
 
-    def reset(self, tensions):
+    def _command(self, tensions):
+        tensions = np.asarray(tensions, dtype=np.float64)
+        assert tensions.shape == (1, self.n_cables), tensions.shape
+        self._tensions = tensions.copy()
+
+    def reset(self, tensions, mask=None):
+        self._command(tensions)
         self._tip = np.array([0.0, 0.0, ELL])
 
     def apply_tensions(self, tensions):
+        self._command(tensions)
         self._tip = self._tip + (np.nan if self.nan else 1e-5)
 
-    @property
-    def tip(self):
-        return self._tip.copy()
+    def read(self):
+        return Readings(self._tip[None].copy(), np.array([[0.0, 0.0, 1.0]]),
+                        np.full((1, self.n_cables), ELL), self._tensions.copy())
 
-    @property
-    def cable_lengths(self):
-        return np.full(3, ELL)
+    def equilibrium(self, tensions):
+        m = np.asarray(tensions).shape[0]
+        return Readings(np.tile([0.0, 0.0, ELL], (m, 1)), np.tile([0.0, 0.0, 1.0], (m, 1)),
+                        np.full((m, self.n_cables), ELL), np.asarray(tensions, float))
 
-    @property
-    def tensions(self):
-        return np.zeros(3)
-
-    def backbone_points(self):
+    def backbone_points(self, index=0):
         return np.stack([np.zeros(3), self._tip])
+
+    def disk_frames(self, index=0):
+        return np.stack([np.zeros(3), self._tip]), np.stack([np.eye(3)] * 2)
 
 
 class _Converging(_Drifting):
     """Tip relaxes geometrically towards a point: settles after a predictable number of steps."""
 
     def apply_tensions(self, tensions):
+        self._command(tensions)
         self._tip = self._tip + 0.5 * (np.array([0.01, 0.0, ELL]) - self._tip)
 
 
 class _ResetRefuses(_Converging):
     """reset() refuses any non-zero tension (like an equilibrium solver that does not converge)."""
 
-    def reset(self, tensions):
+    def reset(self, tensions, mask=None):
         if np.any(np.asarray(tensions) != 0.0):
             raise RuntimeError("equilibrium solver did not converge")
-        super().reset(tensions)
+        super().reset(tensions, mask)
 
 
 class _AlwaysRefuses(_Converging):
-    def reset(self, tensions):
+    def reset(self, tensions, mask=None):
         raise RuntimeError("nope")
 
 
@@ -227,6 +239,21 @@ def test_pipeline_end_to_end_on_the_analytic_backend(tmp_path):
     assert "](../rep/fig05_sim_tip_vs_force.png)" in text
 
 
+def test_settle_reads_the_analytic_backend_at_its_equilibrium():
+    # the quasi-static backend jumps to equilibrium: settled at the first window, no drift
+    b = _Analytic(P, gravity=False, links_per_span=1, tip_payload=0.0,
+                  base_orientation=(0.0, 0.0, 0.0, 1.0))
+    t = R.cable1_tensions(40.0, P)
+    info = R.settle(b, t, window=5)
+    assert info.route == "reset" and info.steps == 5 and info.motion == 0.0 and info.drift == 0.0
+    np.testing.assert_array_equal(R.tip_of(b), b.equilibrium(t[None]).tip[0])
+
+
+def test_cable1_tensions():
+    np.testing.assert_array_equal(R.cable1_tensions([0.0, 5.0], P), [[0.0, 0, 0], [5.0, 0, 0]])
+    assert R.cable1_tensions(80.0, P).shape == (P.n_cables,)
+
+
 def test_config_validation():
     with pytest.raises(ValueError, match="forces"):
         R.StudyConfig(forces=(0.0, 90.0))
@@ -236,6 +263,16 @@ def test_config_validation():
         R.StudyConfig(payloads=(0.0, -0.1))
     with pytest.raises(ValueError, match="n_disks_values"):
         R.StudyConfig(n_disks_values=(0,))
+    with pytest.raises(ValueError, match="one section driven by three cables"):
+        R.StudyConfig(params=RobotParams.preset("tdcr2"))
+
+
+def test_the_package_keeps_its_entry_points():
+    from training.reproduce import __main__, plots, report, study
+
+    assert R.main is study.main and R.settle is study.settle
+    assert callable(plots.make_figures) and callable(report.render)
+    assert __main__.main is study.main
 
 
 # ---------------------------------------------------------------------------------------------
