@@ -65,13 +65,21 @@ class _Drifting(Backend):
         self._tip = self._tip + (np.nan if self.nan else 1e-5)
 
     def read(self):
-        return Readings(self._tip[None].copy(), np.array([[0.0, 0.0, 1.0]]),
-                        np.full((1, self.n_cables), ELL), self._tensions.copy())
+        return Readings(
+            self._tip[None].copy(),
+            np.array([[0.0, 0.0, 1.0]]),
+            np.full((1, self.n_cables), ELL),
+            self._tensions.copy(),
+        )
 
     def equilibrium(self, tensions):
         m = np.asarray(tensions).shape[0]
-        return Readings(np.tile([0.0, 0.0, ELL], (m, 1)), np.tile([0.0, 0.0, 1.0], (m, 1)),
-                        np.full((m, self.n_cables), ELL), np.asarray(tensions, float))
+        return Readings(
+            np.tile([0.0, 0.0, ELL], (m, 1)),
+            np.tile([0.0, 0.0, 1.0], (m, 1)),
+            np.full((m, self.n_cables), ELL),
+            np.asarray(tensions, float),
+        )
 
     def backbone_points(self, index=0):
         return np.stack([np.zeros(3), self._tip])
@@ -140,8 +148,9 @@ def test_settle_reports_steps_motion_and_drift():
 
 
 def test_settle_falls_back_to_the_dynamic_route():
-    info = R.settle(_ResetRefuses(), np.array([40.0, 0, 0]), tol=1e-6, window=5,
-                    max_steps=1000, ramp_steps=10)
+    info = R.settle(
+        _ResetRefuses(), np.array([40.0, 0, 0]), tol=1e-6, window=5, max_steps=1000, ramp_steps=10
+    )
     assert info.route == "dynamic" and info.motion <= 1e-6 and info.steps > 10
     assert math.isnan(info.drift)
     with pytest.raises(R.SettleError, match="dynamic route"):
@@ -154,8 +163,10 @@ def test_preflight_stops_a_configuration_the_backend_refuses(tmp_path, capsys):
             raise ValueError(f"too many links: {links_per_span}")
         return analytic_factory(params, links_per_span=links_per_span, **kwargs)
 
-    code = R.main(["--out", str(tmp_path / "o"), "--quick", "--links-per-span", "2",
-                   "--resolution", "1,3"], factory=picky)
+    code = R.main(
+        ["--out", str(tmp_path / "o"), "--quick", "--links-per-span", "2", "--resolution", "1,3"],
+        factory=picky,
+    )
     assert code == 2
     err = capsys.readouterr().err
     assert "9 disks × 3 links per span" in err and "too many links" in err
@@ -164,8 +175,15 @@ def test_preflight_stops_a_configuration_the_backend_refuses(tmp_path, capsys):
 
 def test_settle_error_names_the_sweep():
     with pytest.raises(R.SettleError, match=r"\[my sweep\]"):
-        R.run_force_sweep(lambda params, **kw: _Drifting(params), P, [0.0, 10.0],
-                          label="my sweep", gravity=False, settle_window=5, settle_max_steps=20)
+        R.run_force_sweep(
+            lambda params, **kw: _Drifting(params),
+            P,
+            [0.0, 10.0],
+            label="my sweep",
+            gravity=False,
+            settle_window=5,
+            settle_max_steps=20,
+        )
 
 
 def test_crossing_interpolates_and_reports_none():
@@ -211,15 +229,30 @@ def test_pipeline_end_to_end_on_the_analytic_backend(tmp_path):
     """CCKA against itself: zero error everywhere, and every output is complete and consistent."""
     out = tmp_path / "rep"
     copy = tmp_path / "docs" / "reproduce.md"
-    code = R.main(["--out", str(out), "--quick", "--report-copy", str(copy)],
-                  factory=analytic_factory)
+    code = R.main(
+        ["--out", str(out), "--quick", "--report-copy", str(copy)], factory=analytic_factory
+    )
     assert code == 0
-    for name in ("summary.csv", "ccka_cable_sweep.csv", "sim_gravity_off.csv",
-                 "sim_gravity_on.csv", "payload.csv", "resolution.csv", "horizontal_base.csv",
-                 "report.md", "run.json", "fig05_sim_tip_vs_force.png", "fig06_ccka_cable_sweep.png",
-                 "fig07_ccka_shapes.png", "fig10_sim_vs_ccka.png", "fig11_error_gravity_off.png",
-                 "fig12_error_gravity_on.png", "fig_payload_error.png", "fig_shapes_vs_arc.png",
-                 "fig_resolution.png"):
+    for name in (
+        "summary.csv",
+        "ccka_cable_sweep.csv",
+        "sim_gravity_off.csv",
+        "sim_gravity_on.csv",
+        "payload.csv",
+        "resolution.csv",
+        "horizontal_base.csv",
+        "report.md",
+        "run.json",
+        "fig05_sim_tip_vs_force.png",
+        "fig06_ccka_cable_sweep.png",
+        "fig07_ccka_shapes.png",
+        "fig10_sim_vs_ccka.png",
+        "fig11_error_gravity_off.png",
+        "fig12_error_gravity_on.png",
+        "fig_payload_error.png",
+        "fig_shapes_vs_arc.png",
+        "fig_resolution.png",
+    ):
         assert (out / name).stat().st_size > 0, name
     assert (out / "fig05_sim_tip_vs_force.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     with (out / "sim_gravity_off.csv").open() as fh:
@@ -230,8 +263,16 @@ def test_pipeline_end_to_end_on_the_analytic_backend(tmp_path):
     last = rows[-1]
     assert math.hypot(float(last["tip_sim_x_m"]), float(last["tip_sim_y_m"])) > 0.3  # m, bent
     report = (out / "report.md").read_text()
-    for needed in ("4.95", "0.77", "2.4", "0.37", "Where CCKA stops holding", "| case |",
-                   "fig11_error_gravity_off.png", "python -m training.reproduce"):
+    for needed in (
+        "4.95",
+        "0.77",
+        "2.4",
+        "0.37",
+        "Where CCKA stops holding",
+        "| case |",
+        "fig11_error_gravity_off.png",
+        "python -m training.reproduce",
+    ):
         assert needed in report, needed
     assert "nan" not in report.lower().replace("nonlinear", "")
     # the copy links to the figures relative to its own folder
@@ -241,8 +282,9 @@ def test_pipeline_end_to_end_on_the_analytic_backend(tmp_path):
 
 def test_settle_reads_the_analytic_backend_at_its_equilibrium():
     # the quasi-static backend jumps to equilibrium: settled at the first window, no drift
-    b = _Analytic(P, gravity=False, links_per_span=1, tip_payload=0.0,
-                  base_orientation=(0.0, 0.0, 0.0, 1.0))
+    b = _Analytic(
+        P, gravity=False, links_per_span=1, tip_payload=0.0, base_orientation=(0.0, 0.0, 0.0, 1.0)
+    )
     t = R.cable1_tensions(40.0, P)
     info = R.settle(b, t, window=5)
     assert info.route == "reset" and info.steps == 5 and info.motion == 0.0 and info.drift == 0.0
@@ -337,7 +379,9 @@ def test_study_physics_on_the_bullet_backbone(study, tmp_path):
     paths = R.write_outputs(study, tmp_path, dpi=50, command="pytest")
     with paths["summary_csv"].open() as fh:
         rows = {r["case"]: r for r in csv.DictReader(fh)}
-    gravity_off_row = next(r for k, r in rows.items() if k.startswith("CCKA vs simulation, gravity off"))
+    gravity_off_row = next(
+        r for k, r in rows.items() if k.startswith("CCKA vs simulation, gravity off")
+    )
     assert float(gravity_off_row["mean_mm"]) == pytest.approx(1e3 * off.error_norm.mean(), rel=1e-6)
     report = paths["report"].read_text()
     assert f"{1e3 * off.error_norm.max():.2f} mm" in report

@@ -25,6 +25,7 @@ def _paper_sim_mean_mm() -> float:
     """The paper's mean CCKA-vs-SolidWorks error (mm)."""
     return PAPER_RESULTS[0][1]
 
+
 #: Figure key -> (title in the report, caption).
 FIGURE_CAPTIONS: dict[str, tuple[str, str]] = {
     "fig06": (
@@ -140,7 +141,8 @@ def findings(res) -> dict:
     }
     c = out["gravity_on_crossing_N"]
     out["gravity_on_crossing_theta_rad"] = (
-        None if c is None else float(np.interp(c, on.forces, on.theta_sim)))
+        None if c is None else float(np.interp(c, on.forces, on.theta_sim))
+    )
     # straightness at zero force
     zero = int(np.argmin(off.forces))
     straight = np.array([0.0, 0.0, ell])
@@ -163,14 +165,21 @@ def findings(res) -> dict:
     out["heaviest_payload_kg"] = heaviest.payload
     out["heaviest_payload_crossing_N"] = crossing(heaviest.forces, heaviest.error_norm, thr)
     out["payload_monotonic"] = bool(np.all(np.diff(means) > 0.0)) if len(pl) > 1 else None
+
     # resolution
     def res_rows(sweeps):
         return [
-            {"n_disks": s.n_disks, "links_per_span": s.links_per_span,
-             "n_links": s.n_disks * s.links_per_span, **s.stats(ell),
-             "theta_sim_rad": float(s.theta_sim[-1]), "force_N": float(s.forces[-1])}
+            {
+                "n_disks": s.n_disks,
+                "links_per_span": s.links_per_span,
+                "n_links": s.n_disks * s.links_per_span,
+                **s.stats(ell),
+                "theta_sim_rad": float(s.theta_sim[-1]),
+                "force_N": float(s.forces[-1]),
+            }
             for s in sweeps
         ]
+
     out["resolution_links"] = res_rows(res.resolution_links)
     out["resolution_links_on"] = res_rows(res.resolution_links_on)
     out["resolution_disks"] = res_rows(res.resolution_disks)
@@ -185,8 +194,14 @@ def findings(res) -> dict:
             "beam_theory_sag_m": cantilever_sag(p, h.payload),
         }
     # settling
-    sweeps = [off, on, *res.payload, *res.resolution_links, *res.resolution_links_on,
-              *res.resolution_disks]
+    sweeps = [
+        off,
+        on,
+        *res.payload,
+        *res.resolution_links,
+        *res.resolution_links_on,
+        *res.resolution_disks,
+    ]
     if res.horizontal is not None:
         sweeps.append(res.horizontal)
     out["settle"] = {
@@ -195,8 +210,9 @@ def findings(res) -> dict:
         "max_drift_m": float(max(np.nanmax(np.append(s.settle_drift, 0.0)) for s in sweeps)),
         "dynamic_route": int(sum(int(np.sum(s.settle_route == "dynamic")) for s in sweeps)),
         "max_steps": int(max(s.settle_steps.max() for s in sweeps)),
-        "drifting_sweeps": sorted({s.label for s in sweeps
-                                   if np.nanmax(np.append(s.settle_drift, 0.0)) > DRIFT_WARN}),
+        "drifting_sweeps": sorted(
+            {s.label for s in sweeps if np.nanmax(np.append(s.settle_drift, 0.0)) > DRIFT_WARN}
+        ),
         "tol_m": cfg.settle_tol,
     }
     out["paragraph"] = _paragraph(out, res)
@@ -209,7 +225,7 @@ def _plural(n: int, word: str) -> str:
 
 
 def _paragraph(f: dict, res) -> str:
-    """"Where CCKA stops holding": one paragraph, every number from the run."""
+    """ "Where CCKA stops holding": one paragraph, every number from the run."""
     ell = f["length_m"]
     thr_txt = f"{f['threshold_pct']:g} % of ℓ = {_mm(f['threshold_m'])}"
     thr_short = f"{f['threshold_pct']:g} % of ℓ"
@@ -254,8 +270,8 @@ def _paragraph(f: dict, res) -> str:
         tail = (
             f"; with {g_last} the error passes {thr_short} from ≈ {hc:.0f} N on and reaches "
             f"{_mm(last['max_m'])} ({last['max_pct']:.2f} % of ℓ) at the largest bend"
-            if hc is not None else
-            f"; with {g_last} it reaches {_mm(last['max_m'])} ({last['max_pct']:.2f} % of ℓ)"
+            if hc is not None
+            else f"; with {g_last} it reaches {_mm(last['max_m'])} ({last['max_pct']:.2f} % of ℓ)"
         )
         if pm is None:
             s.append(
@@ -278,8 +294,12 @@ def _paragraph(f: dict, res) -> str:
             f"CCKA fed with its cable lengths misses the tip by {_mm(h['zero_force_error_m'])} "
             f"({100 * h['zero_force_error_m'] / ell:.2f} % of ℓ; over the sweep mean "
             f"{h['mean_pct']:.2f} %, max {h['max_pct']:.2f} %)."
-            + (" (The backend's reset and dynamics disagree in this case; see the warning under "
-               "'Data and checks'.)" if res.horizontal.label in f["settle"]["drifting_sweeps"] else "")
+            + (
+                " (The backend's reset and dynamics disagree in this case; see the warning under "
+                "'Data and checks'.)"
+                if res.horizontal.label in f["settle"]["drifting_sweeps"]
+                else ""
+            )
         )
     elif res.horizontal_error:
         s.append(
@@ -308,9 +328,11 @@ def _resolution_paragraph(f: dict) -> str:
             f"{math.degrees(a['theta_sim_rad']):.1f}° to {math.degrees(b['theta_sim_rad']):.1f}° "
             f"(continuous elastica {math.degrees(f['theta_elastica_rad']):.1f}°; the discrete "
             f"robot bends more because the cable runs straight between disks)"
-            + (": the findings above are properties of the robot, not of the discretisation."
-               if change < 10.0 else
-               f": the gravity-on numbers above still move by {change:.0f} % with the resolution.")
+            + (
+                ": the findings above are properties of the robot, not of the discretisation."
+                if change < 10.0
+                else f": the gravity-on numbers above still move by {change:.0f} % with the resolution."
+            )
         )
     rd = f["resolution_disks"]
     if len(rd) > 1:
@@ -342,8 +364,12 @@ def _closing(f: dict, thr_txt: str) -> str:
     if "horizontal" in f and f["horizontal"]["max_pct"] > f["threshold_pct"]:
         stops.append("whenever gravity acts across the backbone (horizontal base)")
     if stops:
-        parts.append("; it stops holding " + "; ".join(stops[:-1])
-                     + ("; and " if len(stops) > 1 else "") + stops[-1])
+        parts.append(
+            "; it stops holding "
+            + "; ".join(stops[:-1])
+            + ("; and " if len(stops) > 1 else "")
+            + stops[-1]
+        )
     else:
         parts.append("; none of the loads studied here pushed it past that bound")
     return "".join(parts) + "."
@@ -372,8 +398,16 @@ def table_markdown(summary: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def render(res, summary: list[dict], f: dict, *, figures: dict, fig_dir: Path,
-           report_dir: Path, command: str) -> str:
+def render(
+    res,
+    summary: list[dict],
+    f: dict,
+    *,
+    figures: dict,
+    fig_dir: Path,
+    report_dir: Path,
+    command: str,
+) -> str:
     """The Markdown report; figure links are relative to ``report_dir``."""
     cfg = res.config
     p = cfg.params
@@ -411,7 +445,7 @@ def render(res, summary: list[dict], f: dict, *, figures: dict, fig_dir: Path,
         f"multibody backbone in place of SolidWorks: {p.n_disks} spacer disks, "
         f"{_plural(cfg.links_per_span, 'rigid link')} per disk span joined by 2-DOF bending joints of "
         f"stiffness EI/Δs (E = {p.youngs_modulus / 1e9:g} GPa, d = {1e3 * p.backbone_diameter:g} mm, "
-        f"ℓ = {1e3 * ell:g} mm, r = {1e3 * p.cable_radius:g} mm; the paper's \"35 MPa\" is a unit "
+        f'ℓ = {1e3 * ell:g} mm, r = {1e3 * p.cable_radius:g} mm; the paper\'s "35 MPa" is a unit '
         f"slip, see `cdcr_gym/params.py`), frictionless cables straight between pinholes. For "
         f"{forces.size} tensions from {forces[0]:g} to {forces[-1]:g} N on cable 1 we put the "
         f"backbone at its static equilibrium and verify it (the tip moves less than "
@@ -450,7 +484,12 @@ def render(res, summary: list[dict], f: dict, *, figures: dict, fig_dir: Path,
     for key, (title, caption) in FIGURE_CAPTIONS.items():
         if key not in figures:
             continue
-        lines += [f"**{title}.** {caption}", "", f"![{title}]({_rel(figures[key], report_dir)})", ""]
+        lines += [
+            f"**{title}.** {caption}",
+            "",
+            f"![{title}]({_rel(figures[key], report_dir)})",
+            "",
+        ]
     lines += [
         "## Data and checks",
         "",
@@ -458,14 +497,20 @@ def render(res, summary: list[dict], f: dict, *, figures: dict, fig_dir: Path,
         f"motion over the final check window {st['max_motion_m']:.2g} m, largest move after the "
         f"backend's reset-to-equilibrium {st['max_drift_m']:.2g} m, at most {st['max_steps']} "
         f"control steps per state. "
-        + (f"For {st['dynamic_route']} state(s) the backend's reset-to-equilibrium failed and the "
-           f"state was reached dynamically instead (zero tension, tensions ramped up, then held "
-           f"until settled; column `settle_route` in the CSVs)."
-           if st["dynamic_route"] else "All states came from the backend's reset-to-equilibrium.")
-        + (f" **Warning:** in {', '.join(st['drifting_sweeps'])} the verified equilibrium lies "
-           f"more than {DRIFT_WARN:g} m from the backend's reset-to-equilibrium: its reset and "
-           f"its dynamics disagree there (a backend bug), so read those numbers with care."
-           if st["drifting_sweeps"] else ""),
+        + (
+            f"For {st['dynamic_route']} state(s) the backend's reset-to-equilibrium failed and the "
+            f"state was reached dynamically instead (zero tension, tensions ramped up, then held "
+            f"until settled; column `settle_route` in the CSVs)."
+            if st["dynamic_route"]
+            else "All states came from the backend's reset-to-equilibrium."
+        )
+        + (
+            f" **Warning:** in {', '.join(st['drifting_sweeps'])} the verified equilibrium lies "
+            f"more than {DRIFT_WARN:g} m from the backend's reset-to-equilibrium: its reset and "
+            f"its dynamics disagree there (a backend bug), so read those numbers with care."
+            if st["drifting_sweeps"]
+            else ""
+        ),
         f"- Zero force: the tip sits {f['zero_force_tip_offset_off_m']:.2g} m (gravity off) and "
         f"{f['zero_force_tip_offset_on_m']:.2g} m (gravity on, upright) from the straight "
         f"robot's (0, 0, ℓ).",
@@ -474,14 +519,23 @@ def render(res, summary: list[dict], f: dict, *, figures: dict, fig_dir: Path,
         f"lengths), {math.degrees(f['theta_elastica_rad']):.1f}° (continuous elastica "
         f"T·r·ℓ/EI; the discrete robot bends a little more because the cable is straight between "
         f"disks).",
-        *([f"- Horizontal base: not in this run — {res.horizontal_error}"]
-          if res.horizontal_error else []),
+        *(
+            [f"- Horizontal base: not in this run — {res.horizontal_error}"]
+            if res.horizontal_error
+            else []
+        ),
         "- CSV files (SI units, unit in each column name): "
         + ", ".join(
             f"[{n}]({_rel(Path(fig_dir) / n, report_dir)})"
-            for n in ("summary.csv", "ccka_cable_sweep.csv", "sim_gravity_off.csv",
-                      "sim_gravity_on.csv", "payload.csv", "resolution.csv",
-                      *(("horizontal_base.csv",) if res.horizontal is not None else ()))
+            for n in (
+                "summary.csv",
+                "ccka_cable_sweep.csv",
+                "sim_gravity_off.csv",
+                "sim_gravity_on.csv",
+                "payload.csv",
+                "resolution.csv",
+                *(("horizontal_base.csv",) if res.horizontal is not None else ()),
+            )
         )
         + "; configuration and timings in "
         + f"[run.json]({_rel(Path(fig_dir) / 'run.json', report_dir)}).",

@@ -87,6 +87,7 @@ DEFAULT_OUT = Path("runs") / "reproduce"
 #: along world −X, cable 1 (+X0) points up, so pulling cable 1 lifts the sagging cantilever.
 HORIZONTAL_BASE = (0.0, -math.sin(math.pi / 4.0), 0.0, math.cos(math.pi / 4.0))
 
+
 # ---------------------------------------------------------------------------------------------
 # Settling
 # ---------------------------------------------------------------------------------------------
@@ -301,8 +302,9 @@ class StudyConfig:
         """Largest Δl of the CCKA sweep (m)."""
         if self.dl_max is not None:
             return float(self.dl_max)
-        theta, _ = statics.arc_from_tensions(cable1_tensions(max(self.forces), self.params),
-                                             self.params)
+        theta, _ = statics.arc_from_tensions(
+            cable1_tensions(max(self.forces), self.params), self.params
+        )
         return float(self.params.cable_radius * theta)
 
 
@@ -357,7 +359,9 @@ class Sweep:
     @property
     def theta_sim(self) -> np.ndarray:
         """Bending angle (rad) of the chord-based arc through the simulated tip (2·atan2(ρ, z))."""
-        return 2.0 * np.arctan2(np.hypot(self.tip_sim[:, 0], self.tip_sim[:, 1]), self.tip_sim[:, 2])
+        return 2.0 * np.arctan2(
+            np.hypot(self.tip_sim[:, 0], self.tip_sim[:, 1]), self.tip_sim[:, 2]
+        )
 
     @property
     def theta_ccka(self) -> np.ndarray:
@@ -498,10 +502,14 @@ def run_force_sweep(
             readings = backend.read()
             tip_sim[i] = readings.tip[0]
             lengths[i] = readings.cable_lengths[0]
-            steps[i], motion[i], drift[i], route[i] = info.steps, info.motion, info.drift, info.route
+            steps[i], motion[i], drift[i], route[i] = (
+                info.steps,
+                info.motion,
+                info.drift,
+                info.route,
+            )
             if any(abs(forces[i] - f) < 1e-9 for f in shape_forces):
-                shapes[float(forces[i])] = np.asarray(backend.backbone_points(0),
-                                                      dtype=np.float64)
+                shapes[float(forces[i])] = np.asarray(backend.backbone_points(0), dtype=np.float64)
     finally:
         backend.close()
     tip_ccka = K.forward_kinematics(lengths, params.cable_radius)
@@ -551,11 +559,18 @@ def run_study(
     ccka = ccka_cable_sweep(p, config.resolved_dl_max, config.n_dl, config.shape_dls)
 
     def sweep(label: str, **kw) -> Sweep:
-        s = run_force_sweep(factory, kw.pop("params", p), forces=kw.pop("forces", forces),
-                            label=label, **{**common, **kw})
+        s = run_force_sweep(
+            factory,
+            kw.pop("params", p),
+            forces=kw.pop("forces", forces),
+            label=label,
+            **{**common, **kw},
+        )
         st = s.stats(p.length)
-        log(f"  {label:<38s} mean {1e3 * st['mean_m']:7.2f} mm  max {1e3 * st['max_m']:7.2f} mm"
-            f"  ({s.seconds:5.1f} s)")
+        log(
+            f"  {label:<38s} mean {1e3 * st['mean_m']:7.2f} mm  max {1e3 * st['max_m']:7.2f} mm"
+            f"  ({s.seconds:5.1f} s)"
+        )
         return s
 
     log(f"physics vs CCKA (tension 0–{f_max:.0f} N on cable 1)")
@@ -564,39 +579,57 @@ def run_study(
 
     log("tip payload (gravity on)")
     payload = [
-        on if m == 0.0 else sweep(f"payload {1e3 * m:g} g", gravity=True, payload=m,
-                                  shape_forces=(f_max,))
+        on
+        if m == 0.0
+        else sweep(f"payload {1e3 * m:g} g", gravity=True, payload=m, shape_forces=(f_max,))
         for m in config.payloads
     ]
 
     res_forces = config.resolution_forces or forces
+
     def per_span(k: int) -> str:
         return f"{k} link{'s' if k > 1 else ''} per span"
 
     log(f"model resolution ({p.n_disks} disks; gravity off, then on)")
     res_links = [
-        sweep(f"{p.n_disks} disks, {per_span(k)}", gravity=False, forces=res_forces,
-              links_per_span=k)
+        sweep(
+            f"{p.n_disks} disks, {per_span(k)}", gravity=False, forces=res_forces, links_per_span=k
+        )
         for k in config.links_per_span_values
     ]
     res_links_on = [
-        sweep(f"{p.n_disks} disks, {per_span(k)}, gravity on", gravity=True, forces=res_forces,
-              links_per_span=k)
+        sweep(
+            f"{p.n_disks} disks, {per_span(k)}, gravity on",
+            gravity=True,
+            forces=res_forces,
+            links_per_span=k,
+        )
         for k in config.links_per_span_values
     ]
     log(f"number of spacer disks (≈ {config.disk_study_links} links each, gravity off)")
     res_disks = []
     for n in config.n_disks_values:
         k = max(1, config.disk_study_links // n)
-        res_disks.append(sweep(f"{n} disks, {per_span(k)}", gravity=False,
-                               params=_with_disks(p, n), forces=res_forces, links_per_span=k))
+        res_disks.append(
+            sweep(
+                f"{n} disks, {per_span(k)}",
+                gravity=False,
+                params=_with_disks(p, n),
+                forces=res_forces,
+                links_per_span=k,
+            )
+        )
     horizontal, horizontal_error = None, None
     if config.horizontal:
         # An extension beyond the paper and the issue: a failure here is reported, not fatal.
         log("horizontal base (gravity across the backbone)")
         try:
-            horizontal = sweep("horizontal base, gravity on", gravity=True,
-                               base_orientation=HORIZONTAL_BASE, shape_forces=shape_forces)
+            horizontal = sweep(
+                "horizontal base, gravity on",
+                gravity=True,
+                base_orientation=HORIZONTAL_BASE,
+                shape_forces=shape_forces,
+            )
         except SettleError as exc:
             horizontal_error = str(exc)
             log(f"  horizontal base: skipped, {exc}")
@@ -634,9 +667,14 @@ def preflight(config: StudyConfig, factory: BackendFactory) -> None:
     """
     for n, k in backend_configs(config):
         try:
-            b = factory(_with_disks(config.params, n), gravity=False, links_per_span=k,
-                        tip_payload=0.0, base_orientation=(0.0, 0.0, 0.0, 1.0),
-                        **config.backend_kwargs)
+            b = factory(
+                _with_disks(config.params, n),
+                gravity=False,
+                links_per_span=k,
+                tip_payload=0.0,
+                base_orientation=(0.0, 0.0, 0.0, 1.0),
+                **config.backend_kwargs,
+            )
         except ValueError as exc:
             raise ValueError(f"{n} disks × {k} links per span: {exc}") from exc
         b.close()
@@ -670,13 +708,33 @@ def _fmt(v) -> str:
 
 
 SWEEP_HEADER = (
-    "sweep", "gravity", "tip_payload_kg", "n_disks", "links_per_span", "force_N",
-    "T1_N", "T2_N", "T3_N",
-    "tip_sim_x_m", "tip_sim_y_m", "tip_sim_z_m",
-    "l1_m", "l2_m", "l3_m",
-    "tip_ccka_x_m", "tip_ccka_y_m", "tip_ccka_z_m",
-    "err_x_m", "err_y_m", "err_z_m", "err_norm_m", "err_pct_of_length",
-    "settle_steps", "settle_motion_m", "settle_drift_m", "settle_route",
+    "sweep",
+    "gravity",
+    "tip_payload_kg",
+    "n_disks",
+    "links_per_span",
+    "force_N",
+    "T1_N",
+    "T2_N",
+    "T3_N",
+    "tip_sim_x_m",
+    "tip_sim_y_m",
+    "tip_sim_z_m",
+    "l1_m",
+    "l2_m",
+    "l3_m",
+    "tip_ccka_x_m",
+    "tip_ccka_y_m",
+    "tip_ccka_z_m",
+    "err_x_m",
+    "err_y_m",
+    "err_z_m",
+    "err_norm_m",
+    "err_pct_of_length",
+    "settle_steps",
+    "settle_motion_m",
+    "settle_drift_m",
+    "settle_route",
 )
 
 
@@ -685,10 +743,25 @@ def sweep_rows(s: Sweep, length: float) -> list[list]:
     err = s.error
     en = s.error_norm
     return [
-        [s.label, int(s.gravity), s.payload, s.n_disks, s.links_per_span, s.forces[i],
-         *s.tensions[i], *s.tip_sim[i], *s.lengths[i], *s.tip_ccka[i], *err[i], en[i],
-         100.0 * en[i] / length, int(s.settle_steps[i]), s.settle_motion[i], s.settle_drift[i],
-         s.settle_route[i]]
+        [
+            s.label,
+            int(s.gravity),
+            s.payload,
+            s.n_disks,
+            s.links_per_span,
+            s.forces[i],
+            *s.tensions[i],
+            *s.tip_sim[i],
+            *s.lengths[i],
+            *s.tip_ccka[i],
+            *err[i],
+            en[i],
+            100.0 * en[i] / length,
+            int(s.settle_steps[i]),
+            s.settle_motion[i],
+            s.settle_drift[i],
+            s.settle_route[i],
+        ]
         for i in range(s.forces.size)
     ]
 
@@ -700,12 +773,17 @@ def summary_rows(res: StudyResults) -> list[dict]:
 
     def add(name: str, s: Sweep) -> None:
         st = s.stats(ell)
-        rows.append({
-            "case": name, "source": "this study (pybullet)",
-            "mean_mm": 1e3 * st["mean_m"], "mean_pct": st["mean_pct"],
-            "max_mm": 1e3 * st["max_m"], "max_pct": st["max_pct"],
-            "force_at_max_N": st["force_at_max_N"],
-        })
+        rows.append(
+            {
+                "case": name,
+                "source": "this study (pybullet)",
+                "mean_mm": 1e3 * st["mean_m"],
+                "mean_pct": st["mean_pct"],
+                "max_mm": 1e3 * st["max_m"],
+                "max_pct": st["max_pct"],
+                "force_at_max_N": st["force_at_max_N"],
+            }
+        )
 
     add("CCKA vs simulation, gravity off (as the paper's simulation)", res.gravity_off)
     add("CCKA vs simulation, gravity on (upright)", res.gravity_on)
@@ -715,9 +793,17 @@ def summary_rows(res: StudyResults) -> list[dict]:
     if res.horizontal is not None:
         add("gravity on, horizontal base", res.horizontal)
     for label, mm, pct in PAPER_RESULTS:
-        rows.append({"case": label, "source": "paper, section 4.4", "mean_mm": mm,
-                     "mean_pct": pct, "max_mm": float("nan"), "max_pct": float("nan"),
-                     "force_at_max_N": float("nan")})
+        rows.append(
+            {
+                "case": label,
+                "source": "paper, section 4.4",
+                "mean_mm": mm,
+                "mean_pct": pct,
+                "max_mm": float("nan"),
+                "max_pct": float("nan"),
+                "force_at_max_N": float("nan"),
+            }
+        )
     return rows
 
 
@@ -759,8 +845,9 @@ def write_outputs(res: StudyResults, out: Path, *, dpi: int = 100, command: str 
     findings = report.findings(res)
     paths["report"] = out / "report.md"
     paths["report"].write_text(
-        report.render(res, summary, findings, figures=paths, fig_dir=out,
-                                report_dir=out, command=command)
+        report.render(
+            res, summary, findings, figures=paths, fig_dir=out, report_dir=out, command=command
+        )
     )
     run = {
         "command": command,
@@ -780,9 +867,15 @@ def write_outputs(res: StudyResults, out: Path, *, dpi: int = 100, command: str 
 
 def _all_sweeps(res: StudyResults) -> list[Sweep]:
     seen: list[Sweep] = []
-    for s in [res.gravity_off, res.gravity_on, *res.payload, *res.resolution_links,
-              *res.resolution_links_on, *res.resolution_disks,
-              *([res.horizontal] if res.horizontal else [])]:
+    for s in [
+        res.gravity_off,
+        res.gravity_on,
+        *res.payload,
+        *res.resolution_links,
+        *res.resolution_links_on,
+        *res.resolution_disks,
+        *([res.horizontal] if res.horizontal else []),
+    ]:
         if all(s is not t for t in seen):
             seen.append(s)
     return seen
@@ -824,6 +917,7 @@ def _positive_int(name: str, lo: int = 1) -> Callable[[str], int]:
         if v < lo:
             raise argparse.ArgumentTypeError(f"{name} must be >= {lo}, got {v}")
         return v
+
     return parse
 
 
@@ -836,6 +930,7 @@ def _positive_float(name: str) -> Callable[[str], float]:
         if not math.isfinite(v) or v <= 0.0:
             raise argparse.ArgumentTypeError(f"{name} must be finite and > 0, got {text!r}")
         return v
+
     return parse
 
 
@@ -845,12 +940,14 @@ def _float_list(name: str, lo: float = 0.0) -> Callable[[str], tuple[float, ...]
             vals = tuple(float(x) for x in text.split(",") if x.strip() != "")
         except ValueError:
             raise argparse.ArgumentTypeError(
-                f"{name} must be comma-separated numbers, got {text!r}") from None
+                f"{name} must be comma-separated numbers, got {text!r}"
+            ) from None
         if not vals or any(not math.isfinite(v) or v < lo for v in vals):
             raise argparse.ArgumentTypeError(f"{name} must be finite values >= {lo}, got {text!r}")
         if any(b <= a for a, b in zip(vals, vals[1:])):
             raise argparse.ArgumentTypeError(f"{name} must increase strictly, got {text!r}")
         return vals
+
     return parse
 
 
@@ -860,10 +957,12 @@ def _int_list(name: str) -> Callable[[str], tuple[int, ...]]:
             vals = tuple(int(x) for x in text.split(",") if x.strip() != "")
         except ValueError:
             raise argparse.ArgumentTypeError(
-                f"{name} must be comma-separated integers, got {text!r}") from None
+                f"{name} must be comma-separated integers, got {text!r}"
+            ) from None
         if not vals or any(v < 1 for v in vals):
             raise argparse.ArgumentTypeError(f"{name} must be integers >= 1, got {text!r}")
         return vals
+
     return parse
 
 
@@ -874,36 +973,85 @@ def build_parser() -> argparse.ArgumentParser:
         "backbone, and extend it (gravity, tip payload, model resolution, horizontal base). "
         "Writes PNG figures, CSV data, report.md and run.json into --out.",
     )
-    ap.add_argument("--out", type=Path, default=DEFAULT_OUT,
-                    help=f"output folder (created; default: {DEFAULT_OUT})")
-    ap.add_argument("--quick", action="store_true",
-                    help="coarse grid (5 forces, 0 and 200 g, 2 resolutions, 2 disk counts) for a "
-                    "smoke run")
-    ap.add_argument("--forces", type=_positive_int("--forces", 2), default=None,
-                    help="number of tensions from 0 to --max-force on cable 1 (default 17: 5 N steps)")
-    ap.add_argument("--max-force", type=_positive_float("--max-force"), default=None,
-                    help="largest tension on cable 1, N (default: max_tension = 80 N, the paper's)")
-    ap.add_argument("--payloads-g", type=_float_list("--payloads-g"), default=None,
-                    help="tip payloads in grams, comma-separated (default 0,50,100,150,200)")
-    ap.add_argument("--links-per-span", type=_positive_int("--links-per-span"), default=4,
-                    help="links per disk span of the main sweeps (default 4)")
-    ap.add_argument("--resolution", type=_int_list("--resolution"), default=None,
-                    help="links per disk span of the model-resolution study (default 1,2,4)")
-    ap.add_argument("--disks", type=_int_list("--disks"), default=None,
-                    help="disk counts of the disk-count study (default 3,5,9,17,33)")
-    ap.add_argument("--no-horizontal", action="store_true",
-                    help="skip the horizontal-base sweep")
-    ap.add_argument("--threshold-pct", type=_positive_float("--threshold-pct"), default=1.0,
-                    help="error (%% of the length) above which CCKA is said to fail (default 1)")
-    ap.add_argument("--settle-tol", type=_positive_float("--settle-tol"), default=1e-6,
-                    help="settling tolerance: tip motion (m) over one check window (default 1e-6)")
-    ap.add_argument("--settle-max-steps", type=_positive_int("--settle-max-steps"), default=5000,
-                    help="cap on control steps spent settling one state (default 5000)")
-    ap.add_argument("--dpi", type=_positive_int("--dpi", 30), default=100,
-                    help="figure resolution (default 100)")
-    ap.add_argument("--report-copy", type=Path, default=None,
-                    help="also write the report to this Markdown file, with figure links "
-                    "relative to it (used for docs/reproduce.md)")
+    ap.add_argument(
+        "--out",
+        type=Path,
+        default=DEFAULT_OUT,
+        help=f"output folder (created; default: {DEFAULT_OUT})",
+    )
+    ap.add_argument(
+        "--quick",
+        action="store_true",
+        help="coarse grid (5 forces, 0 and 200 g, 2 resolutions, 2 disk counts) for a smoke run",
+    )
+    ap.add_argument(
+        "--forces",
+        type=_positive_int("--forces", 2),
+        default=None,
+        help="number of tensions from 0 to --max-force on cable 1 (default 17: 5 N steps)",
+    )
+    ap.add_argument(
+        "--max-force",
+        type=_positive_float("--max-force"),
+        default=None,
+        help="largest tension on cable 1, N (default: max_tension = 80 N, the paper's)",
+    )
+    ap.add_argument(
+        "--payloads-g",
+        type=_float_list("--payloads-g"),
+        default=None,
+        help="tip payloads in grams, comma-separated (default 0,50,100,150,200)",
+    )
+    ap.add_argument(
+        "--links-per-span",
+        type=_positive_int("--links-per-span"),
+        default=4,
+        help="links per disk span of the main sweeps (default 4)",
+    )
+    ap.add_argument(
+        "--resolution",
+        type=_int_list("--resolution"),
+        default=None,
+        help="links per disk span of the model-resolution study (default 1,2,4)",
+    )
+    ap.add_argument(
+        "--disks",
+        type=_int_list("--disks"),
+        default=None,
+        help="disk counts of the disk-count study (default 3,5,9,17,33)",
+    )
+    ap.add_argument("--no-horizontal", action="store_true", help="skip the horizontal-base sweep")
+    ap.add_argument(
+        "--threshold-pct",
+        type=_positive_float("--threshold-pct"),
+        default=1.0,
+        help="error (%% of the length) above which CCKA is said to fail (default 1)",
+    )
+    ap.add_argument(
+        "--settle-tol",
+        type=_positive_float("--settle-tol"),
+        default=1e-6,
+        help="settling tolerance: tip motion (m) over one check window (default 1e-6)",
+    )
+    ap.add_argument(
+        "--settle-max-steps",
+        type=_positive_int("--settle-max-steps"),
+        default=5000,
+        help="cap on control steps spent settling one state (default 5000)",
+    )
+    ap.add_argument(
+        "--dpi",
+        type=_positive_int("--dpi", 30),
+        default=100,
+        help="figure resolution (default 100)",
+    )
+    ap.add_argument(
+        "--report-copy",
+        type=Path,
+        default=None,
+        help="also write the report to this Markdown file, with figure links "
+        "relative to it (used for docs/reproduce.md)",
+    )
     return ap
 
 
@@ -935,8 +1083,12 @@ def config_from_args(args: argparse.Namespace) -> StudyConfig:
     if args.resolution is not None:
         kw["links_per_span_values"] = args.resolution
     kw["links_per_span"] = args.links_per_span
-    kw.update(horizontal=not args.no_horizontal, threshold_pct=args.threshold_pct,
-              settle_tol=args.settle_tol, settle_max_steps=args.settle_max_steps)
+    kw.update(
+        horizontal=not args.no_horizontal,
+        threshold_pct=args.threshold_pct,
+        settle_tol=args.settle_tol,
+        settle_max_steps=args.settle_max_steps,
+    )
     return quick_config(**kw) if args.quick else StudyConfig(**kw)
 
 
@@ -950,14 +1102,17 @@ def main(argv: Sequence[str] | None = None, factory: BackendFactory = bullet_fac
             ap.error(f"--report-copy must name a .md file, got {str(args.report_copy)!r}")
         _check_out(ap, args.report_copy.parent, "--report-copy folder")
     if args.max_force is not None and args.max_force > RobotParams().max_tension:
-        ap.error(f"--max-force must be <= max_tension = {RobotParams().max_tension} N, "
-                 f"got {args.max_force}")
+        ap.error(
+            f"--max-force must be <= max_tension = {RobotParams().max_tension} N, "
+            f"got {args.max_force}"
+        )
     try:
         config = config_from_args(args)
     except ValueError as exc:
         ap.error(str(exc))
     command = "python -m training.reproduce " + " ".join(
-        sys.argv[1:] if argv is None else list(argv))
+        sys.argv[1:] if argv is None else list(argv)
+    )
     t0 = time.perf_counter()
     try:
         res = run_study(config, factory=factory)
@@ -974,11 +1129,18 @@ def main(argv: Sequence[str] | None = None, factory: BackendFactory = bullet_fac
         findings = report.findings(res)
         args.report_copy.parent.mkdir(parents=True, exist_ok=True)
         args.report_copy.write_text(
-            report.render(res, summary_rows(res), findings, figures=paths,
-                                    fig_dir=args.out, report_dir=args.report_copy.parent,
-                                    command=command.strip())
+            report.render(
+                res,
+                summary_rows(res),
+                findings,
+                figures=paths,
+                fig_dir=args.out,
+                report_dir=args.report_copy.parent,
+                command=command.strip(),
+            )
         )
-    print(f"done in {time.perf_counter() - t0:.1f} s: {len(paths)} files in {args.out}/ "
-          f"(report: {paths['report']})")
+    print(
+        f"done in {time.perf_counter() - t0:.1f} s: {len(paths)} files in {args.out}/ "
+        f"(report: {paths['report']})"
+    )
     return 0
-
