@@ -68,7 +68,7 @@ from collections.abc import Iterator, Sequence
 
 import numpy as np
 
-from cdcr_gym.backends.base import Backend
+from cdcr_gym.backends.base import Backend, Readings
 from cdcr_gym.backends.bullet_chain import GRAVITY, ChainPose, DiscreteBackbone, quat_to_matrix
 from cdcr_gym.params import RobotParams
 
@@ -260,6 +260,12 @@ class BulletBackend(Backend):
             or links_per_span < 1
         ):
             raise ValueError(f"links_per_span must be an integer >= 1, got {links_per_span!r}")
+        if params.n_sections != 1 or params.n_cables != 3:
+            raise ValueError(
+                f"params: the pybullet backend models one section with three cables; got "
+                f"{params.n_sections} sections and {params.n_cables} cables (use the CCKA "
+                f"backend for several sections)"
+            )
         self.links_per_span = int(links_per_span)
         self.control_timestep = _check_positive("control_timestep", control_timestep, "s")
         self.physics_timestep = _check_positive("physics_timestep", physics_timestep, "s")
@@ -632,7 +638,7 @@ class BulletBackend(Backend):
             )
         return q
 
-    def reset(self, tensions: np.ndarray) -> None:
+    def _reset_one(self, tensions: np.ndarray) -> None:
         """Put the chain at rest in its static equilibrium under ``tensions`` (3,) N.
 
         Sets q = :meth:`static_equilibrium` (tensions) and q̇ = 0 and the simulated
@@ -652,7 +658,7 @@ class BulletBackend(Backend):
         self._tensions = t
         self.time = 0.0
 
-    def apply_tensions(self, tensions: np.ndarray) -> None:
+    def _apply_one(self, tensions: np.ndarray) -> None:
         """Hold ``tensions`` (3,) N for one control step (``n_substeps`` physics steps).
 
         Each physics step: read q, q̇; τ_cable(q); M(q) and b(q, q̇) from pybullet; solve the
@@ -795,6 +801,58 @@ class BulletBackend(Backend):
         self._check_open()
         pins = self._read_points()[1].copy()
         return pins if frame == "world" else self._to_base(pins)
+
+    # -- the batched Backend interface (N = 1) ------------------------------------------------
+    num_robots = 1
+
+    def _one(self, tensions: np.ndarray) -> np.ndarray:
+        t = np.asarray(tensions, dtype=np.float64)
+        if t.ndim == 2 and t.shape[0] == 1:
+            t = t[0]
+        return t
+
+    def reset(self, tensions: np.ndarray, mask: np.ndarray | None = None) -> None:
+        """Rest in the static equilibrium under ``tensions`` (1, 3) N (``mask`` (1,) bool)."""
+        if mask is not None and not bool(np.asarray(mask).reshape(-1)[0]):
+            return
+        self._reset_one(self._one(tensions))
+
+    def apply_tensions(self, tensions: np.ndarray) -> None:
+        """Hold ``tensions`` (1, 3) N for one control step."""
+        self._apply_one(self._one(tensions))
+
+    def _direction(self, pose_rot: np.ndarray) -> np.ndarray:
+        return self._to_base(pose_rot[-1][:, 2])
+
+    def read(self) -> Readings:
+        self._check_open()
+        pose = self._read()
+        return Readings(
+            self.tip[None], self._direction(pose.link_rot)[None], self.cable_lengths[None],
+            self._tensions.copy()[None],
+        )
+
+    def equilibrium(self, tensions: np.ndarray) -> Readings:
+        """Static equilibria (its own statics, gravity as configured) under ``tensions`` (M, 3)."""
+        t_all = np.atleast_2d(np.asarray(tensions, dtype=np.float64))
+        tips, dirs, lengths = [], [], []
+        for t in t_all:
+            q = self.static_equilibrium(t)
+            pose = self.chain.pose(q)
+            tips.append(self._to_base(pose.stations[-1]))
+            dirs.append(self._direction(pose.link_rot))
+            lengths.append(self.chain.lengths_between_pinholes(pose.pinholes))
+        return Readings(np.array(tips), np.array(dirs), np.array(lengths), t_all.copy())
+
+    def disk_frames(self, index: int = 0) -> tuple[np.ndarray, np.ndarray]:
+        self._check_open()
+        pose = self._read()
+        stride = self.links_per_span
+        centres = self._to_base(pose.stations[::stride])
+        rots = np.concatenate([np.eye(3)[None] @ self._base_rot.T @ self._base_rot,
+                               pose.link_rot[stride - 1::stride]])
+        rots = np.einsum("ji,njk->nik", self._base_rot, rots)
+        return centres, rots
 
     # ---------------------------------------------------------------- rendering
 
