@@ -20,7 +20,8 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from cdcr_gym import kinematics, statics
+from cdcr_gym import kinematics
+from cdcr_gym.model import statics
 from cdcr_gym.backends.base import Backend
 from cdcr_gym.backends.bullet import MAX_JOINTS, BulletBackend, SimulationDivergedError
 from cdcr_gym.backends.bullet_chain import DiscreteBackbone

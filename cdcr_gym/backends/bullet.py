@@ -778,7 +778,7 @@ class BulletBackend(Backend):
             self._pb.calculateMassMatrix(self._body, self._state()[0].tolist(), physicsClientId=self._client)
         )
 
-    def backbone_points(self, frame: str = "base") -> np.ndarray:
+    def backbone_points(self, index: int = 0, frame: str = "base") -> np.ndarray:
         """Backbone polyline (2n+1, 3), m: base, then per link its joint and its station, tip last.
 
         Every disk station is a point (the disks sit at the link centres; the tip disk is the

@@ -21,7 +21,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from cdcr_gym import kinematics, statics
+from cdcr_gym import kinematics
+from cdcr_gym.model import statics
 from cdcr_gym.backends.bullet import MAX_JOINTS, BulletBackend
 from cdcr_gym.backends.bullet_chain import GRAVITY, DiscreteBackbone
 from cdcr_gym.params import RobotParams
