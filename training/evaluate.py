@@ -112,7 +112,7 @@ def evaluate(
     train_horizon = config.env.max_episode_steps or _registered_steps(config.env.id)
     probe = make_env(env_id, env_kwargs)
     params = probe.unwrapped.params
-    threshold = float(probe.unwrapped.distance_threshold)
+    threshold = float(probe.unwrapped.task.distance_threshold)
     ik = AnalyticIKController.from_env(probe)
     probe.close()
 
