@@ -231,13 +231,16 @@ def test_resume_continues_steps_and_logs(tmp_path: Path) -> None:
     assert meta["sessions"][1]["start_steps"] == 256 and meta["total_steps"] == 512
     assert len((run / "command.txt").read_text().splitlines()) == 2
 
-    # The resumed run evaluates, with a video (MP4 if ffmpeg is available, else GIF).
+    # The resumed run evaluates, with an H.264 MP4 of its episodes.
     result = _run("training.evaluate", run, "--episodes", 2, "--video")
     assert result.returncode == 0, result.stderr[-3000:]
     _check_eval_json(run / "eval.json", {"straight_h100", "straight_h120", "random_h100",
                                          "random_h120"})
-    videos = list((run / "eval").glob("episodes.*"))
-    assert videos and videos[0].stat().st_size > 0
+    from training.video import probe_video
+
+    info = probe_video(run / "eval" / "episodes.mp4")
+    assert info.codec == "h264" and (info.width, info.height) == (320, 320)
+    assert info.n_frames > 2
 
 
 @pytest.mark.slow

@@ -31,7 +31,7 @@ starting state and the first horizon, by default: straight start, the training e
 
 ``--env-id`` evaluates the policy on another backend (sim-to-sim, e.g. a CCKA-trained tension
 policy on ``cdcr_gym/BulletReach-v0``); the IK runs on that backend too. ``--video`` writes an
-MP4 (if an ffmpeg writer is available) or else a GIF of the first few headline episodes.
+an H.264 MP4 (``training.video``, ffmpeg from imageio-ffmpeg) of the first few headline episodes.
 """
 
 from __future__ import annotations
@@ -218,9 +218,7 @@ def _write_video(
     env_id: str, env_kwargs: dict[str, Any], policy: Any, specs: Any, horizon: int,
     n_episodes: int, fig_dir: Path, train_horizon: int,
 ) -> Path:
-    """MP4 (ffmpeg writer available) or GIF of the first ``n_episodes`` headline episodes."""
-    import imageio.v2 as imageio
-
+    """H.264 MP4 (``training.video``) of the first ``n_episodes`` headline episodes."""
     from training.rollout import make_env
 
     kwargs = {**env_kwargs, "render_width": 320, "render_height": 320}
@@ -240,17 +238,9 @@ def _write_video(
                     break
     finally:
         env.close()
-    try:
-        path = fig_dir / "episodes.mp4"
-        imageio.mimwrite(path, frames, fps=25, macro_block_size=1)
-        return path
-    except Exception:  # noqa: BLE001 - no ffmpeg backend: fall back to GIF (pillow)
-        path = fig_dir / "episodes.gif"
-        imageio.mimwrite(path, frames, duration=80, loop=0)
-        mp4 = fig_dir / "episodes.mp4"
-        if mp4.exists() and mp4.stat().st_size == 0:
-            mp4.unlink()
-        return path
+    from training.video import write_video
+
+    return write_video(fig_dir / "episodes.mp4", frames, fps=25)
 
 
 def _print_table(result: dict[str, Any]) -> None:
@@ -304,7 +294,7 @@ def _parse_args(argv: list[str]) -> argparse.Namespace:
                         help="evaluate on another registered env (default: the training env)")
     parser.add_argument("--env-kwarg", action="append", default=[], metavar="KEY=VALUE",
                         help="override an env kwarg (YAML value), e.g. gravity=false; repeatable")
-    parser.add_argument("--video", action="store_true", help="write an MP4/GIF of a few episodes")
+    parser.add_argument("--video", action="store_true", help="write an H.264 MP4 of a few episodes")
     parser.add_argument("--model", choices=("best", "final"), default="best",
                         help="which saved model to evaluate (default: best)")
     parser.add_argument("--seed", type=int, default=None,
