@@ -19,6 +19,6 @@ setup(
     package_dir={"training.configs": "configs"},
     package_data={
         "cdcr_gym": ["py.typed"],
-        "training.configs": ["*.yaml", "**/*.yaml"],
+        "training.configs": ["*.yaml", "**/*.yaml", "**/*.yml"],
     },
 )
