@@ -35,7 +35,8 @@ def _register_all() -> None:
                     register(
                         id=env_id,
                         entry_point="cdcr_gym.envs.factory:make_env",
-                        vector_entry_point="cdcr_gym.envs.vector:CDCRVectorEnv" if batched
+                        vector_entry_point="cdcr_gym.envs.vector:CDCRVectorEnv"
+                        if batched
                         else None,
                         max_episode_steps=MAX_EPISODE_STEPS,
                         kwargs={"backend": backend, "task": task},

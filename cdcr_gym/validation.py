@@ -83,7 +83,9 @@ def action_array(action: Any, shape: tuple[int, ...]) -> np.ndarray:
     return real_array(action, "action", shape)
 
 
-def positive(value: Any, name: str, upper: float | None = None, *, allow_zero: bool = False) -> float:
+def positive(
+    value: Any, name: str, upper: float | None = None, *, allow_zero: bool = False
+) -> float:
     """A finite real > 0 (or >= 0 with ``allow_zero``), optionally <= ``upper``, as float."""
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise ValueError(f"{name} must be a real number, got {value!r}")

@@ -21,7 +21,6 @@ import numpy as np
 import pytest
 
 from cdcr_gym import kinematics
-from cdcr_gym.model import statics
 from cdcr_gym.backends.base import Backend
 from cdcr_gym.backends.bullet import MAX_JOINTS, BulletBackend, SimulationDivergedError
 from cdcr_gym.backends.bullet_chain import DiscreteBackbone
@@ -34,6 +33,7 @@ from cdcr_gym.backends.bullet_study import (
     settled_tip,
     settling_time,
 )
+from cdcr_gym.model import statics
 from cdcr_gym.params import RobotParams
 
 pytestmark = pytest.mark.filterwarnings("error")
@@ -59,7 +59,9 @@ def make():
         backend.close()
 
 
-def _random_pose(backend: BulletBackend, rng: np.random.Generator, scale: float = 0.25) -> np.ndarray:
+def _random_pose(
+    backend: BulletBackend, rng: np.random.Generator, scale: float = 0.25
+) -> np.ndarray:
     q = rng.uniform(-scale, scale, backend.n_dof) / backend.links_per_span
     backend.set_joint_state(q)
     return q
@@ -175,7 +177,9 @@ def test_no_start_up_banner_on_stdout_in_a_fresh_interpreter():
         "print('done')\n"
     )
     env = dict(os.environ, PYTHONPATH=str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
+    res = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120
+    )
     assert res.returncode == 0, res.stderr
     assert res.stdout == "done\n"
     assert "pybullet" not in res.stderr
@@ -232,20 +236,25 @@ def test_forward_kinematics_matches_pybullet(make, m, orientation):
     np.testing.assert_allclose(rot[0::2][:, :, 1], pose.joint_axes[:, 1], atol=1e-6)
 
 
-@pytest.mark.parametrize("kwargs", [{}, {"links_per_span": 2, "tip_payload": 0.05}, {"base_orientation": TILTED}])
+@pytest.mark.parametrize(
+    "kwargs", [{}, {"links_per_span": 2, "tip_payload": 0.05}, {"base_orientation": TILTED}]
+)
 def test_masses_and_gravity_loads_match_pybullet(make, kwargs):
     b = make(**kwargs)
     pb = b._pb
     masses = [pb.getDynamicsInfo(b._body, i, physicsClientId=b._client)[0] for i in range(b.n_dof)]
     np.testing.assert_array_equal(masses[0::2], 0.0)  # the intermediate Cardan links
     np.testing.assert_allclose(masses[1::2], b.chain.link_masses, rtol=1e-12)
-    rod = P.backbone_linear_density * (ELL - 0.5 * b.segment_length)  # the base half link is clamped
+    rod = P.backbone_linear_density * (
+        ELL - 0.5 * b.segment_length
+    )  # the base half link is clamped
     np.testing.assert_allclose(
-        b.chain.link_masses.sum(), rod + P.n_disks * P.disk_mass + kwargs.get("tip_payload", 0.0), rtol=1e-12
+        b.chain.link_masses.sum(),
+        rod + P.n_disks * P.disk_mass + kwargs.get("tip_payload", 0.0),
+        rtol=1e-12,
     )
     q = _random_pose(b, np.random.default_rng(7), scale=0.4)
     np.testing.assert_allclose(b.chain.gravity_loads(q), b.gravity_generalized_forces(), atol=1e-12)
-
 
 
 def _virtual_work_forces(b, q, tensions, eps):
@@ -259,6 +268,7 @@ def _virtual_work_forces(b, q, tensions, eps):
         b.set_joint_state(q - dq)
         fd[j] = -tensions @ (lp - b.cable_lengths) / (2 * eps)
     return fd
+
 
 @pytest.mark.parametrize("m, orientation", [(1, (0.0, 0.0, 0.0, 1.0)), (3, TILTED)])
 def test_cable_loads_equal_virtual_work_of_sensed_lengths(make, m, orientation):
@@ -380,7 +390,9 @@ def test_interleaved_backends_give_exactly_what_each_gives_alone(make):
 
 def test_dynamics_settle_to_the_static_equilibrium_within_a_second(make):
     b = make()
-    t_settle, overshoot = settling_time(b, np.zeros(3), np.array([80.0, 0.0, 0.0]), tol=1e-4, duration=2.0)
+    t_settle, overshoot = settling_time(
+        b, np.zeros(3), np.array([80.0, 0.0, 0.0]), tol=1e-4, duration=2.0
+    )
     assert 0.2 < t_settle < 1.0  # measured 0.52 s (docs/bullet_backend.md)
     assert overshoot < 0.02
     b.reset(np.array([80.0, 0.0, 0.0]))
@@ -477,7 +489,9 @@ def test_long_random_tension_runs_stay_finite_and_bounded():
 
 
 def _deviation(tensions, params, **kw) -> float:
-    return float(np.linalg.norm(settled_tip(tensions, params, **kw) - elastica_tip(tensions, params)))
+    return float(
+        np.linalg.norm(settled_tip(tensions, params, **kw) - elastica_tip(tensions, params))
+    )
 
 
 CASES = [(10.0, 0.0, 0.0), (40.0, 0.0, 0.0), (80.0, 0.0, 0.0), (40.0, 40.0, 0.0)]
@@ -613,6 +627,7 @@ def test_render_rgb_from_the_headless_renderer(make):
 # the env on this backend
 # ------------------------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("mode", ["tension", "tension_delta"])
 def test_bullet_reach_passes_gymnasium_and_sb3_check_env(mode):
     from gymnasium.utils.env_checker import check_env as gym_check_env
@@ -695,7 +710,12 @@ def test_gym_make_kwargs_reach_the_backend():
     )
     try:
         be = env.unwrapped.backend
-        assert (be.gravity, be.links_per_span, be.physics_timestep, be.tip_payload) == (False, 2, 0.005, 0.01)
+        assert (be.gravity, be.links_per_span, be.physics_timestep, be.tip_payload) == (
+            False,
+            2,
+            0.005,
+            0.01,
+        )
         assert be.base_orientation == pytest.approx(HORIZONTAL)
     finally:
         env.close()

@@ -20,8 +20,9 @@ ENV_ID = "cdcr_gym/CCKAReach-v0"
 def test_ik_controller_reaches_every_goal_below_a_micrometre(
     mode, steps_allowed, initial_state, goal_conditioned
 ):
-    env = gym.make(ENV_ID, action_mode=mode, initial_state=initial_state,
-                   goal_conditioned=goal_conditioned)
+    env = gym.make(
+        ENV_ID, action_mode=mode, initial_state=initial_state, goal_conditioned=goal_conditioned
+    )
     controller = AnalyticIKController.from_env(env)
     for seed in range(100):
         obs, info = env.reset(seed=seed)

@@ -52,15 +52,23 @@ def test_reach_task_documents_its_arguments():
 
 @pytest.mark.parametrize(
     "name",
-    ["gravity", "links_per_span", "control_timestep", "physics_timestep", "tip_payload",
-     "damping_ratio", "gui"],
+    [
+        "gravity",
+        "links_per_span",
+        "control_timestep",
+        "physics_timestep",
+        "tip_payload",
+        "damping_ratio",
+        "gui",
+    ],
 )
 def test_bullet_backend_documented_defaults_match_the_signature(name):
     doc = inspect.getdoc(BulletBackend)
     entry = re.search(rf"^\s*{name}:(.*?)(?=^\s*\w+:|\Z)", doc, flags=re.MULTILINE | re.DOTALL)
     assert entry, f"{name} is documented"
-    match = re.search(r"\(default\s+``?([^`),]+?)``?[ ,)]|\(default\s+([^),\s]+)", entry.group(1)) \
-        or re.search(r"``(True|False)`` \(default\)", entry.group(1))
+    match = re.search(
+        r"\(default\s+``?([^`),]+?)``?[ ,)]|\(default\s+([^),\s]+)", entry.group(1)
+    ) or re.search(r"``(True|False)`` \(default\)", entry.group(1))
     assert match, f"{name}: no default stated"
     stated = next(g for g in match.groups() if g is not None)
     stated = re.sub(r"\s*s$", "", stated.strip())  # drop a unit

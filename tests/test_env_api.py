@@ -16,8 +16,8 @@ import cdcr_gym
 from cdcr_gym import kinematics as K
 from cdcr_gym.backends.analytic import AnalyticBackend
 from cdcr_gym.envs.env import GoalCDCREnv, ReachEnv
-from cdcr_gym.params import RobotParams
 from cdcr_gym.model.statics import bending_limit
+from cdcr_gym.params import RobotParams
 
 ENV_ID = "cdcr_gym/CCKAReach-v0"
 MODES = ["tension", "tension_delta", "length_delta"]
@@ -261,8 +261,9 @@ def test_sac_with_her_runs_on_the_goal_conditioned_variant():
 
 
 def test_rgb_array_render_has_the_right_shape_and_is_not_blank():
-    env = gym.make(ENV_ID, render_mode="rgb_array", render_width=320, render_height=240,
-                   initial_state="random")
+    env = gym.make(
+        ENV_ID, render_mode="rgb_array", render_width=320, render_height=240, initial_state="random"
+    )
     env.reset(seed=0)
     frame = env.render()
     assert frame.shape == (240, 320, 3) and frame.dtype == np.uint8

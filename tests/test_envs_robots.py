@@ -19,7 +19,9 @@ IDS = ["cdcr_gym/CCKAReach-v0", "cdcr_gym/BulletReach-v0"]
 ROBOTS = ["paper", "tdcr2"]
 #: every (id, robot) the release supports: the pybullet backend models one section for now
 #: (test_bullet_refuses_several_sections_with_a_clear_error)
-COMBOS = [(i, r) for i in IDS for r in ROBOTS if not (i.startswith("cdcr_gym/Bullet") and r != "paper")]
+COMBOS = [
+    (i, r) for i in IDS for r in ROBOTS if not (i.startswith("cdcr_gym/Bullet") and r != "paper")
+]
 
 
 def _make(env_id, robot, **kwargs):
@@ -68,8 +70,10 @@ def test_same_seed_and_actions_give_identical_trajectories(env_id, robot):
         rows = [obs]
         rng = np.random.default_rng(3)
         for _ in range(10):
-            obs, reward, *_ = env.step(env.action_space.sample() * 0 + rng.uniform(
-                -1, 1, env.action_space.shape).astype(np.float32))
+            obs, reward, *_ = env.step(
+                env.action_space.sample() * 0
+                + rng.uniform(-1, 1, env.action_space.shape).astype(np.float32)
+            )
             rows.append(np.append(obs, reward))
         env.close()
         return np.concatenate(rows)
@@ -79,8 +83,7 @@ def test_same_seed_and_actions_give_identical_trajectories(env_id, robot):
 
 @pytest.mark.parametrize("mode", ["tension", "tension_delta", "length_delta"])
 def test_ik_oracle_reaches_every_sampled_tdcr2_goal_on_ccka(mode):
-    env = gym.make("cdcr_gym/CCKAReach-v0", robot="tdcr2", action_mode=mode,
-                   max_episode_steps=400)
+    env = gym.make("cdcr_gym/CCKAReach-v0", robot="tdcr2", action_mode=mode, max_episode_steps=400)
     controller = AnalyticIKController.from_env(env)
     worst = 0.0
     for seed in range(100 if mode == "tension" else 15):
@@ -120,10 +123,16 @@ def test_bad_make_arguments_raise_value_error_naming_them(kwargs, name):
 
 def test_batched_env_matches_single_envs_for_tdcr2():
     n = 3
-    venv = gym.make_vec("cdcr_gym/CCKAReach-v0", num_envs=n, robot="tdcr2",
-                        vectorization_mode="vector_entry_point", initial_state="random")
-    envs = [gym.make("cdcr_gym/CCKAReach-v0", robot="tdcr2", initial_state="random")
-            for _ in range(n)]
+    venv = gym.make_vec(
+        "cdcr_gym/CCKAReach-v0",
+        num_envs=n,
+        robot="tdcr2",
+        vectorization_mode="vector_entry_point",
+        initial_state="random",
+    )
+    envs = [
+        gym.make("cdcr_gym/CCKAReach-v0", robot="tdcr2", initial_state="random") for _ in range(n)
+    ]
     obs_v, _ = venv.reset(seed=9)
     obs_s = [e.reset(seed=9 + i)[0] for i, e in enumerate(envs)]
     np.testing.assert_allclose(obs_v, np.stack(obs_s), rtol=0, atol=1e-6)

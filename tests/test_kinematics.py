@@ -71,8 +71,12 @@ def test_papers_eq5_as_printed_gives_twice_the_length_and_ours_does_not():
     lengths = np.full(3, ELL)
     lengths[0] -= 1e-9  # stay off the exact 0/0 to evaluate the printed formula
     l_sum = lengths.sum()
-    l_sqr = np.sqrt(np.sum(lengths**2) - lengths[0] * lengths[1] - lengths[0] * lengths[2]
-                    - lengths[1] * lengths[2])
+    l_sqr = np.sqrt(
+        np.sum(lengths**2)
+        - lengths[0] * lengths[1]
+        - lengths[0] * lengths[2]
+        - lengths[1] * lengths[2]
+    )
     printed_z = R * l_sum / l_sqr * np.sin(2 * l_sqr / (3 * R))
     assert printed_z == pytest.approx(1.282, abs=1e-3)
     assert K.forward_kinematics(lengths, R)[2] == pytest.approx(0.641, abs=1e-9)
@@ -156,8 +160,12 @@ def test_batched_equals_per_row():
             assert np.array_equal(K.forward_kinematics(lengths[i, j], R), batched_tip[i, j])
             row = K.arc_from_lengths(lengths[i, j], R)
             assert all(np.array_equal(a, b[i, j]) for a, b in zip(row, batched_arc))
-            assert np.allclose(K.inverse_kinematics(batched_tip[i, j], ELL, R), batched_ik[i, j],
-                               atol=1e-15, rtol=0)
+            assert np.allclose(
+                K.inverse_kinematics(batched_tip[i, j], ELL, R),
+                batched_ik[i, j],
+                atol=1e-15,
+                rtol=0,
+            )
 
 
 def test_no_warnings_near_the_singularity():

@@ -15,17 +15,32 @@ import cdcr_gym
 
 ROOT = Path(cdcr_gym.__file__).parent
 MODULES = sorted(
-    m.name for m in pkgutil.walk_packages([str(ROOT)], prefix="cdcr_gym.")
+    m.name
+    for m in pkgutil.walk_packages([str(ROOT)], prefix="cdcr_gym.")
     if "bullet" not in m.name  # pybullet's own import is tested with the backend
 )
 
 #: package -> names its modules must not import (the layers above it, or simulators)
 FORBIDDEN = {
-    "model": ("gymnasium", "pybullet", "cdcr_gym.backends", "cdcr_gym.tasks", "cdcr_gym.envs",
-              "cdcr_gym.controllers", "training", "torch"),
+    "model": (
+        "gymnasium",
+        "pybullet",
+        "cdcr_gym.backends",
+        "cdcr_gym.tasks",
+        "cdcr_gym.envs",
+        "cdcr_gym.controllers",
+        "training",
+        "torch",
+    ),
     "backends": ("cdcr_gym.tasks", "cdcr_gym.envs", "cdcr_gym.controllers", "training", "torch"),
-    "tasks": ("cdcr_gym.envs.env", "cdcr_gym.envs.core", "cdcr_gym.envs.vector",
-              "cdcr_gym.controllers", "training", "torch"),
+    "tasks": (
+        "cdcr_gym.envs.env",
+        "cdcr_gym.envs.core",
+        "cdcr_gym.envs.vector",
+        "cdcr_gym.controllers",
+        "training",
+        "torch",
+    ),
     "envs": ("training", "torch", "stable_baselines3"),
 }
 

@@ -6,8 +6,8 @@ import warnings
 
 import numpy as np
 import pytest
-
 from legacy import kinematics_v0 as old
+
 from cdcr_gym.model import arc as A
 from cdcr_gym.model.params import RobotParams
 
@@ -28,14 +28,26 @@ def test_public_functions_equal_todays_kinematics():
     theta, phi = _arcs(2000, 0)
     lengths = old.lengths_from_arc(theta, phi, ELL, R)
     assert np.max(np.abs(A.lengths_from_arc(theta, phi, ELL, R) - lengths)) <= 1e-15
-    assert np.max(np.abs(A.tip_from_arc(theta, phi, ELL) - old.tip_from_arc(theta, phi, ELL))) <= 1e-15
-    assert np.max(np.abs(A.forward_kinematics(lengths, R) - old.forward_kinematics(lengths, R))) <= 1e-15
+    assert (
+        np.max(np.abs(A.tip_from_arc(theta, phi, ELL) - old.tip_from_arc(theta, phi, ELL))) <= 1e-15
+    )
+    assert (
+        np.max(np.abs(A.forward_kinematics(lengths, R) - old.forward_kinematics(lengths, R)))
+        <= 1e-15
+    )
     for a, b in zip(A.arc_from_lengths(lengths, R), old.arc_from_lengths(lengths, R)):
         assert np.allclose(a, b, rtol=0, atol=1e-12)
     assert np.max(np.abs(A.tip_rotation(theta, phi) - old.tip_rotation(theta, phi))) <= 1e-15
     assert np.max(np.abs(A.tip_pose(theta, phi, ELL) - old.tip_pose(theta, phi, ELL))) <= 1e-15
-    assert np.max(np.abs(A.backbone_points(theta[:50], phi[:50], ELL, 9)
-                         - old.backbone_points(theta[:50], phi[:50], ELL, 9))) <= 1e-15
+    assert (
+        np.max(
+            np.abs(
+                A.backbone_points(theta[:50], phi[:50], ELL, 9)
+                - old.backbone_points(theta[:50], phi[:50], ELL, 9)
+            )
+        )
+        <= 1e-15
+    )
     points = np.random.default_rng(1).uniform([-0.6, -0.6, -0.2], [0.6, 0.6, 0.7], (300, 3))
     points = np.concatenate([points, old.tip_from_arc(theta * 0.999, phi, ELL)])
     for a, b in zip(A.arc_from_tip(points, ELL), old.arc_from_tip(points, ELL)):
@@ -61,10 +73,14 @@ def test_no_warnings_near_the_singularity():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         lengths = A.lengths_from_arc(theta, 0.3, ELL, R)
-        out = [A.tip_from_arc(theta, 0.3, ELL), A.forward_kinematics(lengths, R),
-               *A.arc_from_lengths(lengths, R), A.tip_pose(theta, 0.3, ELL),
-               A.backbone_points(theta, 0.3, ELL, 7),
-               A.inverse_kinematics(A.tip_from_arc(theta, 0.3, ELL), ELL, R)]
+        out = [
+            A.tip_from_arc(theta, 0.3, ELL),
+            A.forward_kinematics(lengths, R),
+            *A.arc_from_lengths(lengths, R),
+            A.tip_pose(theta, 0.3, ELL),
+            A.backbone_points(theta, 0.3, ELL, 7),
+            A.inverse_kinematics(A.tip_from_arc(theta, 0.3, ELL), ELL, R),
+        ]
     assert all(np.all(np.isfinite(o)) for o in out)
 
 

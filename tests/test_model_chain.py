@@ -16,19 +16,35 @@ DEG = math.pi / 180.0
 
 
 def _robots():
-    four = SectionParams(length=0.15, n_disks=5, cable_radius=0.012,
-                         cable_angles=(10 * DEG, 95 * DEG, 200 * DEG, 280 * DEG))
-    three_uneven = SectionParams(length=0.12, n_disks=4, cable_radius=0.008,
-                                 cable_angles=(0.0, 100 * DEG, 230 * DEG))
-    three = SectionParams(length=0.1, n_disks=3, cable_radius=0.005,
-                          cable_angles=(45 * DEG, 165 * DEG, 285 * DEG))
+    four = SectionParams(
+        length=0.15,
+        n_disks=5,
+        cable_radius=0.012,
+        cable_angles=(10 * DEG, 95 * DEG, 200 * DEG, 280 * DEG),
+    )
+    three_uneven = SectionParams(
+        length=0.12, n_disks=4, cable_radius=0.008, cable_angles=(0.0, 100 * DEG, 230 * DEG)
+    )
+    three = SectionParams(
+        length=0.1, n_disks=3, cable_radius=0.005, cable_angles=(45 * DEG, 165 * DEG, 285 * DEG)
+    )
     return {
         "paper": RobotParams(),
         "tdcr2": RobotParams.preset("tdcr2"),
-        "three_mixed": RobotParams(sections=(four, three_uneven, three), backbone_diameter=0.002,
-                                   youngs_modulus=60e9, max_tension=5.0, disk_radius=0.02),
-        "one_four": RobotParams(sections=(four,), backbone_diameter=0.002, youngs_modulus=60e9,
-                                max_tension=5.0, disk_radius=0.02),
+        "three_mixed": RobotParams(
+            sections=(four, three_uneven, three),
+            backbone_diameter=0.002,
+            youngs_modulus=60e9,
+            max_tension=5.0,
+            disk_radius=0.02,
+        ),
+        "one_four": RobotParams(
+            sections=(four,),
+            backbone_diameter=0.002,
+            youngs_modulus=60e9,
+            max_tension=5.0,
+            disk_radius=0.02,
+        ),
     }
 
 
@@ -137,9 +153,17 @@ def test_the_integration_check_detects_a_wrong_model():
     R, p = np.eye(3), np.zeros(3)
     for j in range(2):
         ell = params.section_lengths[j]
-        local = ell / theta[j] * np.array([(1 - math.cos(theta[j])) * math.cos(phi[j]),
-                                           (1 - math.cos(theta[j])) * math.sin(phi[j]),
-                                           math.sin(theta[j])])
+        local = (
+            ell
+            / theta[j]
+            * np.array(
+                [
+                    (1 - math.cos(theta[j])) * math.cos(phi[j]),
+                    (1 - math.cos(theta[j])) * math.sin(phi[j]),
+                    math.sin(theta[j]),
+                ]
+            )
+        )
         p = p + R @ local
         R = R @ rz(phi[j]) @ ry(theta[j])
     assert np.linalg.norm(p - ends[-1][1]) > 1e-6
@@ -157,7 +181,9 @@ def test_straight_robot_is_exact(name):
     theta, phi = model.arcs_from_bending(w)
     assert np.all(theta == 0.0) and np.all(phi == 0.0)
     frames = model.section_frames(w)
-    assert np.array_equal(frames[0, :, :3, :3], np.broadcast_to(np.eye(3), (model.n_sections + 1, 3, 3)))
+    assert np.array_equal(
+        frames[0, :, :3, :3], np.broadcast_to(np.eye(3), (model.n_sections + 1, 3, 3))
+    )
     centres, rotations = model.disk_frames(w)
     assert np.all(np.isfinite(centres)) and np.all(np.isfinite(rotations))
     assert np.all(centres[..., :2] == 0.0)
@@ -168,18 +194,26 @@ def test_batched_equals_per_row(name):
     model = PCCModel(ROBOTS[name])
     w = _random_bending(model, 12, seed=7).reshape(3, 4, model.n_sections, 2)
     tensions = np.random.default_rng(1).uniform(0, 5, (3, 4, model.n_cables))
-    batched = (model.tip_from_bending(w), model.tip_direction_from_bending(w),
-               model.lengths_from_bending(w), model.section_frames(w),
-               model.bending_from_tensions(tensions))
+    batched = (
+        model.tip_from_bending(w),
+        model.tip_direction_from_bending(w),
+        model.lengths_from_bending(w),
+        model.section_frames(w),
+        model.bending_from_tensions(tensions),
+    )
     tip, direction = model.tip_and_direction_from_bending(w)
     assert np.array_equal(tip, batched[0]) and np.array_equal(direction, batched[1])
     lengths = batched[2]
     back = model.bending_from_lengths(lengths)
     for i in range(3):
         for j in range(4):
-            row = (model.tip_from_bending(w[i, j]), model.tip_direction_from_bending(w[i, j]),
-                   model.lengths_from_bending(w[i, j]), model.section_frames(w[i, j]),
-                   model.bending_from_tensions(tensions[i, j]))
+            row = (
+                model.tip_from_bending(w[i, j]),
+                model.tip_direction_from_bending(w[i, j]),
+                model.lengths_from_bending(w[i, j]),
+                model.section_frames(w[i, j]),
+                model.bending_from_tensions(tensions[i, j]),
+            )
             for a, b in zip(row, batched):
                 assert np.allclose(a, b[i, j], rtol=0, atol=1e-15)
             assert np.allclose(model.bending_from_lengths(lengths[i, j]), back[i, j], atol=1e-15)
@@ -242,7 +276,11 @@ def test_disk_frames_and_backbone_points(name):
     model = PCCModel(params)
     w = _random_bending(model, 4, seed=5)[3]
     centres, rotations = model.disk_frames(w)
-    assert centres.shape == (params.n_disks + 1, 3) and rotations.shape == (params.n_disks + 1, 3, 3)
+    assert centres.shape == (params.n_disks + 1, 3) and rotations.shape == (
+        params.n_disks + 1,
+        3,
+        3,
+    )
     assert np.allclose(centres[0], 0.0) and np.allclose(rotations[0], np.eye(3))
     frames = model.section_frames(w)
     ends = np.cumsum([s.n_disks for s in params.sections])
@@ -252,7 +290,7 @@ def test_disk_frames_and_backbone_points(name):
     # consecutive disks of a section sit at equal chords (equal arc spacing on one arc)
     start = 0
     for end in ends:
-        chords = np.linalg.norm(np.diff(centres[start:end + 1], axis=0), axis=-1)
+        chords = np.linalg.norm(np.diff(centres[start : end + 1], axis=0), axis=-1)
         assert np.allclose(chords, chords[0], rtol=1e-12)
         start = end
     points = model.backbone_points(w, points_per_section=7)

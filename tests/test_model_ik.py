@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from legacy import kinematics_v0 as old_kinematics
 from legacy import statics_v0 as old_statics
+
 from cdcr_gym.model import ik
 from cdcr_gym.model.chain import PCCModel
 from cdcr_gym.model.params import RobotParams
@@ -40,8 +40,17 @@ def _brute_nearest_reachable(goal, n_theta=600, n_phi=1440):
 
 
 def test_paper_goals_off_the_region_project_within_the_tension_limit():
-    goals = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, -1.0], [10.0, 10.0, 10.0], [0.5, 0.0, 0.1],
-                      [-0.3, 0.2, 0.05], [0.0, 0.6, 0.3], [0.1, 0.1, 0.9]])
+    goals = np.array(
+        [
+            [0.0, 0.0, 0.0],
+            [0.0, 0.0, -1.0],
+            [10.0, 10.0, 10.0],
+            [0.5, 0.0, 0.1],
+            [-0.3, 0.2, 0.05],
+            [0.0, 0.6, 0.3],
+            [0.1, 0.1, 0.9],
+        ]
+    )
     sol = ik.solve_ik(goals, PAPER)
     assert np.all(sol.tensions >= 0.0) and np.all(sol.tensions <= PAPER.max_tension)
     model = PCCModel(PAPER)

@@ -7,8 +7,8 @@ import math
 
 import numpy as np
 import pytest
-
 from legacy import statics_v0 as old_statics
+
 from cdcr_gym.model import statics as S
 from cdcr_gym.model.chain import PCCModel
 from cdcr_gym.model.params import RobotParams, SectionParams
@@ -18,16 +18,29 @@ pytestmark = pytest.mark.filterwarnings("error")
 DEG = math.pi / 180.0
 PAPER = RobotParams()
 TDCR2 = RobotParams.preset("tdcr2")
-FOUR = SectionParams(length=0.15, n_disks=5, cable_radius=0.012,
-                     cable_angles=(10 * DEG, 95 * DEG, 200 * DEG, 280 * DEG))
-UNEVEN = SectionParams(length=0.12, n_disks=4, cable_radius=0.008,
-                       cable_angles=(0.0, 100 * DEG, 230 * DEG))
-MIXED = RobotParams(sections=(FOUR, UNEVEN, SectionParams(length=0.1, n_disks=3,
-                                                          cable_radius=0.005)),
-                    backbone_diameter=0.002, youngs_modulus=60e9, max_tension=5.0,
-                    disk_radius=0.02)
-UNEVEN1 = RobotParams(sections=(UNEVEN,), backbone_diameter=0.002, youngs_modulus=60e9,
-                      max_tension=5.0, disk_radius=0.02)
+FOUR = SectionParams(
+    length=0.15,
+    n_disks=5,
+    cable_radius=0.012,
+    cable_angles=(10 * DEG, 95 * DEG, 200 * DEG, 280 * DEG),
+)
+UNEVEN = SectionParams(
+    length=0.12, n_disks=4, cable_radius=0.008, cable_angles=(0.0, 100 * DEG, 230 * DEG)
+)
+MIXED = RobotParams(
+    sections=(FOUR, UNEVEN, SectionParams(length=0.1, n_disks=3, cable_radius=0.005)),
+    backbone_diameter=0.002,
+    youngs_modulus=60e9,
+    max_tension=5.0,
+    disk_radius=0.02,
+)
+UNEVEN1 = RobotParams(
+    sections=(UNEVEN,),
+    backbone_diameter=0.002,
+    youngs_modulus=60e9,
+    max_tension=5.0,
+    disk_radius=0.02,
+)
 
 
 def _paper_arcs(n, seed):
@@ -58,14 +71,23 @@ def test_paper_reachable_scale_limit_and_arc_from_tensions_equal_todays():
     new = S.reachable_scale(PCCModel(PAPER), w[:, None, :])
     assert np.max(np.abs(new - old)) <= 1e-12 and np.any(new < 1.0)
     for p in (0.0, 3.0):
-        assert np.max(np.abs(S.bending_limit(phi, PAPER, p)
-                             - old_statics.bending_limit(phi, PAPER, p))) <= 1e-12
+        assert (
+            np.max(
+                np.abs(S.bending_limit(phi, PAPER, p) - old_statics.bending_limit(phi, PAPER, p))
+            )
+            <= 1e-12
+        )
     tensions = np.random.default_rng(2).uniform(0, 80, (500, 3))
-    for a, b in zip(S.arc_from_tensions(tensions, PAPER),
-                    old_statics.arc_from_tensions(tensions, PAPER)):
+    for a, b in zip(
+        S.arc_from_tensions(tensions, PAPER), old_statics.arc_from_tensions(tensions, PAPER)
+    ):
         assert np.max(np.abs(np.exp(1j * a) - np.exp(1j * b))) <= 1e-12 or np.allclose(a, b)
-    assert np.allclose(S.arc_from_tensions(tensions, PAPER)[0],
-                       old_statics.arc_from_tensions(tensions, PAPER)[0], rtol=0, atol=1e-12)
+    assert np.allclose(
+        S.arc_from_tensions(tensions, PAPER)[0],
+        old_statics.arc_from_tensions(tensions, PAPER)[0],
+        rtol=0,
+        atol=1e-12,
+    )
     assert np.allclose(S.CABLE_DIRECTIONS, old_statics.CABLE_DIRECTIONS, atol=1e-15)
 
 
@@ -106,8 +128,9 @@ def test_round_trip_minimality_and_coupled_moments(params):
     for n in range(0, 200, 20):
         for j in range(params.n_sections):
             kappa = w[n, j] / params.section_lengths[j]
-            kappa_next = (w[n, j + 1] / params.section_lengths[j + 1]
-                          if j + 1 < params.n_sections else 0.0)
+            kappa_next = (
+                w[n, j + 1] / params.section_lengths[j + 1] if j + 1 < params.n_sections else 0.0
+            )
             own = model.cable_section == j
             expected = _brute_minimal(model.cable_vectors[own], ei * (kappa - kappa_next))
             raw = S.minimal_tensions(model, w[n] * S.reachable_scale(model, w[n]))[0]
@@ -133,15 +156,17 @@ def test_clipping_is_reported_and_scale_brings_shapes_to_the_boundary():
     assert np.allclose(inside[on_edge].max(axis=-1), TDCR2.max_tension, rtol=1e-12)
     # positively homogeneous
     # positively homogeneous (where the limit binds)
-    assert np.allclose(S.reachable_scale(model, 2.0 * far)[on_edge], 0.5 * scale[on_edge],
-                       rtol=1e-12)
+    assert np.allclose(
+        S.reachable_scale(model, 2.0 * far)[on_edge], 0.5 * scale[on_edge], rtol=1e-12
+    )
 
 
 def test_pretension_keeps_the_shape_and_floors_every_cable():
     for params in (TDCR2, MIXED):
         model = PCCModel(params)
         w = model.bending_from_tensions(
-            np.random.default_rng(5).uniform(0, 0.5 * params.max_tension, (50, params.n_cables)))
+            np.random.default_rng(5).uniform(0, 0.5 * params.max_tension, (50, params.n_cables))
+        )
         tensions, _ = S.minimal_tensions(model, w, pretension=0.3)
         assert np.all(tensions >= 0.3 - 1e-12)
         assert np.allclose(model.bending_from_tensions(tensions), w, atol=1e-13)

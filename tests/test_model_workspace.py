@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from legacy import kinematics_v0 as old_kinematics
 from legacy import workspace_v0 as old_workspace
+
 from cdcr_gym.model import workspace as W
 from cdcr_gym.model.chain import PCCModel
 from cdcr_gym.model.params import RobotParams
@@ -27,8 +27,9 @@ def test_one_section_draws_are_todays():
     theta = np.linspace(0, 2, 50)
     phi = np.linspace(-3, 3, 50)
     assert np.array_equal(W.area_density(theta), old_workspace.area_density(theta))
-    for x, y in zip(W.clip_to_workspace(theta, phi, PAPER),
-                    old_workspace.clip_to_workspace(theta, phi, PAPER)):
+    for x, y in zip(
+        W.clip_to_workspace(theta, phi, PAPER), old_workspace.clip_to_workspace(theta, phi, PAPER)
+    ):
         assert np.allclose(x, y, rtol=0, atol=1e-12) and x.dtype == y.dtype
 
 

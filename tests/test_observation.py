@@ -9,10 +9,12 @@ from cdcr_gym.envs.observation import Field, ObservationSpec
 
 
 def _spec():
-    return ObservationSpec([
-        Field.uniform("tip", 3, -1.0, 1.0, "m", "tip", ("x", "y", "z")),
-        Field.uniform("tensions", 6, 0.0, 1.0, "–", "tensions / max"),
-    ])
+    return ObservationSpec(
+        [
+            Field.uniform("tip", 3, -1.0, 1.0, "m", "tip", ("x", "y", "z")),
+            Field.uniform("tensions", 6, 0.0, 1.0, "–", "tensions / max"),
+        ]
+    )
 
 
 def test_slices_box_and_decode_follow_the_field_order():

@@ -70,7 +70,8 @@ from cdcr_gym.params import PRESETS, SectionParams  # noqa: E402
 
 def test_single_section_keywords_build_the_same_robot_as_sections():
     assert RobotParams(length=0.5, n_disks=5) == RobotParams(
-        sections=(SectionParams(length=0.5, n_disks=5),))
+        sections=(SectionParams(length=0.5, n_disks=5),)
+    )
     assert RobotParams.preset("paper") == RobotParams()
     p = dataclasses.replace(RobotParams(), n_disks=4)  # replace keeps working on one section
     assert p.n_disks == 4 and p.sections[0].n_disks == 4
@@ -92,8 +93,7 @@ def test_tdcr2_preset_numbers():
 
 def test_bend_limit_is_the_largest_bend_over_the_tension_box():
     # brute force over the vertices of the box for an uneven 4-cable section
-    s = SectionParams(length=0.3, n_disks=6, cable_radius=0.01,
-                      cable_angles=(0.0, 1.2, 2.9, 4.4))
+    s = SectionParams(length=0.3, n_disks=6, cable_radius=0.01, cable_angles=(0.0, 1.2, 2.9, 4.4))
     p = RobotParams(sections=(s,), max_tension=20.0)
     u = np.stack([np.cos(s.cable_angles), np.sin(s.cable_angles)], axis=-1)
     corners = np.array(np.meshgrid(*[[0.0, 1.0]] * 4)).reshape(4, -1).T

@@ -36,7 +36,11 @@ TINY = {
 def _run(module: str, *args: str, timeout: float = 120) -> subprocess.CompletedProcess:
     return subprocess.run(
         [sys.executable, "-m", module, *map(str, args)],
-        cwd=REPO, env=ENV, capture_output=True, text=True, timeout=timeout,
+        cwd=REPO,
+        env=ENV,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
     )
 
 
@@ -155,7 +159,12 @@ def _check_eval_json(path: Path, conditions: set[str]) -> dict:
     assert EVAL_KEYS <= data.keys()
     assert set(data["error_mm"]) == STAT_KEYS
     ik = data["ik"]
-    assert {"success_rate", "error_mm", "cable_length_distance_mm", "tension_distance_n"} <= ik.keys()
+    assert {
+        "success_rate",
+        "error_mm",
+        "cable_length_distance_mm",
+        "tension_distance_n",
+    } <= ik.keys()
     assert set(ik["error_mm"]) == STAT_KEYS
     assert set(ik["cable_length_distance_mm"]) == STAT_KEYS
     assert set(ik["tension_distance_n"]) == STAT_KEYS
@@ -170,25 +179,45 @@ def _check_eval_json(path: Path, conditions: set[str]) -> dict:
 def test_train_and_evaluate_default_config_smoke(tmp_path: Path) -> None:
     """The default config, a tiny budget: every run-directory artefact exists; evaluate works."""
     run = tmp_path / "run"
-    result = _run("training.train", "configs/ppo_ccka_reach.yaml", "--total-timesteps", 512,
-                  "--run-dir", run, "--seed", 1)
+    result = _run(
+        "training.train",
+        "configs/ppo_ccka_reach.yaml",
+        "--total-timesteps",
+        512,
+        "--run-dir",
+        run,
+        "--seed",
+        1,
+    )
     assert result.returncode == 0, result.stderr[-3000:]
-    for name in ("config.yaml", "run.json", "command.txt", "progress.csv", "eval_log.csv",
-                 "vecnormalize.pkl", "learning_curve.png", "best_model/model.zip",
-                 "best_model/vecnormalize.pkl", "final_model/model.zip"):
+    for name in (
+        "config.yaml",
+        "run.json",
+        "command.txt",
+        "progress.csv",
+        "eval_log.csv",
+        "vecnormalize.pkl",
+        "learning_curve.png",
+        "best_model/model.zip",
+        "best_model/vecnormalize.pkl",
+        "final_model/model.zip",
+    ):
         assert (run / name).exists(), name
     assert any((run / "tb").iterdir())
     assert list((run / "checkpoints").glob("model_*_steps.zip"))
     meta = json.loads((run / "run.json").read_text())
     assert meta["seed"] == 1 and meta["status"] == "complete"
-    assert {"torch", "stable_baselines3", "gymnasium", "numpy", "cdcr_gym"} <= meta["versions"].keys()
+    assert {"torch", "stable_baselines3", "gymnasium", "numpy", "cdcr_gym"} <= meta[
+        "versions"
+    ].keys()
     assert load_config(run / "config.yaml").total_timesteps == 512
     assert "--total-timesteps 512" in (run / "command.txt").read_text()
 
     result = _run("training.evaluate", run, "--episodes", 4)
     assert result.returncode == 0, result.stderr[-3000:]
-    data = _check_eval_json(run / "eval.json", {"straight_h100", "straight_h200", "random_h100",
-                                                 "random_h200"})
+    data = _check_eval_json(
+        run / "eval.json", {"straight_h100", "straight_h200", "random_h100", "random_h200"}
+    )
     assert "max_error_after_train_horizon_mm" in data["conditions"]["straight_h200"]
     for fig in ("error_histogram.png", "workspace_errors.png", "policy_vs_ik.png"):
         assert (run / "eval" / fig).stat().st_size > 0
@@ -234,8 +263,9 @@ def test_resume_continues_steps_and_logs(tmp_path: Path) -> None:
     # The resumed run evaluates, with an H.264 MP4 of its episodes.
     result = _run("training.evaluate", run, "--episodes", 2, "--video")
     assert result.returncode == 0, result.stderr[-3000:]
-    _check_eval_json(run / "eval.json", {"straight_h100", "straight_h120", "random_h100",
-                                         "random_h120"})
+    _check_eval_json(
+        run / "eval.json", {"straight_h100", "straight_h120", "random_h100", "random_h120"}
+    )
     from training.video import probe_video
 
     info = probe_video(run / "eval" / "episodes.mp4")
@@ -249,7 +279,11 @@ def test_ctrl_c_saves_a_checkpoint_and_resume_continues(tmp_path: Path) -> None:
     run = tmp_path / "run"
     proc = subprocess.Popen(
         [sys.executable, "-m", "training.train", str(cfg), "--run-dir", str(run)],
-        cwd=REPO, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        cwd=REPO,
+        env=ENV,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
     )
     try:
         deadline = time.time() + 90
@@ -268,8 +302,15 @@ def test_ctrl_c_saves_a_checkpoint_and_resume_continues(tmp_path: Path) -> None:
     stopped = meta["total_steps"]
     assert (run / "checkpoints" / f"model_{stopped}_steps.zip").exists()
 
-    result = _run("training.train", run / "config.yaml", "--run-dir", run, "--resume",
-                  "--total-timesteps", stopped + 128)
+    result = _run(
+        "training.train",
+        run / "config.yaml",
+        "--run-dir",
+        run,
+        "--resume",
+        "--total-timesteps",
+        stopped + 128,
+    )
     assert result.returncode == 0, result.stderr[-3000:]
     assert f"from step {stopped}" in result.stdout
     meta = json.loads((run / "run.json").read_text())
@@ -292,8 +333,10 @@ def test_resume_rejects_a_different_config(tmp_path: Path) -> None:
 
 @pytest.mark.slow
 def test_train_with_the_batched_vec_env(tmp_path: Path) -> None:
-    cfg = _tiny_config(tmp_path, env={**TINY["env"], "vec_env": "batched",
-                                      "per_env_kwargs": [{"initial_state": "random"}]})
+    cfg = _tiny_config(
+        tmp_path,
+        env={**TINY["env"], "vec_env": "batched", "per_env_kwargs": [{"initial_state": "random"}]},
+    )
     result = _run("training.train", cfg, "--run-dir", tmp_path / "run")
     assert result.returncode == 0, result.stderr[-3000:]
     assert (tmp_path / "run" / "best_model" / "model.zip").exists()

@@ -15,8 +15,8 @@ from gymnasium.vector import AutoresetMode
 
 import cdcr_gym
 from cdcr_gym.envs.vector import CCKAReachVectorEnv
-from cdcr_gym.params import RobotParams
 from cdcr_gym.model.workspace import sample_arcs, sample_arcs_each
+from cdcr_gym.params import RobotParams
 
 ENV_ID = "cdcr_gym/CCKAReach-v0"
 INFO_FLOAT_KEYS = ("distance", "tip", "goal", "tensions", "cable_lengths")
@@ -26,12 +26,18 @@ pytestmark = pytest.mark.filterwarnings("error")
 
 def make_pair(n, autoreset_mode=AutoresetMode.NEXT_STEP, **kwargs):
     batched = gym.make_vec(
-        ENV_ID, num_envs=n, vectorization_mode="vector_entry_point",
-        autoreset_mode=autoreset_mode, **kwargs,
+        ENV_ID,
+        num_envs=n,
+        vectorization_mode="vector_entry_point",
+        autoreset_mode=autoreset_mode,
+        **kwargs,
     )
     sync = gym.make_vec(
-        ENV_ID, num_envs=n, vectorization_mode="sync",
-        vector_kwargs={"autoreset_mode": autoreset_mode}, **kwargs,
+        ENV_ID,
+        num_envs=n,
+        vectorization_mode="sync",
+        vector_kwargs={"autoreset_mode": autoreset_mode},
+        **kwargs,
     )
     return batched, sync
 
@@ -89,7 +95,11 @@ def run_equivalence(n, steps, seed, autoreset_mode=AutoresetMode.NEXT_STEP, **kw
 @pytest.mark.parametrize("goal_conditioned", [False, True])
 def test_batched_equals_sync_vector_env_across_autoresets(action_mode, goal_conditioned):
     ends = run_equivalence(
-        5, 230, seed=7, action_mode=action_mode, goal_conditioned=goal_conditioned,
+        5,
+        230,
+        seed=7,
+        action_mode=action_mode,
+        goal_conditioned=goal_conditioned,
         length_step=0.01,
     )
     assert ends == 2 * 5  # two truncations per env: the NEXT_STEP autoreset was exercised
@@ -97,8 +107,14 @@ def test_batched_equals_sync_vector_env_across_autoresets(action_mode, goal_cond
 
 def test_equivalence_with_random_starts_sparse_reward_and_terminations():
     ends = run_equivalence(
-        6, 150, seed=3, initial_state="random", reward_type="sparse",
-        terminate_on_success=True, distance_threshold=0.25, tension_step=0.2,
+        6,
+        150,
+        seed=3,
+        initial_state="random",
+        reward_type="sparse",
+        terminate_on_success=True,
+        distance_threshold=0.25,
+        tension_step=0.2,
     )
     assert ends > 6  # terminations (random lengths) as well as truncations
 
@@ -106,9 +122,15 @@ def test_equivalence_with_random_starts_sparse_reward_and_terminations():
 @pytest.mark.parametrize("goal_conditioned", [False, True])
 def test_equivalence_same_step_autoreset(goal_conditioned):
     ends = run_equivalence(
-        4, 120, seed=11, autoreset_mode=AutoresetMode.SAME_STEP,
-        goal_conditioned=goal_conditioned, initial_state="random",
-        terminate_on_success=True, distance_threshold=0.25, tension_step=0.2,
+        4,
+        120,
+        seed=11,
+        autoreset_mode=AutoresetMode.SAME_STEP,
+        goal_conditioned=goal_conditioned,
+        initial_state="random",
+        terminate_on_success=True,
+        distance_threshold=0.25,
+        tension_step=0.2,
     )
     assert ends > 4
 
@@ -132,15 +154,23 @@ def test_make_vec_registration_and_spaces():
     assert info["_distance"].all()
     # the default vectorization mode picks the batched env too; the short id works
     assert isinstance(gym.make_vec("CCKAReach-v0", num_envs=2), CCKAReachVectorEnv)
-    dict_env = gym.make_vec(ENV_ID, num_envs=2, vectorization_mode="vector_entry_point",
-                            goal_conditioned=True)
-    assert dict_env.single_observation_space == gym.make(ENV_ID, goal_conditioned=True
-                                                         ).observation_space
+    dict_env = gym.make_vec(
+        ENV_ID, num_envs=2, vectorization_mode="vector_entry_point", goal_conditioned=True
+    )
+    assert (
+        dict_env.single_observation_space
+        == gym.make(ENV_ID, goal_conditioned=True).observation_space
+    )
 
 
 def test_params_and_kwargs_reach_the_batched_env():
-    env = gym.make_vec(ENV_ID, num_envs=2, vectorization_mode="vector_entry_point",
-                       params=RobotParams(length=0.5), max_episode_steps=7)
+    env = gym.make_vec(
+        ENV_ID,
+        num_envs=2,
+        vectorization_mode="vector_entry_point",
+        params=RobotParams(length=0.5),
+        max_episode_steps=7,
+    )
     _, info = env.reset(seed=0)
     assert np.allclose(info["tip"], [0.0, 0.0, 0.5])
     for t in range(7):
@@ -229,6 +259,7 @@ def test_validation():
 
 # -- stable-baselines3 adapter ---------------------------------------------------------------
 
+
 def test_sb3_adapter_matches_dummy_vec_env():
     from stable_baselines3.common.vec_env import DummyVecEnv
 
@@ -236,11 +267,12 @@ def test_sb3_adapter_matches_dummy_vec_env():
 
     n, states = 4, ["straight", "random"]
     kwargs = {"terminate_on_success": True, "distance_threshold": 0.25, "tension_step": 0.2}
-    batched = BatchedCCKAVecEnv(n, seed=5, per_env_kwargs=[{"initial_state": s} for s in states],
-                                **kwargs)
-    dummy = DummyVecEnv([
-        (lambda s=states[i % 2]: gym.make(ENV_ID, initial_state=s, **kwargs)) for i in range(n)
-    ])
+    batched = BatchedCCKAVecEnv(
+        n, seed=5, per_env_kwargs=[{"initial_state": s} for s in states], **kwargs
+    )
+    dummy = DummyVecEnv(
+        [(lambda s=states[i % 2]: gym.make(ENV_ID, initial_state=s, **kwargs)) for i in range(n)]
+    )
     dummy.seed(5)
     np.testing.assert_allclose(batched.reset(), dummy.reset(), atol=1e-6)
     rng = np.random.default_rng(0)
@@ -259,8 +291,9 @@ def test_sb3_adapter_matches_dummy_vec_env():
             np.testing.assert_allclose(ib["tip"], id_["tip"], atol=1e-12)
             if "terminal_observation" in id_:
                 terminal += 1
-                np.testing.assert_allclose(ib["terminal_observation"],
-                                           id_["terminal_observation"], atol=1e-6)
+                np.testing.assert_allclose(
+                    ib["terminal_observation"], id_["terminal_observation"], atol=1e-6
+                )
         for rb, rd in zip(batched.reset_infos, dummy.reset_infos):
             np.testing.assert_allclose(rb["goal"], rd["goal"], atol=1e-12)
     assert terminal > n  # terminations and truncations both happened
@@ -283,8 +316,15 @@ def test_sb3_ppo_learns_with_the_adapter_and_her_relabels():
     assert len(model.ep_success_buffer) > 0  # is_success reached SB3's logger
 
     goal_env = BatchedCCKAVecEnv(2, seed=0, goal_conditioned=True, max_episode_steps=10)
-    her = SAC("MultiInputPolicy", goal_env, replay_buffer_class=HerReplayBuffer,
-              learning_starts=40, batch_size=16, seed=0, device="cpu")
+    her = SAC(
+        "MultiInputPolicy",
+        goal_env,
+        replay_buffer_class=HerReplayBuffer,
+        learning_starts=40,
+        batch_size=16,
+        seed=0,
+        device="cpu",
+    )
     her.learn(total_timesteps=60)
     assert her.num_timesteps == 60
 
@@ -294,15 +334,40 @@ def test_bench_table_and_checks_format():
     from training import bench
 
     rows = [
-        {"key": "ccka_single", "name": "CCKAReach-v0 (gym.make)", "envs": 1, "note": "",
-         "median": 2e5, "min": 1.9e5, "max": 2.1e5},
-        {"key": "pendulum", "name": "Pendulum-v1 (gym.make)", "envs": 1, "note": "",
-         "median": 1e5, "min": 1e5, "max": 1e5},
-        {"key": "bullet", "name": "BulletReach-v0 (gym.make)", "envs": 1,
-         "note": "unavailable: ImportError: no pybullet"},
+        {
+            "key": "ccka_single",
+            "name": "CCKAReach-v0 (gym.make)",
+            "envs": 1,
+            "note": "",
+            "median": 2e5,
+            "min": 1.9e5,
+            "max": 2.1e5,
+        },
+        {
+            "key": "pendulum",
+            "name": "Pendulum-v1 (gym.make)",
+            "envs": 1,
+            "note": "",
+            "median": 1e5,
+            "min": 1e5,
+            "max": 1e5,
+        },
+        {
+            "key": "bullet",
+            "name": "BulletReach-v0 (gym.make)",
+            "envs": 1,
+            "note": "unavailable: ImportError: no pybullet",
+        },
     ]
-    result = {"machine": bench.machine(), "rows": rows, "load_before": "0", "load_after": "0",
-              "repeats": 1, "quick": True, "checks": bench._checks({r["key"]: r for r in rows})}
+    result = {
+        "machine": bench.machine(),
+        "rows": rows,
+        "load_before": "0",
+        "load_after": "0",
+        "repeats": 1,
+        "quick": True,
+        "checks": bench._checks({r["key"]: r for r in rows}),
+    }
     text = bench.to_markdown(result)
     assert "| CCKAReach-v0 (gym.make) | 1 | 200 k | 190 k–210 k |" in text
     assert "unavailable: ImportError" in text

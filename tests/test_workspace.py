@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from cdcr_gym import kinematics as K
-from cdcr_gym.params import RobotParams
 from cdcr_gym.model.statics import bending_limit
 from cdcr_gym.model.workspace import clip_to_workspace, sample_arcs
+from cdcr_gym.params import RobotParams
 
 P = RobotParams()
 N_THETA_BINS, N_PHI_BINS = 8, 6

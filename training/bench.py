@@ -56,8 +56,12 @@ def _rate(step: Callable[[], int], min_time: float, min_calls: int) -> float:
 
 def _repeat(measure: Callable[[], float], repeats: int) -> dict[str, Any]:
     rates = [measure() for _ in range(repeats)]
-    return {"median": statistics.median(rates), "min": min(rates), "max": max(rates),
-            "repeats": repeats}
+    return {
+        "median": statistics.median(rates),
+        "min": min(rates),
+        "max": max(rates),
+        "repeats": repeats,
+    }
 
 
 def _single_env(env_id: str, min_time: float, repeats: int, **kwargs: Any) -> dict[str, Any]:
@@ -168,8 +172,14 @@ def _ppo_runs(make_model: Callable[[], Any], steps: int, repeats: int) -> dict[s
         model.get_env().close()
         rates.append(model.num_timesteps / elapsed)
         shares.append(timer.seconds / elapsed)
-    return {"median": statistics.median(rates), "min": min(rates), "max": max(rates),
-            "repeats": repeats, "rollout_share": statistics.median(shares), "steps": steps}
+    return {
+        "median": statistics.median(rates),
+        "min": min(rates),
+        "max": max(rates),
+        "repeats": repeats,
+        "rollout_share": statistics.median(shares),
+        "steps": steps,
+    }
 
 
 def _ppo(config_path: Path, vec_env: str, steps: int, repeats: int) -> dict[str, Any]:
@@ -186,12 +196,21 @@ def _ppo(config_path: Path, vec_env: str, steps: int, repeats: int) -> dict[str,
 
     def make_model() -> Any:
         venv = T._wrap_normalize(config, T.build_vec_env(config, config.seed), None)
-        return PPO("MlpPolicy", venv, seed=config.seed, device=config.runtime.device, verbose=0,
-                   **T._ppo_kwargs(config))
+        return PPO(
+            "MlpPolicy",
+            venv,
+            seed=config.seed,
+            device=config.runtime.device,
+            verbose=0,
+            **T._ppo_kwargs(config),
+        )
 
     result = _ppo_runs(make_model, steps, repeats)
-    result.update(n_envs=config.env.n_envs, n_steps=config.ppo.n_steps,
-                  torch_threads=config.runtime.torch_threads)
+    result.update(
+        n_envs=config.env.n_envs,
+        n_steps=config.ppo.n_steps,
+        torch_threads=config.runtime.torch_threads,
+    )
     return result
 
 
@@ -270,11 +289,16 @@ def run_benchmarks(
     ppo_steps = 8192 if quick else 20480
     ppo_repeats = 1 if quick else 3
     rows: list[dict[str, Any]] = []
-    result: dict[str, Any] = {"machine": machine(), "load_before": _load(), "quick": quick,
-                              "repeats": repeats}
+    result: dict[str, Any] = {
+        "machine": machine(),
+        "load_before": _load(),
+        "quick": quick,
+        "repeats": repeats,
+    }
 
-    def add(name: str, envs: int | None, measured: dict[str, Any] | None, note: str = "",
-            key: str = "") -> None:
+    def add(
+        name: str, envs: int | None, measured: dict[str, Any] | None, note: str = "", key: str = ""
+    ) -> None:
         row = {"key": key or name, "name": name, "envs": envs, "note": note}
         if measured is not None:
             row.update(measured)
@@ -282,43 +306,90 @@ def run_benchmarks(
         log(_format_row(row))
 
     log(_HEADER)
-    add("CCKAReach-v0 (gym.make)", 1, _single_env("cdcr_gym/CCKAReach-v0", min_time, repeats),
-        "single env, default wrappers", key="ccka_single")
-    add("Pendulum-v1 (gym.make)", 1, _single_env("Pendulum-v1", min_time, repeats),
-        "Gymnasium reference", key="pendulum")
-    add("CCKAReach-v0 tdcr2 (gym.make)", 1,
+    add(
+        "CCKAReach-v0 (gym.make)",
+        1,
+        _single_env("cdcr_gym/CCKAReach-v0", min_time, repeats),
+        "single env, default wrappers",
+        key="ccka_single",
+    )
+    add(
+        "Pendulum-v1 (gym.make)",
+        1,
+        _single_env("Pendulum-v1", min_time, repeats),
+        "Gymnasium reference",
+        key="pendulum",
+    )
+    add(
+        "CCKAReach-v0 tdcr2 (gym.make)",
+        1,
         _single_env("cdcr_gym/CCKAReach-v0", min_time, repeats, robot="tdcr2"),
-        "single env, two-section robot (6 cables)", key="ccka_single_tdcr2")
+        "single env, two-section robot (6 cables)",
+        key="ccka_single_tdcr2",
+    )
     for n in VECTOR_SIZES:
-        add("CCKAReach-v0 batched", n, _vector_env("vector_entry_point", n, min_time, repeats),
-            "make_vec vector_entry_point", key=f"batched_{n}")
-        add("CCKAReach-v0 SyncVectorEnv", n,
+        add(
+            "CCKAReach-v0 batched",
+            n,
+            _vector_env("vector_entry_point", n, min_time, repeats),
+            "make_vec vector_entry_point",
+            key=f"batched_{n}",
+        )
+        add(
+            "CCKAReach-v0 SyncVectorEnv",
+            n,
             _vector_env("sync", n, min_time, 1 if n > 1024 else repeats),
-            "make_vec sync" + (" (1 repeat)" if n > 1024 else ""), key=f"sync_{n}")
-    add("CCKAReach-v0 tdcr2 batched", 16384,
+            "make_vec sync" + (" (1 repeat)" if n > 1024 else ""),
+            key=f"sync_{n}",
+        )
+    add(
+        "CCKAReach-v0 tdcr2 batched",
+        16384,
         _vector_env("vector_entry_point", 16384, min_time, repeats, robot="tdcr2"),
-        "make_vec vector_entry_point, two-section robot", key="batched_16384_tdcr2")
+        "make_vec vector_entry_point, two-section robot",
+        key="batched_16384_tdcr2",
+    )
     for kind, label in (("dummy", "SB3 DummyVecEnv"), ("batched", "SB3 BatchedCCKAVecEnv")):
-        add(label, 8, _sb3_vec_env(kind, 8, min_time, repeats),
-            "the VecEnv PPO steps (SB3 API: per-env info dicts)", key=f"sb3_{kind}")
+        add(
+            label,
+            8,
+            _sb3_vec_env(kind, 8, min_time, repeats),
+            "the VecEnv PPO steps (SB3 API: per-env info dicts)",
+            key=f"sb3_{kind}",
+        )
     try:
         bullet = _single_env("cdcr_gym/BulletReach-v0", min_time, repeats)
         add("BulletReach-v0 (gym.make)", 1, bullet, "single env, pybullet", key="bullet")
     except Exception as exc:  # noqa: BLE001 - the row reports why
-        add("BulletReach-v0 (gym.make)", 1, None,
-            f"unavailable: {type(exc).__name__}: {exc}"[:160], key="bullet")
+        add(
+            "BulletReach-v0 (gym.make)",
+            1,
+            None,
+            f"unavailable: {type(exc).__name__}: {exc}"[:160],
+            key="bullet",
+        )
     if config.exists():
         for vec_env in ("dummy", "batched"):
             measured = _ppo(config, vec_env, ppo_steps, ppo_repeats)
-            add(f"PPO training ({vec_env})", measured["n_envs"], measured,
+            add(
+                f"PPO training ({vec_env})",
+                measured["n_envs"],
+                measured,
                 f"{config.name}, {ppo_steps} steps, torch threads {measured['torch_threads']}; "
-                f"rollouts {measured['rollout_share']:.0%} of the time", key=f"ppo_{vec_env}")
+                f"rollouts {measured['rollout_share']:.0%} of the time",
+                key=f"ppo_{vec_env}",
+            )
     else:
         for vec_env in ("dummy", "batched"):
             measured = _ppo_defaults(vec_env, ppo_steps, ppo_repeats)
-            add(f"PPO training ({vec_env})", 8, measured,
+            add(
+                f"PPO training ({vec_env})",
+                8,
+                measured,
                 f"{config} missing: PPO defaults, 8 envs, {ppo_steps} steps; rollouts "
-                f"{measured['rollout_share']:.0%} of the time", key=f"ppo_{vec_env}")
+                f"{measured['rollout_share']:.0%} of the time",
+                key=f"ppo_{vec_env}",
+            )
 
     result["rows"] = rows
     result["load_after"] = _load()
@@ -334,21 +405,37 @@ def _checks(by_key: dict[str, dict[str, Any]]) -> list[dict[str, Any]]:
 
     checks = [
         ("CCKAReach-v0 / Pendulum-v1 (gym.make)", ratio("ccka_single", "pendulum"), 0.5),
-        ("batched at 16 384 envs, M env-steps/s",
-         by_key["batched_16384"]["median"] / 1e6 if "batched_16384" in by_key else None, 20.0),
-        ("tdcr2 batched at 16 384 envs, M env-steps/s",
-         by_key["batched_16384_tdcr2"]["median"] / 1e6 if "median" in by_key.get(
-             "batched_16384_tdcr2", {}) else None, 5.0),
+        (
+            "batched at 16 384 envs, M env-steps/s",
+            by_key["batched_16384"]["median"] / 1e6 if "batched_16384" in by_key else None,
+            20.0,
+        ),
+        (
+            "tdcr2 batched at 16 384 envs, M env-steps/s",
+            by_key["batched_16384_tdcr2"]["median"] / 1e6
+            if "median" in by_key.get("batched_16384_tdcr2", {})
+            else None,
+            5.0,
+        ),
         ("batched / SyncVectorEnv at 1 024 envs", ratio("batched_1024", "sync_1024"), 50.0),
         ("batched / SyncVectorEnv at 64 envs", ratio("batched_64", "sync_64"), None),
         ("batched / SyncVectorEnv at 16 384 envs", ratio("batched_16384", "sync_16384"), None),
-        ("SB3 VecEnv, BatchedCCKAVecEnv / DummyVecEnv (8 envs)",
-         ratio("sb3_batched", "sb3_dummy"), None),
+        (
+            "SB3 VecEnv, BatchedCCKAVecEnv / DummyVecEnv (8 envs)",
+            ratio("sb3_batched", "sb3_dummy"),
+            None,
+        ),
         ("PPO wall-time speed-up, batched / dummy", ratio("ppo_batched", "ppo_dummy"), None),
     ]
-    return [{"name": name, "value": value, "target": target,
-             "ok": None if value is None or target is None else value >= target}
-            for name, value, target in checks]
+    return [
+        {
+            "name": name,
+            "value": value,
+            "target": target,
+            "ok": None if value is None or target is None else value >= target,
+        }
+        for name, value, target in checks
+    ]
 
 
 # -- formatting -----------------------------------------------------------------------------------
@@ -369,8 +456,10 @@ def _format_row(row: dict[str, Any]) -> str:
     envs = "" if row["envs"] is None else f"{row['envs']:,}".replace(",", " ")
     if "median" not in row:
         return f"| {row['name']} | {envs} | – | – | {row['note']} |"
-    return (f"| {row['name']} | {envs} | {_si(row['median'])} | "
-            f"{_si(row['min'])}–{_si(row['max'])} | {row['note']} |")
+    return (
+        f"| {row['name']} | {envs} | {_si(row['median'])} | "
+        f"{_si(row['min'])}–{_si(row['max'])} | {row['note']} |"
+    )
 
 
 def to_markdown(result: dict[str, Any]) -> str:
@@ -398,16 +487,31 @@ def to_markdown(result: dict[str, Any]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m training.bench", description=__doc__.split(
-        "\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--quick", action="store_true",
-                        help="shorter timings (0.3 s per repeat, 3 repeats, PPO 8 192 steps)")
-    parser.add_argument("--repeats", type=int, default=None,
-                        help="repeats per row (default 5; 3 with --quick)")
-    parser.add_argument("--config", type=Path, default=DEFAULT_CONFIG,
-                        help=f"training config for the PPO rows (default {DEFAULT_CONFIG})")
-    parser.add_argument("--out", type=Path, default=None,
-                        help="also write the results: .json (all numbers) or .md (the tables)")
+    parser = argparse.ArgumentParser(
+        prog="python -m training.bench",
+        description=__doc__.split("\n\n")[0],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="shorter timings (0.3 s per repeat, 3 repeats, PPO 8 192 steps)",
+    )
+    parser.add_argument(
+        "--repeats", type=int, default=None, help="repeats per row (default 5; 3 with --quick)"
+    )
+    parser.add_argument(
+        "--config",
+        type=Path,
+        default=DEFAULT_CONFIG,
+        help=f"training config for the PPO rows (default {DEFAULT_CONFIG})",
+    )
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        help="also write the results: .json (all numbers) or .md (the tables)",
+    )
     args = parser.parse_args(argv)
     if args.repeats is not None and args.repeats < 1:
         parser.error("--repeats must be >= 1")

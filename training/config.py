@@ -232,7 +232,9 @@ class ExperimentConfig:
             )
         for key in ("max_episode_steps", "render_mode"):
             if any(key in kw for kw in (e.kwargs, *e.per_env_kwargs)):
-                hint = "env.max_episode_steps" if key == "max_episode_steps" else "(set by evaluate)"
+                hint = (
+                    "env.max_episode_steps" if key == "max_episode_steps" else "(set by evaluate)"
+                )
                 raise ConfigError(f"env.kwargs.{key} is not allowed here; use {hint}")
         n = self.normalize
         _positive_float("normalize.clip_obs", n.clip_obs)
@@ -270,7 +272,9 @@ class ExperimentConfig:
             )
         _choice("ppo.policy.activation", p.policy.activation, ACTIVATIONS)
         if not math.isfinite(p.policy.log_std_init):
-            raise ConfigError(f"ppo.policy.log_std_init must be finite, got {p.policy.log_std_init}")
+            raise ConfigError(
+                f"ppo.policy.log_std_init must be finite, got {p.policy.log_std_init}"
+            )
         _positive_int("eval.freq", self.eval.freq)
         _positive_int("eval.n_episodes", self.eval.n_episodes)
         if self.eval.seed < 0:

@@ -160,8 +160,10 @@ def evaluate(
         "model_step": model_step,
         "trained_on": {"env_id": config.env.id, "env_kwargs": config.env.kwargs},
         "env_id": env_id,
-        "env_kwargs": {k: (v if isinstance(v, (int, float, str, bool, type(None), list, dict))
-                           else repr(v)) for k, v in env_kwargs.items()},
+        "env_kwargs": {
+            k: (v if isinstance(v, (int, float, str, bool, type(None), list, dict)) else repr(v))
+            for k, v in env_kwargs.items()
+        },
         "episodes": episodes,
         "seed": seed,
         "distance_threshold_m": threshold,
@@ -181,13 +183,19 @@ def evaluate(
     where = f"{env_id.split('/')[-1]}, {headline}"
     figures = {
         "histogram": plots.plot_error_histogram(
-            {"PPO policy": pol_mm, "analytic IK": ik_mm}, fig_dir / "error_histogram.png",
-            f"final tip error ({where}, {episodes} goals)"),
+            {"PPO policy": pol_mm, "analytic IK": ik_mm},
+            fig_dir / "error_histogram.png",
+            f"final tip error ({where}, {episodes} goals)",
+        ),
         "workspace": plots.plot_workspace_errors(
-            specs.goals, pol_mm, fig_dir / "workspace_errors.png",
-            f"PPO final error over the workspace ({where})"),
+            specs.goals,
+            pol_mm,
+            fig_dir / "workspace_errors.png",
+            f"PPO final error over the workspace ({where})",
+        ),
         "policy_vs_ik": plots.plot_policy_vs_ik(
-            pol_mm, ik_mm, fig_dir / "policy_vs_ik.png", f"per goal ({where})"),
+            pol_mm, ik_mm, fig_dir / "policy_vs_ik.png", f"per goal ({where})"
+        ),
     }
     longest = max(ev.horizons)
     curves = {}
@@ -196,11 +204,22 @@ def evaluate(
         curves[f"PPO ({s})"] = p_.distances
         curves[f"IK ({s})"] = i_.distances
     figures["error_vs_step"] = plots.plot_error_vs_step(
-        curves, fig_dir / "error_vs_step.png", train_horizon,
-        f"tip error vs step ({env_id.split('/')[-1]}, {episodes} goals)")
+        curves,
+        fig_dir / "error_vs_step.png",
+        train_horizon,
+        f"tip error vs step ({env_id.split('/')[-1]}, {episodes} goals)",
+    )
     if video:
-        figures["video"] = _write_video(env_id, env_kwargs, policy, specs, ev.horizons[0],
-                                        ev.video_episodes, fig_dir, train_horizon)
+        figures["video"] = _write_video(
+            env_id,
+            env_kwargs,
+            policy,
+            specs,
+            ev.horizons[0],
+            ev.video_episodes,
+            fig_dir,
+            train_horizon,
+        )
     result["figures"] = {k: str(v) for k, v in figures.items()}
     result["wall_time_s"] = round(time.perf_counter() - t0, 1)
     out_json.write_text(json.dumps(result, indent=2) + "\n")
@@ -215,8 +234,14 @@ def _registered_steps(env_id: str) -> int:
 
 
 def _write_video(
-    env_id: str, env_kwargs: dict[str, Any], policy: Any, specs: Any, horizon: int,
-    n_episodes: int, fig_dir: Path, train_horizon: int,
+    env_id: str,
+    env_kwargs: dict[str, Any],
+    policy: Any,
+    specs: Any,
+    horizon: int,
+    n_episodes: int,
+    fig_dir: Path,
+    train_horizon: int,
 ) -> Path:
     """H.264 MP4 (``training.video``) of the first ``n_episodes`` headline episodes."""
     from training.rollout import make_env
@@ -226,8 +251,9 @@ def _write_video(
     frames = []
     try:
         for i in range(min(n_episodes, len(specs))):
-            obs, _ = env.reset(options={"goal": specs.goals[i],
-                                        "initial_tensions": specs.initial_tensions[i]})
+            obs, _ = env.reset(
+                options={"goal": specs.goals[i], "initial_tensions": specs.initial_tensions[i]}
+            )
             frames.append(env.render())
             for t in range(horizon):
                 action = policy(obs[None])[0]
@@ -249,28 +275,48 @@ def _print_table(result: dict[str, Any]) -> None:
 
     thr_mm = result["distance_threshold_m"] * 1000.0
     table = Table(
-        title=(f"{result['env_id']} — {result['episodes']} goals per condition, model at step "
-               f"{result['model_step']} (errors in mm; IK = analytic IK on the same goals)"),
+        title=(
+            f"{result['env_id']} — {result['episodes']} goals per condition, model at step "
+            f"{result['model_step']} (errors in mm; IK = analytic IK on the same goals)"
+        ),
     )
-    for col in ("condition", f"success ≤{thr_mm:g} mm", "≤1 mm", "mean", "median", "p95", "max",
-                f"IK ≤{thr_mm:g} mm", "IK median", "IK p95", "Δlength vs IK (median)",
-                "ΔT vs IK (median, N)"):
+    for col in (
+        "condition",
+        f"success ≤{thr_mm:g} mm",
+        "≤1 mm",
+        "mean",
+        "median",
+        "p95",
+        "max",
+        f"IK ≤{thr_mm:g} mm",
+        "IK median",
+        "IK p95",
+        "Δlength vs IK (median)",
+        "ΔT vs IK (median, N)",
+    ):
         table.add_column(col, justify="right")
     for name, c in result["conditions"].items():
         e, ik = c["error_mm"], c["ik"]
         table.add_row(
             name + (" *" if name == result["headline_condition"] else ""),
-            f"{100 * c['success_rate']:.1f} %", f"{100 * c['within_1mm']:.1f} %",
-            f"{e['mean']:.3f}", f"{e['median']:.3f}", f"{e['p95']:.3f}", f"{e['max']:.3f}",
-            f"{100 * ik['success_rate']:.1f} %", f"{ik['error_mm']['median']:.3f}",
+            f"{100 * c['success_rate']:.1f} %",
+            f"{100 * c['within_1mm']:.1f} %",
+            f"{e['mean']:.3f}",
+            f"{e['median']:.3f}",
+            f"{e['p95']:.3f}",
+            f"{e['max']:.3f}",
+            f"{100 * ik['success_rate']:.1f} %",
+            f"{ik['error_mm']['median']:.3f}",
             f"{ik['error_mm']['p95']:.3f}",
             f"{ik['cable_length_distance_mm']['median']:.3f} mm",
             f"{ik['tension_distance_n']['median']:.2f}",
         )
     console = Console(width=200)
     console.print(table)
-    console.print(f"* headline condition; wrote {result['_json_path']} and figures "
-                  f"{', '.join(Path(p).name for p in result['figures'].values())}")
+    console.print(
+        f"* headline condition; wrote {result['_json_path']} and figures "
+        f"{', '.join(Path(p).name for p in result['figures'].values())}"
+    )
 
 
 def _parse_kwarg(text: str) -> tuple[str, Any]:
@@ -288,20 +334,43 @@ def _parse_args(argv: list[str]) -> argparse.Namespace:
         description="Evaluate a trained run (best model) against the analytic IK.",
     )
     parser.add_argument("run_dir", type=Path, metavar="RUN_DIR", help="a training run directory")
-    parser.add_argument("--episodes", type=int, default=None,
-                        help="episodes per condition (default: the config's evaluate.episodes)")
-    parser.add_argument("--env-id", default=None,
-                        help="evaluate on another registered env (default: the training env)")
-    parser.add_argument("--env-kwarg", action="append", default=[], metavar="KEY=VALUE",
-                        help="override an env kwarg (YAML value), e.g. gravity=false; repeatable")
+    parser.add_argument(
+        "--episodes",
+        type=int,
+        default=None,
+        help="episodes per condition (default: the config's evaluate.episodes)",
+    )
+    parser.add_argument(
+        "--env-id",
+        default=None,
+        help="evaluate on another registered env (default: the training env)",
+    )
+    parser.add_argument(
+        "--env-kwarg",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override an env kwarg (YAML value), e.g. gravity=false; repeatable",
+    )
     parser.add_argument("--video", action="store_true", help="write an H.264 MP4 of a few episodes")
-    parser.add_argument("--model", choices=("best", "final"), default="best",
-                        help="which saved model to evaluate (default: best)")
-    parser.add_argument("--seed", type=int, default=None,
-                        help="first reset seed of the goals (default: the config's evaluate.seed)")
-    parser.add_argument("--tag", default=None,
-                        help="output name: eval_<tag>.json (default: eval.json on the training "
-                             "env, else derived from --env-id / --env-kwarg)")
+    parser.add_argument(
+        "--model",
+        choices=("best", "final"),
+        default="best",
+        help="which saved model to evaluate (default: best)",
+    )
+    parser.add_argument(
+        "--seed",
+        type=int,
+        default=None,
+        help="first reset seed of the goals (default: the config's evaluate.seed)",
+    )
+    parser.add_argument(
+        "--tag",
+        default=None,
+        help="output name: eval_<tag>.json (default: eval.json on the training "
+        "env, else derived from --env-id / --env-kwarg)",
+    )
     return parser.parse_args(argv)
 
 
@@ -316,8 +385,10 @@ def main(argv: list[str] | None = None) -> int:
             raise ConfigError(f"RUN_DIR {str(run_dir)!r} is not a training run (no config.yaml)")
         model_dir = run_dir / ("best_model" if args.model == "best" else "final_model")
         if not (model_dir / "model.zip").is_file():
-            raise ConfigError(f"--model {args.model}: {model_dir / 'model.zip'} does not exist "
-                              f"(has the run evaluated/finished yet?)")
+            raise ConfigError(
+                f"--model {args.model}: {model_dir / 'model.zip'} does not exist "
+                f"(has the run evaluated/finished yet?)"
+            )
         config = load_config(run_dir / "config.yaml")
         if args.episodes is not None and args.episodes <= 0:
             raise ConfigError(f"--episodes must be a positive integer, got {args.episodes}")
@@ -343,17 +414,24 @@ def main(argv: list[str] | None = None) -> int:
 
             make_env(env_id, env_kwargs).close()
         except (ValueError, TypeError) as exc:
-            raise ConfigError(f"--env-id/--env-kwarg: cannot make {env_id!r} with "
-                              f"{env_kwargs}: {exc}") from None
+            raise ConfigError(
+                f"--env-id/--env-kwarg: cannot make {env_id!r} with {env_kwargs}: {exc}"
+            ) from None
     except ConfigError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     command = " ".join(shlex.quote(a) for a in [sys.executable, "-m", "training.evaluate", *argv])
     result = evaluate(
-        run_dir, config,
+        run_dir,
+        config,
         episodes=args.episodes or config.evaluate.episodes,
-        env_id=env_id, env_kwargs=env_kwargs, model=args.model, tag=tag, video=args.video,
-        seed=args.seed, command=command,
+        env_id=env_id,
+        env_kwargs=env_kwargs,
+        model=args.model,
+        tag=tag,
+        video=args.video,
+        seed=args.seed,
+        command=command,
     )
     _print_table(result)
     return 0

@@ -51,20 +51,29 @@ def convert(zoo_run: Path, run_dir: Path, config: Path) -> Path:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m training.from_zoo", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog="python -m training.from_zoo",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     parser.add_argument("zoo_run", type=Path, help="the zoo's run folder (LOGS/ppo/<env>_<k>)")
     parser.add_argument("run_dir", type=Path, help="the cdcr_gym run directory to write")
-    parser.add_argument("--config", type=Path, default=Path("configs/ppo_ccka_reach.yaml"),
-                        help="cdcr_gym config for the env and evaluation settings")
+    parser.add_argument(
+        "--config",
+        type=Path,
+        default=Path("configs/ppo_ccka_reach.yaml"),
+        help="cdcr_gym config for the env and evaluation settings",
+    )
     args = parser.parse_args(argv)
     try:
         model_dir = convert(args.zoo_run, args.run_dir, args.config)
     except (FileNotFoundError, FileExistsError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    print(f"wrote {model_dir}; evaluate with: python -m training.evaluate {args.run_dir} "
-          f"--model final")
+    print(
+        f"wrote {model_dir}; evaluate with: python -m training.evaluate {args.run_dir} "
+        f"--model final"
+    )
     return 0
 
 

@@ -20,10 +20,15 @@ from cdcr_gym.controllers import AnalyticIKController
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m training.ik_demo", description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(
+        prog="python -m training.ik_demo", description=__doc__.split("\n")[0]
+    )
     parser.add_argument("--env-id", default="cdcr_gym/CCKAReach-v0")
-    parser.add_argument("--action-mode", default="tension_delta",
-                        choices=["tension", "tension_delta", "length_delta"])
+    parser.add_argument(
+        "--action-mode",
+        default="tension_delta",
+        choices=["tension", "tension_delta", "length_delta"],
+    )
     parser.add_argument("--episodes", type=int, default=10)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv)
@@ -51,9 +56,11 @@ def main(argv: list[str] | None = None) -> int:
     env.close()
     errors = np.asarray(errors)
     elapsed = time.perf_counter() - start
-    print(f"\n{args.env_id} ({args.action_mode}), analytic-IK controller, {args.episodes} episodes: "
-          f"tip error mean {errors.mean():.6f} mm, max {errors.max():.6f} mm "
-          f"({steps} steps in {elapsed:.2f} s)")
+    print(
+        f"\n{args.env_id} ({args.action_mode}), analytic-IK controller, {args.episodes} episodes: "
+        f"tip error mean {errors.mean():.6f} mm, max {errors.max():.6f} mm "
+        f"({steps} steps in {elapsed:.2f} s)"
+    )
     return 0
 
 

@@ -82,8 +82,13 @@ def plot_learning_curve(run_dir: str | Path, out: str | Path | None = None) -> P
         ax.set_ylabel("return (sum of −distance, m)")
     if pr and "charts/final_error_mm_median" in pr:
         ax2 = ax.twinx()
-        ax2.semilogy(pr["time/total_timesteps"], pr["charts/final_error_mm_median"],
-                     color="tab:orange", lw=1, label="median final error (training)")
+        ax2.semilogy(
+            pr["time/total_timesteps"],
+            pr["charts/final_error_mm_median"],
+            color="tab:orange",
+            lw=1,
+            label="median final error (training)",
+        )
         ax2.set_ylabel("median final error, training episodes (mm)", color="tab:orange")
     ax.set_xlabel("environment steps")
     ax.set_title("training episodes")
@@ -122,7 +127,9 @@ def plot_error_histogram(errors_mm: dict[str, np.ndarray], out: Path, title: str
     return out
 
 
-def plot_workspace_errors(goals: np.ndarray, errors_mm: np.ndarray, out: Path, title: str = "") -> Path:
+def plot_workspace_errors(
+    goals: np.ndarray, errors_mm: np.ndarray, out: Path, title: str = ""
+) -> Path:
     """Goals over the workspace (top view x–y, and side view r–z), coloured by final error."""
     from matplotlib.colors import LogNorm
 
@@ -183,9 +190,10 @@ def plot_error_vs_step(
     for label, d in curves.items():
         mm = np.clip(np.asarray(d) * 1000.0, 1e-3, None)  # below 1 µm drawn at 1 µm
         t = np.arange(mm.shape[1])
-        line, = ax.semilogy(t, np.median(mm, axis=0), label=f"{label} median")
-        ax.semilogy(t, np.percentile(mm, 95, axis=0), ls="--", color=line.get_color(),
-                    label=f"{label} p95")
+        (line,) = ax.semilogy(t, np.median(mm, axis=0), label=f"{label} median")
+        ax.semilogy(
+            t, np.percentile(mm, 95, axis=0), ls="--", color=line.get_color(), label=f"{label} p95"
+        )
     if train_horizon is not None:
         ax.axvline(train_horizon, color="grey", ls=":", lw=1)
         ax.text(train_horizon, ax.get_ylim()[1], " training episode length", va="top", fontsize=8)

@@ -43,8 +43,11 @@ def rows(run_dir: Path, eval_name: str = "eval", conditions: list[str] | None = 
             continue
         e, ik = c["error_mm"], c["ik"]
         env = data["env_id"].split("/")[-1]
-        overrides = {k: v for k, v in data["env_kwargs"].items()
-                     if data["trained_on"]["env_kwargs"].get(k) != v}
+        overrides = {
+            k: v
+            for k, v in data["env_kwargs"].items()
+            if data["trained_on"]["env_kwargs"].get(k) != v
+        }
         if overrides:
             env += " " + ", ".join(f"{k}={v}" for k, v in overrides.items())
         out.append(
@@ -61,8 +64,9 @@ def rows(run_dir: Path, eval_name: str = "eval", conditions: list[str] | None = 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m training.results", description=__doc__)
     parser.add_argument("runs", nargs="+", metavar="RUN_DIR[:EVAL_NAME]")
-    parser.add_argument("--conditions", default=None,
-                        help="comma-separated condition names to show (default: all)")
+    parser.add_argument(
+        "--conditions", default=None, help="comma-separated condition names to show (default: all)"
+    )
     args = parser.parse_args(argv)
     conditions = args.conditions.split(",") if args.conditions else None
     lines = [HEADER, "|" + "---|" * (HEADER.count("|") - 1)]

@@ -219,8 +219,14 @@ def run_episodes(
         for env in envs:
             env.close()
     return Rollouts(
-        distances, final_tip, final_tensions, final_lengths, returns, lengths,
-        specs.goals.copy(), trajectories,
+        distances,
+        final_tip,
+        final_tensions,
+        final_lengths,
+        returns,
+        lengths,
+        specs.goals.copy(),
+        trajectories,
     )
 
 

@@ -67,9 +67,7 @@ class BatchedCCKAVecEnv(VecEnv):
                 per_env_kwargs[i % len(per_env_kwargs)].get("initial_state", default)
                 for i in range(num_envs)
             ]
-        self.venv = CDCRVectorEnv(
-            num_envs, autoreset_mode=AutoresetMode.SAME_STEP, **env_kwargs
-        )
+        self.venv = CDCRVectorEnv(num_envs, autoreset_mode=AutoresetMode.SAME_STEP, **env_kwargs)
         self.env_kwargs = dict(env_kwargs)
         self._actions: np.ndarray | None = None
         super().__init__(
@@ -156,8 +154,9 @@ class BatchedCCKAVecEnv(VecEnv):
         keys = set(self._options[0])
         if any(set(o) != keys for o in self._options):
             raise ValueError("set_options: every env needs the same option keys")
-        return {k: np.stack([np.asarray(o[k], dtype=np.float64) for o in self._options])
-                for k in keys}
+        return {
+            k: np.stack([np.asarray(o[k], dtype=np.float64) for o in self._options]) for k in keys
+        }
 
     @staticmethod
     def _to_sb3_obs(obs: Any) -> VecEnvObs:
@@ -180,6 +179,7 @@ class BatchedCCKAVecEnv(VecEnv):
             if only is not None and not only[i]:
                 out.append({})
                 continue
-            out.append({k: (v[i] if isinstance(v, list) else v[i].copy())
-                        for k, v in columns.items()})
+            out.append(
+                {k: (v[i] if isinstance(v, list) else v[i].copy()) for k, v in columns.items()}
+            )
         return out

@@ -130,7 +130,10 @@ def _git_info() -> dict[str, Any]:
         ).stdout.strip()
         dirty = subprocess.run(
             ["git", "status", "--porcelain", "--untracked-files=no"],
-            cwd=repo, capture_output=True, text=True, timeout=10,
+            cwd=repo,
+            capture_output=True,
+            text=True,
+            timeout=10,
         ).stdout.strip()
         return {"commit": commit or None, "dirty": bool(dirty)}
     except (OSError, subprocess.SubprocessError):
@@ -241,14 +244,18 @@ def _make_callbacks(config: ExperimentConfig, run: RunDir, state: dict[str, Any]
                     "charts/final_error_mm_median", float(np.median(self.final_errors))
                 )
                 self.final_errors = []
-            self.logger.record("charts/learning_rate", self.model.policy.optimizer.param_groups[0]["lr"])
+            self.logger.record(
+                "charts/learning_rate", self.model.policy.optimizer.param_groups[0]["lr"]
+            )
 
     class CheckpointCallback(BaseCallback):
         """Every ``checkpoint.freq`` env steps: model + VecNormalize + learning curve."""
 
         def __init__(self) -> None:
             super().__init__()
-            self.next_at = (state["start_steps"] // config.checkpoint.freq + 1) * config.checkpoint.freq
+            self.next_at = (
+                state["start_steps"] // config.checkpoint.freq + 1
+            ) * config.checkpoint.freq
 
         def _on_step(self) -> bool:
             if self.num_timesteps >= self.next_at:
@@ -269,9 +276,9 @@ def _make_callbacks(config: ExperimentConfig, run: RunDir, state: dict[str, Any]
                 from cdcr_gym.params import RobotParams
 
                 params = RobotParams(**params)
-            self.specs = concat_specs([
-                make_specs(ev.n_episodes, ev.seed, s, params) for s in ev.initial_states
-            ])
+            self.specs = concat_specs(
+                [make_specs(ev.n_episodes, ev.seed, s, params) for s in ev.initial_states]
+            )
             self.horizon = config.env.max_episode_steps or _registered_steps(config.env.id)
 
         def _evaluate(self) -> None:
@@ -295,8 +302,14 @@ def _make_callbacks(config: ExperimentConfig, run: RunDir, state: dict[str, Any]
                 "mean_reward": float(np.mean(rollouts.returns)),
                 "wall_time_s": state["wall_before"] + time.perf_counter() - state["t_start"],
             }
-            for key in ("success_rate", "within_1mm", "mean_error_mm", "median_error_mm",
-                        "p95_error_mm", "mean_reward"):
+            for key in (
+                "success_rate",
+                "within_1mm",
+                "mean_error_mm",
+                "median_error_mm",
+                "p95_error_mm",
+                "mean_reward",
+            ):
                 self.logger.record(f"eval/{key}", row[key])
             self.logger.record("eval/duration_s", time.perf_counter() - t0)
             _append_csv(run.eval_log, row)
@@ -326,7 +339,10 @@ def _make_callbacks(config: ExperimentConfig, run: RunDir, state: dict[str, Any]
 
         def _on_training_end(self) -> None:
             # Always evaluate the final weights too (the best model may be the last one).
-            if state.get("last_eval_step") != self.num_timesteps and self.num_timesteps >= state["total"]:
+            if (
+                state.get("last_eval_step") != self.num_timesteps
+                and self.num_timesteps >= state["total"]
+            ):
                 self._evaluate()
 
     return [StatsCallback(), CheckpointCallback(), EvalCallback()]
@@ -351,10 +367,14 @@ def save_checkpoint(model: Any, run: RunDir, state: dict[str, Any]) -> int:
         vn_path.write_bytes(b"")
     model.save(model_path)
     state["last_checkpoint"] = steps
-    _write_json(run.checkpoints / "state.json", {
-        "steps": steps, "best_score": state.get("best_score"), "wall_time_s":
-        state["wall_before"] + time.perf_counter() - state["t_start"],
-    })
+    _write_json(
+        run.checkpoints / "state.json",
+        {
+            "steps": steps,
+            "best_score": state.get("best_score"),
+            "wall_time_s": state["wall_before"] + time.perf_counter() - state["t_start"],
+        },
+    )
     try:
         from training.plots import plot_learning_curve
 
@@ -520,8 +540,11 @@ def train(config: ExperimentConfig, run_dir: Path, resume: bool, argv: list[str]
             "config": config_to_dict(config),
             "versions": _versions(),
             "git": _git_info(),
-            "host": {"hostname": socket.gethostname(), "platform": platform.platform(),
-                     "cpu_count": os.cpu_count()},
+            "host": {
+                "hostname": socket.gethostname(),
+                "platform": platform.platform(),
+                "cpu_count": os.cpu_count(),
+            },
             "torch_threads": config.runtime.torch_threads,
             "sessions": [],
         }
@@ -531,8 +554,10 @@ def train(config: ExperimentConfig, run_dir: Path, resume: bool, argv: list[str]
         f.write(command + "\n")
 
     if state["start_steps"] >= config.total_timesteps:
-        print(f"{run.root}: already trained for {state['start_steps']} >= "
-              f"{config.total_timesteps} steps; nothing to do")
+        print(
+            f"{run.root}: already trained for {state['start_steps']} >= "
+            f"{config.total_timesteps} steps; nothing to do"
+        )
         return 0
 
     # Seeds: a resumed session reseeds its envs differently (seed + steps), so it is not a
@@ -547,7 +572,11 @@ def train(config: ExperimentConfig, run_dir: Path, resume: bool, argv: list[str]
     else:
         venv = _wrap_normalize(config, venv, None)
         model = PPO(
-            "MlpPolicy", venv, seed=config.seed, device=config.runtime.device, verbose=0,
+            "MlpPolicy",
+            venv,
+            seed=config.seed,
+            device=config.runtime.device,
+            verbose=0,
             **_ppo_kwargs(config),
         )
     model.set_random_seed(session_seed)
@@ -583,16 +612,25 @@ def train(config: ExperimentConfig, run_dir: Path, resume: bool, argv: list[str]
     except KeyboardInterrupt:
         status, code = "interrupted", EXIT_INTERRUPTED
         steps = save_checkpoint(model, run, state)
-        print(f"\ninterrupted: checkpoint saved at step {steps}; continue with\n  "
-              f"python -m training.train {shlex.quote(str(run.config))} --run-dir "
-              f"{shlex.quote(str(run.root))} --resume", file=sys.stderr)
+        print(
+            f"\ninterrupted: checkpoint saved at step {steps}; continue with\n  "
+            f"python -m training.train {shlex.quote(str(run.config))} --run-dir "
+            f"{shlex.quote(str(run.root))} --resume",
+            file=sys.stderr,
+        )
     finally:
         signal.signal(signal.SIGTERM, previous)
         wall = time.perf_counter() - state["t_start"]
-        session.update({
-            "end": _now(), "end_steps": int(model.num_timesteps), "wall_time_s": round(wall, 2),
-            "steps_per_s": round((model.num_timesteps - state["start_steps"]) / max(wall, 1e-9), 1),
-        })
+        session.update(
+            {
+                "end": _now(),
+                "end_steps": int(model.num_timesteps),
+                "wall_time_s": round(wall, 2),
+                "steps_per_s": round(
+                    (model.num_timesteps - state["start_steps"]) / max(wall, 1e-9), 1
+                ),
+            }
+        )
         if status != "interrupted" and sys.exc_info()[0] is not None:
             status, code = "failed", 1
         session["status"] = status
@@ -610,8 +648,10 @@ def train(config: ExperimentConfig, run_dir: Path, resume: bool, argv: list[str]
             vecnorm.save(str(run.final / "vecnormalize.pkl"))
             vecnorm.save(str(run.vecnormalize))
         save_checkpoint(model, run, state)
-        print(f"done: {model.num_timesteps} steps in {meta['total_wall_time_s']:.0f} s; "
-              f"run directory {run.root}")
+        print(
+            f"done: {model.num_timesteps} steps in {meta['total_wall_time_s']:.0f} s; "
+            f"run directory {run.root}"
+        )
     venv.close()
     return code
 
@@ -636,20 +676,33 @@ def _parse_args(argv: list[str]) -> argparse.Namespace:
         description="Train a PPO agent on a cdcr_gym env from a YAML config.",
     )
     parser.add_argument("config", help="experiment YAML, e.g. configs/ppo_ccka_reach.yaml")
-    parser.add_argument("--run-dir", type=Path, default=None,
-                        help="run directory (default: runs/<name>_seed<S>_<timestamp>)")
-    parser.add_argument("--total-timesteps", type=int, default=None,
-                        help="override total_timesteps (env steps, summed over envs)")
+    parser.add_argument(
+        "--run-dir",
+        type=Path,
+        default=None,
+        help="run directory (default: runs/<name>_seed<S>_<timestamp>)",
+    )
+    parser.add_argument(
+        "--total-timesteps",
+        type=int,
+        default=None,
+        help="override total_timesteps (env steps, summed over envs)",
+    )
     parser.add_argument("--seed", type=int, default=None, help="override the config's seed")
-    parser.add_argument("--resume", action="store_true",
-                        help="continue the run in --run-dir from its last checkpoint")
+    parser.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue the run in --run-dir from its last checkpoint",
+    )
     return parser.parse_args(argv)
 
 
 def _resolve(args: argparse.Namespace) -> tuple[ExperimentConfig, Path]:
     """The config with CLI overrides, and the run directory; raise ConfigError naming the input."""
     if args.total_timesteps is not None and args.total_timesteps <= 0:
-        raise ConfigError(f"--total-timesteps must be a positive integer, got {args.total_timesteps}")
+        raise ConfigError(
+            f"--total-timesteps must be a positive integer, got {args.total_timesteps}"
+        )
     if args.seed is not None and args.seed < 0:
         raise ConfigError(f"--seed must be an integer >= 0, got {args.seed}")
     try:
@@ -668,22 +721,31 @@ def _resolve(args: argparse.Namespace) -> tuple[ExperimentConfig, Path]:
             raise ConfigError("--resume needs --run-dir (the run to continue)")
         run = RunDir(args.run_dir)
         if not run.config.is_file() or not run.run_json.is_file():
-            raise ConfigError(f"--run-dir {str(args.run_dir)!r} is not a training run directory "
-                              f"(no config.yaml / run.json)")
+            raise ConfigError(
+                f"--run-dir {str(args.run_dir)!r} is not a training run directory "
+                f"(no config.yaml / run.json)"
+            )
         saved = load_config(run.config)
         if args.total_timesteps is not None:
             saved.total_timesteps = args.total_timesteps
         if args.seed is not None and args.seed != saved.seed:
-            raise ConfigError(f"--seed {args.seed} differs from the run's seed {saved.seed}; "
-                              f"a resumed run keeps its seed")
+            raise ConfigError(
+                f"--seed {args.seed} differs from the run's seed {saved.seed}; "
+                f"a resumed run keeps its seed"
+            )
         # The CONFIG file must still describe this run (total_timesteps may be extended).
         mine, theirs = config_to_dict(config), config_to_dict(saved)
         mine["seed"], mine["total_timesteps"] = theirs["seed"], theirs["total_timesteps"]
-        diff = sorted(k for k in _flatten(mine).keys() | _flatten(theirs).keys()
-                      if _flatten(mine).get(k) != _flatten(theirs).get(k))
+        diff = sorted(
+            k
+            for k in _flatten(mine).keys() | _flatten(theirs).keys()
+            if _flatten(mine).get(k) != _flatten(theirs).get(k)
+        )
         if diff:
-            raise ConfigError(f"CONFIG {args.config!r} differs from {run.config} in {diff}; "
-                              f"resume with the run's own config.yaml")
+            raise ConfigError(
+                f"CONFIG {args.config!r} differs from {run.config} in {diff}; "
+                f"resume with the run's own config.yaml"
+            )
         return saved.validate(), run.root
     if args.run_dir is None:
         stamp = _dt.datetime.now().strftime("%Y%m%d-%H%M%S")
@@ -691,8 +753,10 @@ def _resolve(args: argparse.Namespace) -> tuple[ExperimentConfig, Path]:
     else:
         run_dir = args.run_dir
     if run_dir.exists() and (not run_dir.is_dir() or any(run_dir.iterdir())):
-        raise ConfigError(f"--run-dir {str(run_dir)!r} already exists and is not empty; "
-                          f"pass --resume to continue it, or choose another directory")
+        raise ConfigError(
+            f"--run-dir {str(run_dir)!r} already exists and is not empty; "
+            f"pass --resume to continue it, or choose another directory"
+        )
     return config, run_dir
 
 

@@ -55,8 +55,10 @@ class AnalyticBackend(Backend):
     def reset(self, tensions: np.ndarray, mask: np.ndarray | None = None) -> None:
         t = validation.per_cable(tensions, "tensions", self.n_cables, 0.0, self.params.max_tension)
         if t.shape != (self.num_robots, self.n_cables):
-            raise ValueError(f"tensions must have shape ({self.num_robots}, {self.n_cables}), "
-                             f"got shape {t.shape}")
+            raise ValueError(
+                f"tensions must have shape ({self.num_robots}, {self.n_cables}), "
+                f"got shape {t.shape}"
+            )
         if mask is None:
             self._set(t.copy())
             return

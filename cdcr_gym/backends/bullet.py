@@ -191,7 +191,9 @@ def _check_bool(name: str, value) -> bool:
 
 
 def _check_positive(name: str, value, unit: str) -> float:
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+    if isinstance(value, (bool, np.bool_)) or not isinstance(
+        value, (int, float, np.integer, np.floating)
+    ):
         raise ValueError(f"{name} must be a real number ({unit}), got {value!r}")
     value = float(value)
     if not math.isfinite(value) or value <= 0.0:
@@ -283,7 +285,11 @@ class BulletBackend(Backend):
             raise ValueError(
                 f"base_orientation must be 4 numbers (x, y, z, w), got {base_orientation!r}"
             ) from None
-        if quat.shape != (4,) or not np.all(np.isfinite(quat)) or abs(np.linalg.norm(quat) - 1.0) > 1e-6:
+        if (
+            quat.shape != (4,)
+            or not np.all(np.isfinite(quat))
+            or abs(np.linalg.norm(quat) - 1.0) > 1e-6
+        ):
             raise ValueError(
                 "base_orientation must be a finite unit quaternion (x, y, z, w) with norm 1 "
                 f"(±1e-6), got {base_orientation!r}"
@@ -376,7 +382,11 @@ class BulletBackend(Backend):
             axes.append((1.0, 0.0, 0.0))
             # Y joint into the real link
             masses.append(mass)
-            vis_idx.append(vis["tip"] if j == self.n_links else (vis["disk"] if j % self.links_per_span == 0 else vis["rod"]))
+            vis_idx.append(
+                vis["tip"]
+                if j == self.n_links
+                else (vis["disk"] if j % self.links_per_span == 0 else vis["rod"])
+            )
             pos.append((0.0, 0.0, 0.0))
             inertial_pos.append((0.0, 0.0, z_c))
             parents.append(len(parents))
@@ -562,8 +572,15 @@ class BulletBackend(Backend):
         )
         self._invalidate()
 
-    def _diverged(self, message: str, q: np.ndarray, qd: np.ndarray, t: np.ndarray) -> SimulationDivergedError:
-        state = {"joint_positions": q.copy(), "joint_velocities": qd.copy(), "tensions": t.copy(), "time": self.time}
+    def _diverged(
+        self, message: str, q: np.ndarray, qd: np.ndarray, t: np.ndarray
+    ) -> SimulationDivergedError:
+        state = {
+            "joint_positions": q.copy(),
+            "joint_velocities": qd.copy(),
+            "tensions": t.copy(),
+            "time": self.time,
+        }
         return SimulationDivergedError(
             f"{message} (t = {self.time:.4f} s, tensions {t.tolist()} N, "
             f"max |q| = {np.max(np.abs(q))} rad, max |q̇| = {np.max(np.abs(qd))} rad/s)",
@@ -595,12 +612,16 @@ class BulletBackend(Backend):
         pb, cid = self._pb, self._client
         if self._gravity_in_base is None:
             return np.array(
-                pb.calculateInverseDynamics(self._body, q_list, qd_list, self._zeros_list, physicsClientId=cid)
+                pb.calculateInverseDynamics(
+                    self._body, q_list, qd_list, self._zeros_list, physicsClientId=cid
+                )
             )
         pb.setGravity(*self._gravity_in_base, physicsClientId=cid)
         try:
             return np.array(
-                pb.calculateInverseDynamics(self._body, q_list, qd_list, self._zeros_list, physicsClientId=cid)
+                pb.calculateInverseDynamics(
+                    self._body, q_list, qd_list, self._zeros_list, physicsClientId=cid
+                )
             )
         finally:
             pb.setGravity(0.0, 0.0, -GRAVITY, physicsClientId=cid)
@@ -626,7 +647,9 @@ class BulletBackend(Backend):
         """
         self._check_open()
         t = self._check_tensions(tensions)
-        q, converged = self.chain.static_equilibrium(t, self._gravity_bias, max_angle=_MAX_JOINT_ANGLE)
+        q, converged = self.chain.static_equilibrium(
+            t, self._gravity_bias, max_angle=_MAX_JOINT_ANGLE
+        )
         if not converged:
             raise self._diverged(
                 "no static equilibrium found: the cables' destabilising load stiffness (which grows "
@@ -684,13 +707,17 @@ class BulletBackend(Backend):
             # M(q) comes as 2n tuples of 2n floats: fromiter over the flattened rows is the
             # cheapest conversion (np.array on the nested tuples costs ~2.5 µs more)
             rows = pb.calculateMassMatrix(body, ql, physicsClientId=cid)
-            mass = np.fromiter(itertools.chain.from_iterable(rows), np.float64, n2 * n2).reshape(n2, n2)
+            mass = np.fromiter(itertools.chain.from_iterable(rows), np.float64, n2 * n2).reshape(
+                n2, n2
+            )
             bias = self._bias(ql, qd.tolist())
             mass.reshape(-1)[:: n2 + 1] += self._A_diag  # the diagonal (a view): M + hD + h²K
             qd_new = qd + np.linalg.solve(mass, h * (tau_c - bias - K * q - D_plus_hK * qd))
             torque = tau_c - K * (q + h * qd_new) - D * qd_new
             # TORQUE_CONTROL torques accumulate until the next step: exactly one call per step
-            pb.setJointMotorControlArray(body, ids, torque_mode, forces=torque.tolist(), physicsClientId=cid)
+            pb.setJointMotorControlArray(
+                body, ids, torque_mode, forces=torque.tolist(), physicsClientId=cid
+            )
             pb.stepSimulation(physicsClientId=cid)
             self._invalidate()
             self.time += h
@@ -775,7 +802,9 @@ class BulletBackend(Backend):
         """Joint-space mass matrix M(q) (2n, 2n) at the current pose, from pybullet."""
         self._check_open()
         return np.asarray(
-            self._pb.calculateMassMatrix(self._body, self._state()[0].tolist(), physicsClientId=self._client)
+            self._pb.calculateMassMatrix(
+                self._body, self._state()[0].tolist(), physicsClientId=self._client
+            )
         )
 
     def backbone_points(self, index: int = 0, frame: str = "base") -> np.ndarray:
@@ -828,7 +857,9 @@ class BulletBackend(Backend):
         self._check_open()
         pose = self._read()
         return Readings(
-            self.tip[None], self._direction(pose.link_rot)[None], self.cable_lengths[None],
+            self.tip[None],
+            self._direction(pose.link_rot)[None],
+            self.cable_lengths[None],
             self._tensions.copy()[None],
         )
 
@@ -849,8 +880,12 @@ class BulletBackend(Backend):
         pose = self._read()
         stride = self.links_per_span
         centres = self._to_base(pose.stations[::stride])
-        rots = np.concatenate([np.eye(3)[None] @ self._base_rot.T @ self._base_rot,
-                               pose.link_rot[stride - 1::stride]])
+        rots = np.concatenate(
+            [
+                np.eye(3)[None] @ self._base_rot.T @ self._base_rot,
+                pose.link_rot[stride - 1 :: stride],
+            ]
+        )
         rots = np.einsum("ji,njk->nik", self._base_rot, rots)
         return centres, rots
 
@@ -865,7 +900,9 @@ class BulletBackend(Backend):
             if g.shape != (3,) or not np.all(np.isfinite(g)):
                 raise ValueError(f"goal must be 3 finite numbers (m, R0) or None, got {goal!r}")
             pos = tuple(float(v) for v in self._base_rot @ g)
-        pb.resetBasePositionAndOrientation(self._goal_body, pos, (0, 0, 0, 1), physicsClientId=self._client)
+        pb.resetBasePositionAndOrientation(
+            self._goal_body, pos, (0, 0, 0, 1), physicsClientId=self._client
+        )
 
     def render_rgb(self, goal: np.ndarray | None, width: int, height: int) -> np.ndarray:
         """Image (height, width, 3) uint8 from pybullet's headless TinyRenderer.
@@ -885,7 +922,9 @@ class BulletBackend(Backend):
         view = pb.computeViewMatrixFromYawPitchRoll(
             target.tolist(), 1.9 * ell, 30.0, -20.0, 0.0, 2, physicsClientId=cid
         )
-        proj = pb.computeProjectionMatrixFOV(45.0, width / height, 0.01, 10.0 * ell, physicsClientId=cid)
+        proj = pb.computeProjectionMatrixFOV(
+            45.0, width / height, 0.01, 10.0 * ell, physicsClientId=cid
+        )
         _, _, rgba, _, _ = pb.getCameraImage(
             int(width),
             int(height),

@@ -162,7 +162,9 @@ class DiscreteBackbone:
         self.params = params
         self.links_per_span = m = int(links_per_span)
         self.tip_payload = float(tip_payload)
-        self.base_rotation = np.eye(3) if base_rotation is None else np.asarray(base_rotation, float)
+        self.base_rotation = (
+            np.eye(3) if base_rotation is None else np.asarray(base_rotation, float)
+        )
         self.gravity = bool(gravity)
         #: Number of links (= 2-DOF joints) n and of joint coordinates 2n.
         self.n_links = params.n_disks * m
@@ -280,7 +282,9 @@ class DiscreteBackbone:
         m = self.links_per_span
         pins = np.empty((self.params.n_disks + 1, 3, 3))
         pins[0] = self._base_pinholes
-        pins[1:] = stations[m::m][:, None, :] + np.matmul(self.pinhole_local, rot[m::m].transpose(0, 2, 1))
+        pins[1:] = stations[m::m][:, None, :] + np.matmul(
+            self.pinhole_local, rot[m::m].transpose(0, 2, 1)
+        )
         return pins
 
     @staticmethod
@@ -310,7 +314,9 @@ class DiscreteBackbone:
             return self._cable_loads_one_link(q, tensions)
         return self._cable_loads_spans(q, tensions)
 
-    def _cable_loads_spans(self, q: np.ndarray, tensions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _cable_loads_spans(
+        self, q: np.ndarray, tensions: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`cable_loads` for any number of links per span."""
         n_span, m, half = self.params.n_disks, self.links_per_span, 0.5 * self.segment_length
         c, s = np.cos(q).reshape(n_span, m, 2), np.sin(q).reshape(n_span, m, 2)
@@ -343,7 +349,9 @@ class DiscreteBackbone:
         tau = (axes * moment[:, :, None, :]).sum(axis=-1).reshape(-1)
         return tau, seg_len.sum(axis=0)
 
-    def _cable_loads_one_link(self, q: np.ndarray, tensions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _cable_loads_one_link(
+        self, q: np.ndarray, tensions: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`cable_loads` for one link per span (the default), in a handful of numpy calls.
 
         Each span has one joint, at o = (0, 0, Δs/2) in the span frame, turning the link by
@@ -370,7 +378,9 @@ class DiscreteBackbone:
         seg = mapped[:9].reshape(3, 3, n)  # d_i [cable, xyz, span], m
         lever = mapped[9:].reshape(3, 3, n)  # (o − p_i) × d_i [xyz, cable, span], m²
         seg_len = np.sqrt((seg * seg).sum(axis=1))  # |d_i| (3 cables, n), m
-        moment = (lever * (np.reshape(tensions, (3, 1)) / seg_len)).sum(axis=1)  # Σ_i M_i (3, n), N·m
+        moment = (lever * (np.reshape(tensions, (3, 1)) / seg_len)).sum(
+            axis=1
+        )  # Σ_i M_i (3, n), N·m
         tau = np.empty(self.n_dof)
         tau[0::2] = moment[0]
         tau[1::2] = moment[1] * u[1] + moment[2] * u[2]

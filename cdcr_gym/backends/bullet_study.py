@@ -22,9 +22,9 @@ from dataclasses import replace
 import numpy as np
 
 from cdcr_gym import kinematics
-from cdcr_gym.model import statics
 from cdcr_gym.backends.bullet import MAX_JOINTS, BulletBackend
 from cdcr_gym.backends.bullet_chain import GRAVITY, DiscreteBackbone
+from cdcr_gym.model import statics
 from cdcr_gym.params import RobotParams
 
 __all__ = [
@@ -89,7 +89,10 @@ def settled_tip(
     tensions = np.asarray(tensions, dtype=np.float64)
     if params.n_disks * links_per_span <= MAX_JOINTS:
         backend = BulletBackend(
-            params, gravity=gravity, links_per_span=links_per_span, base_orientation=base_orientation
+            params,
+            gravity=gravity,
+            links_per_span=links_per_span,
+            base_orientation=base_orientation,
         )
         try:
             backend.reset(tensions)
@@ -97,7 +100,9 @@ def settled_tip(
         finally:
             backend.close()
     if gravity or tuple(base_orientation) != (0.0, 0.0, 0.0, 1.0):
-        raise ValueError("chains beyond pybullet's limit are evaluated upright without gravity only")
+        raise ValueError(
+            "chains beyond pybullet's limit are evaluated upright without gravity only"
+        )
     chain = DiscreteBackbone(params, links_per_span, gravity=False)
     q, converged = chain.static_equilibrium(tensions)
     if not converged:
@@ -120,7 +125,11 @@ def beam_theory_sag(params: RobotParams, tip_payload: float = 0.0) -> float:
 
 
 def settling_time(
-    backend: BulletBackend, start: np.ndarray, target: np.ndarray, tol: float = 1e-4, duration: float = 3.0
+    backend: BulletBackend,
+    start: np.ndarray,
+    target: np.ndarray,
+    tol: float = 1e-4,
+    duration: float = 3.0,
 ) -> tuple[float, float]:
     """Time (s) until the tip stays within ``tol`` m of its final rest after a tension step.
 
@@ -209,9 +218,13 @@ def _report() -> None:  # pragma: no cover - prints the tables of docs/bullet_ba
         ]
         print(f"| {n} | " + " | ".join(f"{x:.3f}" for x in row) + " |")
 
-    print("\n## 9 disks, gravity off: bending beyond the elastica vs the discrete-routing estimate\n")
-    print("| m | T1 (N) | θ₀ (°) | θ_sim − θ₀ (°) | estimate, physical (°) | estimate, model (1+2/m²) (°) "
-          "| |tip − elastica| (mm) | estimate, physical (mm) |")
+    print(
+        "\n## 9 disks, gravity off: bending beyond the elastica vs the discrete-routing estimate\n"
+    )
+    print(
+        "| m | T1 (N) | θ₀ (°) | θ_sim − θ₀ (°) | estimate, physical (°) | estimate, model (1+2/m²) (°) "
+        "| |tip − elastica| (mm) | estimate, physical (mm) |"
+    )
     print("|---|---|---|---|---|---|---|---|")
     for m in (1, 2, 4, 8):
         for t1 in (10.0, 20.0, 40.0, 60.0, 80.0):
@@ -236,7 +249,8 @@ def _report() -> None:  # pragma: no cover - prints the tables of docs/bullet_ba
         tips = {m: settled_tip(t, p, links_per_span=m) for m in (1, 2, 4, 8, 16)}
         d = [np.linalg.norm(tips[m] - tips[2 * m]) for m in (1, 2, 4, 8)]
         print(
-            f"| {t1:.0f} | " + " | ".join(f"{1e3 * x:.3f}" for x in d)
+            f"| {t1:.0f} | "
+            + " | ".join(f"{1e3 * x:.3f}" for x in d)
             + f" | {math.log2(d[0] / d[1]):.2f} | {math.log2(d[1] / d[2]):.2f} | {100 * d[2] / ell:.3f} |"
         )
 
@@ -253,8 +267,10 @@ def _report() -> None:  # pragma: no cover - prints the tables of docs/bullet_ba
                 errs.append(np.linalg.norm(fk - backend.tip))
             backend.close()
             e = np.array(errs)
-            print(f"| {'on' if gravity else 'off'} | {m} | {1e3 * e.mean():.2f} | {1e3 * e.max():.2f} "
-                  f"| {100 * e.mean() / ell:.3f} | {100 * e.max() / ell:.3f} |")
+            print(
+                f"| {'on' if gravity else 'off'} | {m} | {1e3 * e.mean():.2f} | {1e3 * e.max():.2f} "
+                f"| {100 * e.mean() / ell:.3f} | {100 * e.max() / ell:.3f} |"
+            )
 
     print("\n## Gravity\n")
     beam = beam_theory_sag(p)
@@ -262,34 +278,56 @@ def _report() -> None:  # pragma: no cover - prints the tables of docs/bullet_ba
     print("| links_per_span | simulated sag (mm) | vs beam theory (%) |")
     print("|---|---|---|")
     for m in (1, 2, 4, 6):
-        sag = -settled_tip(np.zeros(3), p, links_per_span=m, gravity=True, base_orientation=HORIZONTAL, frame="world")[2]
+        sag = -settled_tip(
+            np.zeros(3),
+            p,
+            links_per_span=m,
+            gravity=True,
+            base_orientation=HORIZONTAL,
+            frame="world",
+        )[2]
         print(f"| {m} | {1e3 * sag:.2f} | {100 * (sag / beam - 1):+.2f} |")
     up = settled_tip(np.zeros(3), p, gravity=True)
-    print(f"\nUpright, zero tension, gravity on: tip = {np.array2string(1e3 * up, precision=6)} mm (no sag)\n")
+    print(
+        f"\nUpright, zero tension, gravity on: tip = {np.array2string(1e3 * up, precision=6)} mm (no sag)\n"
+    )
     print("| tensions (N) | tip, gravity off (mm) | tip, gravity on (mm) | |Δ| (mm) |")
     print("|---|---|---|---|")
     for t in ((40.0, 0.0, 0.0), (80.0, 0.0, 0.0), (0.0, 40.0, 0.0)):
         off = settled_tip(t, p)
         on = settled_tip(t, p, gravity=True)
-        print(f"| {t} | {np.array2string(1e3 * off, precision=1)} | {np.array2string(1e3 * on, precision=1)} "
-              f"| {1e3 * np.linalg.norm(on - off):.2f} |")
+        print(
+            f"| {t} | {np.array2string(1e3 * off, precision=1)} | {np.array2string(1e3 * on, precision=1)} "
+            f"| {1e3 * np.linalg.norm(on - off):.2f} |"
+        )
 
     print("\n## Damping and settling (default settings, gravity on): time to stay within 0.1 mm\n")
-    print("| damping_ratio | physics_timestep (s) | 0→80 N | 80→0 N | 0→(40, 40, 0) N | max overshoot (mm) |")
+    print(
+        "| damping_ratio | physics_timestep (s) | 0→80 N | 80→0 N | 0→(40, 40, 0) N | max overshoot (mm) |"
+    )
     print("|---|---|---|---|---|---|")
     for zeta in (0.5, 0.7, 1.0):
         for h in (0.005, 0.01, 0.02):
             backend = BulletBackend(p, damping_ratio=zeta, physics_timestep=h)
             res = [
                 settling_time(backend, np.array(a), np.array(b))
-                for a, b in (((0, 0, 0), (80, 0, 0)), ((80, 0, 0), (0, 0, 0)), ((0, 0, 0), (40, 40, 0)))
+                for a, b in (
+                    ((0, 0, 0), (80, 0, 0)),
+                    ((80, 0, 0), (0, 0, 0)),
+                    ((0, 0, 0), (40, 40, 0)),
+                )
             ]
             backend.close()
-            print(f"| {zeta} | {h} | " + " | ".join(f"{r[0]:.2f} s" for r in res)
-                  + f" | {1e3 * max(r[1] for r in res):.1f} |")
+            print(
+                f"| {zeta} | {h} | "
+                + " | ".join(f"{r[0]:.2f} s" for r in res)
+                + f" | {1e3 * max(r[1] for r in res):.1f} |"
+            )
     backend = BulletBackend(p)
-    print(f"\nFirst bending mode ω₁ = {backend.first_mode_frequency:.2f} rad/s, highest mode "
-          f"ω_max = {backend.highest_mode_frequency:.0f} rad/s, damping time β = {backend.damping_time:.4f} s")
+    print(
+        f"\nFirst bending mode ω₁ = {backend.first_mode_frequency:.2f} rad/s, highest mode "
+        f"ω_max = {backend.highest_mode_frequency:.0f} rad/s, damping time β = {backend.damping_time:.4f} s"
+    )
     backend.close()
 
 
@@ -306,9 +344,13 @@ def main(argv: list[str] | None = None) -> None:  # pragma: no cover
         print("\n## Speed (default settings, one process)\n")
         print("| what | per wall-clock s | per CPU s |")
         print("|---|---|---|")
-        print(f"| BulletBackend.apply_tensions (+ tip, cable_lengths) | {res['backend_steps_per_s_wall']:.0f} "
-              f"| {res['backend_steps_per_s_cpu']:.0f} |")
-        print(f"| cdcr_gym/BulletReach-v0 env.step | {res['env_steps_per_s_wall']:.0f} | {res['env_steps_per_s_cpu']:.0f} |")
+        print(
+            f"| BulletBackend.apply_tensions (+ tip, cable_lengths) | {res['backend_steps_per_s_wall']:.0f} "
+            f"| {res['backend_steps_per_s_cpu']:.0f} |"
+        )
+        print(
+            f"| cdcr_gym/BulletReach-v0 env.step | {res['env_steps_per_s_wall']:.0f} | {res['env_steps_per_s_cpu']:.0f} |"
+        )
 
 
 if __name__ == "__main__":  # pragma: no cover

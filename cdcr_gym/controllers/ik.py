@@ -62,8 +62,9 @@ class AnalyticIKController:
     def from_env(cls, env: Any) -> AnalyticIKController:
         """A controller matched to ``env`` (a CDCREnv or the batched env, possibly wrapped)."""
         env = env.unwrapped
-        return cls(env.params, env.observation_spec, env.action_mode, env.tension_step,
-                   env.length_step)
+        return cls(
+            env.params, env.observation_spec, env.action_mode, env.tension_step, env.length_step
+        )
 
     def targets(self, goal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """IK solution for ``goal`` (..., 3) m: (tensions (..., C) N, cable lengths (..., C) m)."""

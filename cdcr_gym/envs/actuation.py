@@ -41,7 +41,10 @@ class Actuation:
     """
 
     def __init__(
-        self, mode: str, params: RobotParams, tension_step: float = 0.05,
+        self,
+        mode: str,
+        params: RobotParams,
+        tension_step: float = 0.05,
         length_step: float = 0.002,
     ) -> None:
         self.mode = validation.choice(mode, "action_mode", ACTION_MODES)

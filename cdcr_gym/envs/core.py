@@ -80,8 +80,9 @@ class EnvCore:
         task.bind(self.params, n)
         states = [initial_state] * n if isinstance(initial_state, str) else list(initial_state)
         if len(states) != n:
-            raise ValueError(f"initial_state must be one value or a sequence of {n} values, "
-                             f"got {len(states)}")
+            raise ValueError(
+                f"initial_state must be one value or a sequence of {n} values, got {len(states)}"
+            )
         for s in states:
             validation.choice(s, "initial_state", INITIAL_STATES)
         self.initial_states = tuple(states)
@@ -92,11 +93,13 @@ class EnvCore:
         if self.goal_conditioned:
             ell = self.params.length
             goal = spaces.Box(-ell, ell, shape=(task.goal_size,), dtype=np.float32)
-            self.observation_space: spaces.Space = spaces.Dict({
-                "observation": self.spec.box(),
-                "achieved_goal": goal,
-                "desired_goal": goal,
-            })
+            self.observation_space: spaces.Space = spaces.Dict(
+                {
+                    "observation": self.spec.box(),
+                    "achieved_goal": goal,
+                    "desired_goal": goal,
+                }
+            )
         else:
             self.observation_space = self.spec.box()
         self._readings = backend.read()
@@ -118,18 +121,22 @@ class EnvCore:
         """
         m, c = idx.size, self.n_cables
         if initial_tensions is not None:
-            tensions = validation.per_cable(initial_tensions, "options['initial_tensions']", c,
-                                            0.0, self.params.max_tension)
+            tensions = validation.per_cable(
+                initial_tensions, "options['initial_tensions']", c, 0.0, self.params.max_tension
+            )
             if tensions.shape not in ((c,), (m, c)):
-                raise ValueError(f"options['initial_tensions'] must have shape ({c},) or "
-                                 f"({m}, {c}), got shape {tensions.shape}")
+                raise ValueError(
+                    f"options['initial_tensions'] must have shape ({c},) or "
+                    f"({m}, {c}), got shape {tensions.shape}"
+                )
             tensions = np.broadcast_to(tensions, (m, c))
         else:
             tensions = np.zeros((m, c))
             random = self._random_start[idx]
             if random.any():
                 tensions[random] = sample_tensions_each(
-                    [r for r, k in zip(rngs, random) if k], self.params)
+                    [r for r, k in zip(rngs, random) if k], self.params
+                )
         full = np.zeros((self.num_envs, c))
         full[idx] = tensions
         if m == self.num_envs:

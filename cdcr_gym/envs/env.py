@@ -17,6 +17,7 @@ __all__ = ["CDCREnv", "GoalCDCREnv", "ReachEnv", "GoalReachEnv"]
 
 _ONE = np.array([0])
 
+
 class CDCREnv(gym.Env):
     r"""A cable-driven continuum robot that must do a task, by pulling its cables.
 
@@ -127,9 +128,15 @@ class CDCREnv(gym.Env):
         validation.choice(initial_state, "initial_state", ("straight", "random"))
         self.backend = backend
         self.params = backend.params
-        self.core = EnvCore(backend, task, action_mode=action_mode, tension_step=tension_step,
-                            length_step=length_step, initial_state=initial_state,
-                            goal_conditioned=self.goal_conditioned)
+        self.core = EnvCore(
+            backend,
+            task,
+            action_mode=action_mode,
+            tension_step=tension_step,
+            length_step=length_step,
+            initial_state=initial_state,
+            goal_conditioned=self.goal_conditioned,
+        )
         self.task = task
         self.action_mode = action_mode
         self.tension_step = self.core.actuation.tension_step
@@ -169,10 +176,12 @@ class CDCREnv(gym.Env):
         options = {} if options is None else dict(options)
         unknown = set(options) - {"goal", "initial_tensions"}
         if unknown:
-            raise ValueError(f"options has unknown keys {sorted(unknown)}; "
-                             f"allowed: 'goal', 'initial_tensions'")
-        self.core.reset(_ONE, [self.np_random], options.get("initial_tensions"),
-                        options.get("goal"))
+            raise ValueError(
+                f"options has unknown keys {sorted(unknown)}; allowed: 'goal', 'initial_tensions'"
+            )
+        self.core.reset(
+            _ONE, [self.np_random], options.get("initial_tensions"), options.get("goal")
+        )
         obs, _, _, info = self._outputs()
         if self.render_mode == "human":
             self.render()
@@ -216,8 +225,7 @@ class CDCREnv(gym.Env):
             **self.task.render_markers(),
         )
         if self.render_mode == "rgb_array":
-            return rendering.draw_scene(width=self.render_width, height=self.render_height,
-                                        **scene)
+            return rendering.draw_scene(width=self.render_width, height=self.render_height, **scene)
         rendering.show_scene(**scene)
         return None
 

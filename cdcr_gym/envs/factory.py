@@ -44,7 +44,8 @@ def keyword_names(callable_: Any) -> tuple[str, ...]:
     """The keyword-argument names of a class's ``__init__`` (or a function)."""
     target = callable_.__init__ if inspect.isclass(callable_) else callable_
     return tuple(
-        name for name, p in inspect.signature(target).parameters.items()
+        name
+        for name, p in inspect.signature(target).parameters.items()
         if name != "self" and p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)
     )
 
@@ -72,24 +73,33 @@ def split_kwargs(
     env_keys = set(keyword_names(env_class)) - {"backend", "task"}
     unknown = set(kwargs) - backend_keys - task_keys - env_keys
     if unknown:
-        accepted = sorted(backend_keys | task_keys | env_keys | {"robot", "params",
-                                                                  "goal_conditioned"})
-        raise ValueError(f"unknown keyword argument(s) {sorted(unknown)} for {backend}{task}; "
-                         f"accepted: {accepted}")
+        accepted = sorted(
+            backend_keys | task_keys | env_keys | {"robot", "params", "goal_conditioned"}
+        )
+        raise ValueError(
+            f"unknown keyword argument(s) {sorted(unknown)} for {backend}{task}; "
+            f"accepted: {accepted}"
+        )
     pick = lambda keys: {k: v for k, v in kwargs.items() if k in keys}  # noqa: E731
     return backend_class, pick(backend_keys), task_class, pick(task_keys), pick(env_keys)
 
 
 def make_env(
-    backend: str, task: str, *, goal_conditioned: bool = False, robot: Any = None,
-    params: Any = None, **kwargs: Any,
+    backend: str,
+    task: str,
+    *,
+    goal_conditioned: bool = False,
+    robot: Any = None,
+    params: Any = None,
+    **kwargs: Any,
 ) -> CDCREnv:
     """Entry point of every registered id (``backend`` and ``task`` come from the registry):
     the env of ``task`` on ``backend``, every keyword routed to its owner (module docstring)."""
     env_class = GoalCDCREnv if validation.flag(goal_conditioned, "goal_conditioned") else CDCREnv
     params = resolve_params(robot, params)
     backend_class, backend_kw, task_class, task_kw, env_kw = split_kwargs(
-        backend, task, kwargs, env_class)
+        backend, task, kwargs, env_class
+    )
     task_object = task_class(**task_kw)
     backend_object = backend_class(params=params, **backend_kw)
     try:

@@ -44,12 +44,19 @@ class Field:
 
     @classmethod
     def uniform(
-        cls, name: str, size: int, low: float, high: float, unit: str, description: str,
+        cls,
+        name: str,
+        size: int,
+        low: float,
+        high: float,
+        unit: str,
+        description: str,
         labels: Sequence[str] = (),
     ) -> Field:
         """A field of ``size`` entries sharing the bounds [low, high]."""
-        return cls(name, (float(low),) * size, (float(high),) * size, unit, description,
-                   tuple(labels))
+        return cls(
+            name, (float(low),) * size, (float(high),) * size, unit, description, tuple(labels)
+        )
 
 
 class ObservationSpec:

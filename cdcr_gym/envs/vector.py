@@ -101,11 +101,13 @@ class CDCRVectorEnv(VectorEnv):
         self.goal_conditioned = validation.flag(goal_conditioned, "goal_conditioned")
         params = factory.resolve_params(kwargs.pop("robot", None), kwargs.pop("params", None))
         backend_class, backend_kw, task_class, task_kw, env_kw = factory.split_kwargs(
-            backend, task, kwargs)
+            backend, task, kwargs
+        )
         for key in ("render_width", "render_height"):
             env_kw.pop(key, None)
         self.terminate_on_success = validation.flag(
-            env_kw.pop("terminate_on_success", False), "terminate_on_success")
+            env_kw.pop("terminate_on_success", False), "terminate_on_success"
+        )
         self.task = task_class(**task_kw)
         robots = backend_class(params=params, num_robots=n, **backend_kw)
         self.core = EnvCore(robots, self.task, goal_conditioned=self.goal_conditioned, **env_kw)
@@ -171,8 +173,10 @@ class CDCRVectorEnv(VectorEnv):
         mask = options.pop("reset_mask", None)
         unknown = set(options) - {"goal", "initial_tensions"}
         if unknown:
-            raise ValueError(f"options has unknown keys {sorted(unknown)}; "
-                             f"allowed: 'goal', 'initial_tensions', 'reset_mask'")
+            raise ValueError(
+                f"options has unknown keys {sorted(unknown)}; "
+                f"allowed: 'goal', 'initial_tensions', 'reset_mask'"
+            )
         if mask is None:
             idx = self._all
         else:

@@ -55,6 +55,7 @@ _SIN_BETA = (0.0, 0.5 * _SQRT3, -0.5 * _SQRT3)
 
 # -- validation --------------------------------------------------------------------------------
 
+
 def check_positive(name: str, value: float, what: str) -> float:
     """``value`` as a float, or ``ValueError`` naming ``name`` unless finite and > 0."""
     try:
@@ -106,6 +107,7 @@ def _stack3(x, y, z) -> np.ndarray:
 
 
 # -- the arc profile -----------------------------------------------------------------------------
+
 
 def arc_profile(theta) -> tuple[np.ndarray, np.ndarray]:
     """(f, g) = ((1 − cos θ)/θ², sin θ/θ), exact and finite at θ = 0 (values 1/2, 1); even in θ.
@@ -165,6 +167,7 @@ def _tip_components(theta, wx, wy, length):
 
 
 # -- public API (the same names, signatures and results as cdcr_gym.kinematics) ------------------
+
 
 def arc_from_lengths(lengths, r: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Arc parameters from the three cable lengths (paper eq. 2–4, with atan2).
@@ -323,7 +326,9 @@ def _profile_derivatives(theta: np.ndarray) -> tuple[np.ndarray, ...]:
     dg = np.where(small, 0.5 - theta**2 / 8.0, (t * s - (1.0 - c)) / t**2)
     dh = np.where(small, -theta / 3.0 + theta**3 / 30.0, (t * c - s) / t**2)
     d2g = np.where(small, -theta / 4.0, (t**2 * c - 2.0 * t * s + 2.0 * (1.0 - c)) / t**3)
-    d2h = np.where(small, -1.0 / 3.0 + theta**2 / 10.0, (-(t**2) * s - 2.0 * t * c + 2.0 * s) / t**3)
+    d2h = np.where(
+        small, -1.0 / 3.0 + theta**2 / 10.0, (-(t**2) * s - 2.0 * t * c + 2.0 * s) / t**3
+    )
     return g, h, dg, dh, d2g, d2h
 
 

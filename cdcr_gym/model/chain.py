@@ -223,10 +223,10 @@ class PCCModel:
         batch = w.shape[:-2]
         flat = w.reshape(-1, 2 * S)
         buf = self._scratch(flat.shape[0])
-        comp, rest, tmp = buf[: 2 * S], buf[2 * S: 10 * S], buf[10 * S:]
+        comp, rest, tmp = buf[: 2 * S], buf[2 * S : 10 * S], buf[10 * S :]
         np.copyto(comp, flat.T)
         wx, wy = comp[0::2], comp[1::2]
-        th2, x, safe, p, t, den, g, f = (rest[k * S:(k + 1) * S] for k in range(8))
+        th2, x, safe, p, t, den, g, f = (rest[k * S : (k + 1) * S] for k in range(8))
         np.multiply(wx, wx, out=th2)
         np.multiply(wy, wy, out=x)
         th2 += x
@@ -364,9 +364,10 @@ class PCCModel:
         """
         frames = self.section_frames(w)
         w = np.asarray(w, dtype=np.float64)
-        centres, rotations = [np.zeros(w.shape[:-2] + (1, 3))], [
-            np.broadcast_to(np.eye(3), w.shape[:-2] + (1, 3, 3))
-        ]
+        centres, rotations = (
+            [np.zeros(w.shape[:-2] + (1, 3))],
+            [np.broadcast_to(np.eye(3), w.shape[:-2] + (1, 3, 3))],
+        )
         for j, sigma in enumerate(fractions):
             sub = w[..., j, None, :] * sigma[:, None]  # (..., n, 2)
             sx, sy = sub[..., 0], sub[..., 1]
@@ -387,8 +388,11 @@ class PCCModel:
         (k = 1…points_per_section) and at every one of its disk stations (duplicates merged),
         in order along the backbone; P = 1 + Σ_j (that count).
         """
-        if (isinstance(points_per_section, bool)
-                or not isinstance(points_per_section, (int, np.integer)) or points_per_section < 1):
+        if (
+            isinstance(points_per_section, bool)
+            or not isinstance(points_per_section, (int, np.integer))
+            or points_per_section < 1
+        ):
             raise ValueError(
                 f"points_per_section must be an integer >= 1, got {points_per_section!r}"
             )

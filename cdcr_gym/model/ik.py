@@ -102,6 +102,7 @@ def solve_ik(goal, params: RobotParams) -> IKSolution:
 
 # -- one section -----------------------------------------------------------------------------
 
+
 def _one_section_bending(goal: np.ndarray, params: RobotParams) -> np.ndarray:
     """Bending vectors (M, 1, 2) of the nearest tension-reachable tips to goals (M, 3)."""
     length = params.length
@@ -118,8 +119,11 @@ def _one_section_bending(goal: np.ndarray, params: RobotParams) -> np.ndarray:
 def _tip_distance(theta, phi, goal, length):
     f, g = arc_profile(theta)
     lf = length * f * theta
-    return np.sqrt((goal[..., 0] - lf * np.cos(phi)) ** 2 + (goal[..., 1] - lf * np.sin(phi)) ** 2
-                   + (goal[..., 2] - length * g) ** 2)
+    return np.sqrt(
+        (goal[..., 0] - lf * np.cos(phi)) ** 2
+        + (goal[..., 1] - lf * np.sin(phi)) ** 2
+        + (goal[..., 2] - length * g) ** 2
+    )
 
 
 def _nearest_reachable(goal: np.ndarray, params: RobotParams) -> tuple[np.ndarray, np.ndarray]:
@@ -140,8 +144,11 @@ def _nearest_reachable(goal: np.ndarray, params: RobotParams) -> tuple[np.ndarra
         cand = newton_nearest(start, side * rho, z, length, upper)
         d = _tip_distance(cand, phi_side, goal, length)
         better = d < best
-        best, best_theta, best_phi = (np.where(better, d, best), np.where(better, cand, best_theta),
-                                      np.where(better, phi_side, best_phi))
+        best, best_theta, best_phi = (
+            np.where(better, d, best),
+            np.where(better, cand, best_theta),
+            np.where(better, phi_side, best_phi),
+        )
     # (b) on the limit curve θ = θ_lim(φ)
     n_grid = 720
     step = 2.0 * np.pi / n_grid
@@ -201,8 +208,9 @@ def _residuals(model: PCCModel, tensions: np.ndarray, goal, direction, scale):
     return np.concatenate([tip - goal, scale * (tangent - direction)], axis=-1)
 
 
-def _numerical(model: PCCModel, goal: np.ndarray, direction: np.ndarray | None,
-               iterations: int = 200) -> np.ndarray:
+def _numerical(
+    model: PCCModel, goal: np.ndarray, direction: np.ndarray | None, iterations: int = 200
+) -> np.ndarray:
     """Bending vectors (M, S, 2) solving the tip (and direction) goals (M, 3) by LM."""
     t_max = model.params.max_tension
     scale = float(np.sum(model.section_lengths))
@@ -226,10 +234,22 @@ def _numerical(model: PCCModel, goal: np.ndarray, direction: np.ndarray | None,
         # central differences in ξ (C columns), all at once
         pert = xi[..., None, :] + h * eye  # (K, M, C, C)
         back = xi[..., None, :] - h * eye
-        jac = (_residuals(model, t_max * np.sin(pert) ** 2, g[..., None, :],
-                          None if d is None else d[..., None, :], scale)
-               - _residuals(model, t_max * np.sin(back) ** 2, g[..., None, :],
-                            None if d is None else d[..., None, :], scale)) / (2.0 * h)
+        jac = (
+            _residuals(
+                model,
+                t_max * np.sin(pert) ** 2,
+                g[..., None, :],
+                None if d is None else d[..., None, :],
+                scale,
+            )
+            - _residuals(
+                model,
+                t_max * np.sin(back) ** 2,
+                g[..., None, :],
+                None if d is None else d[..., None, :],
+                scale,
+            )
+        ) / (2.0 * h)
         jac = np.swapaxes(jac, -1, -2)  # (K, M, E, C)
         jtj = np.swapaxes(jac, -1, -2) @ jac
         jtr = (np.swapaxes(jac, -1, -2) @ r[..., None])[..., 0]
@@ -282,8 +302,9 @@ def solve_pose_ik(position, direction, params: RobotParams) -> IKSolution:
     w = _numerical(model, p_flat, d_flat)
     sol = _finish(model, w, p_flat)
     tangent = model.tip_direction_from_bending(sol.bending)
-    angle = np.arctan2(np.linalg.norm(np.cross(tangent, d_flat), axis=-1),
-                       np.sum(tangent * d_flat, axis=-1))
+    angle = np.arctan2(
+        np.linalg.norm(np.cross(tangent, d_flat), axis=-1), np.sum(tangent * d_flat, axis=-1)
+    )
     return IKSolution(
         sol.tensions.reshape(batch + (model.n_cables,)),
         sol.bending.reshape(batch + (model.n_sections, 2)),

@@ -84,7 +84,9 @@ class SectionParams:
         object.__setattr__(self, "cable_radius", _real(owner, "cable_radius", self.cable_radius))
         angles = self.cable_angles
         if isinstance(angles, (str, bytes)) or not isinstance(angles, (Sequence, np.ndarray)):
-            raise ValueError(f"{owner}.cable_angles must be a sequence of angles (rad), got {angles!r}")
+            raise ValueError(
+                f"{owner}.cable_angles must be a sequence of angles (rad), got {angles!r}"
+            )
         angles = tuple(_real(owner, "cable_angles", a, positive=False) for a in angles)
         if len(angles) < 3:
             raise ValueError(
@@ -187,7 +189,9 @@ class RobotParams:
         given_sections = sections is not None
         if sections is None:
             section = SectionParams(
-                length=_PAPER_LENGTH if self.length is None else _real(owner, "length", self.length),
+                length=_PAPER_LENGTH
+                if self.length is None
+                else _real(owner, "length", self.length),
                 n_disks=_PAPER_N_DISKS
                 if self.n_disks is None
                 else _count(owner, "n_disks", self.n_disks, 1),
@@ -208,14 +212,14 @@ class RobotParams:
                 raise ValueError(f"{owner}.sections must hold at least one section, got ()")
             for k, s in enumerate(sections):
                 if not isinstance(s, SectionParams):
-                    raise ValueError(
-                        f"{owner}.sections[{k}] must be a SectionParams, got {s!r}"
-                    )
+                    raise ValueError(f"{owner}.sections[{k}] must be a SectionParams, got {s!r}")
         if given_sections and len(sections) == 1:
             # one section: the single-section keywords override it (so dataclasses.replace works)
-            overrides = {k: getattr(self, k) for k in _SINGLE_SECTION_KEYS
-                         if getattr(self, k) is not None
-                         and getattr(self, k) != getattr(sections[0], k)}
+            overrides = {
+                k: getattr(self, k)
+                for k in _SINGLE_SECTION_KEYS
+                if getattr(self, k) is not None and getattr(self, k) != getattr(sections[0], k)
+            }
             if overrides:
                 sections = (replace(sections[0], **overrides),)
         object.__setattr__(self, "sections", sections)
@@ -364,8 +368,12 @@ class RobotParams:
             gens = radii[through, None] * np.stack(
                 [np.cos(angles[through]), np.sin(angles[through])], axis=-1
             )
-            crit = np.sort(np.mod(np.concatenate([angles[through] + 0.5 * np.pi,
-                                                  angles[through] - 0.5 * np.pi]), 2 * np.pi))
+            crit = np.sort(
+                np.mod(
+                    np.concatenate([angles[through] + 0.5 * np.pi, angles[through] - 0.5 * np.pi]),
+                    2 * np.pi,
+                )
+            )
             mids = 0.5 * (crit + np.roll(crit, -1))
             mids[-1] += np.pi  # the arc that wraps through 2π
             dirs = np.stack([np.cos(mids), np.sin(mids)], axis=-1)

@@ -68,7 +68,8 @@ class _SectionSolver:
         """Tensions (..., n) (N) for moments (..., 2) (N·m)."""
         # elementwise, not a matmul: a row's result must not depend on the batch it is in
         cand = (moment[..., 0, None] * self.q[0] + moment[..., 1, None] * self.q[1]).reshape(
-            moment.shape[:-1] + (self.n, self.n))
+            moment.shape[:-1] + (self.n, self.n)
+        )
         best = np.argmax(cand.min(axis=-1), axis=-1)  # the edge whose two tensions are >= 0
         return np.take_along_axis(cand, best[..., None, None], axis=-2)[..., 0, :]
 
@@ -154,8 +155,9 @@ def _minimal(model: PCCModel, w) -> np.ndarray:
     _, solvers, cables, _ = _tables(model.params)
     moment = w * (model.params.bending_stiffness / model.section_lengths)[:, None]  # EI κ_j
     if S > 1:
-        moment = np.concatenate([moment[..., :-1, :] - moment[..., 1:, :], moment[..., -1:, :]],
-                                axis=-2)
+        moment = np.concatenate(
+            [moment[..., :-1, :] - moment[..., 1:, :], moment[..., -1:, :]], axis=-2
+        )
     if S == 1:
         return solvers[0](moment[..., 0, :])
     out = np.empty(w.shape[:-2] + (model.n_cables,))
@@ -177,6 +179,7 @@ def reachable_scale(model: PCCModel, w) -> np.ndarray:
 
 
 # -- one-section compatibility (the former cdcr_gym.statics API, any one-section cable layout) ----
+
 
 def _one_section(params) -> RobotParams:
     if not isinstance(params, RobotParams):

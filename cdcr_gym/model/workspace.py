@@ -95,7 +95,9 @@ def _check_count(n) -> int:
     return int(n)
 
 
-def sample_arcs(rng: np.random.Generator, n: int, params: RobotParams) -> tuple[np.ndarray, np.ndarray]:
+def sample_arcs(
+    rng: np.random.Generator, n: int, params: RobotParams
+) -> tuple[np.ndarray, np.ndarray]:
     """Draw ``n`` arcs whose tips are uniform in area over the tension-reachable workspace.
 
     Args:
@@ -121,7 +123,9 @@ def sample_arcs(rng: np.random.Generator, n: int, params: RobotParams) -> tuple[
     return theta, phi
 
 
-def _candidate_arcs(u: np.ndarray, params: RobotParams) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _candidate_arcs(
+    u: np.ndarray, params: RobotParams
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Candidates (θ, φ) from uniforms ``u`` (..., 2) in [0, 1), and whether each is kept.
 
     θ by the inverse area CDF of u[..., 0], φ = (2 u[..., 1] − 1)·π, kept where θ <= θ_lim(φ).

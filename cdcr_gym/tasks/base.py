@@ -37,8 +37,14 @@ def robot_state_fields(params: RobotParams) -> list[Field]:
     c = params.n_cables
     return [
         Field.uniform("tensions", c, 0.0, 1.0, "–", "cable tensions / max_tension"),
-        Field.uniform("cable_lengths", c, -1.0, 1.0, "–",
-                      "(cable length − L_i) / (π r_i m_i), L_i: backbone length the cable spans"),
+        Field.uniform(
+            "cable_lengths",
+            c,
+            -1.0,
+            1.0,
+            "–",
+            "(cable length − L_i) / (π r_i m_i), L_i: backbone length the cable spans",
+        ),
     ]
 
 
@@ -53,7 +59,10 @@ class RobotStateScale:
 
 
 def fill_robot_state(
-    out: np.ndarray, tension_slice: slice, length_slice: slice, readings: Readings,
+    out: np.ndarray,
+    tension_slice: slice,
+    length_slice: slice,
+    readings: Readings,
     scale: RobotStateScale,
 ) -> None:
     """Write the ``tensions`` and ``cable_lengths`` fields of ``readings`` into ``out`` (N, ·)."""

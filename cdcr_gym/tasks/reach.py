@@ -71,13 +71,15 @@ class Reach(Task):
         tip = Field.uniform("tip", 3, -ell, ell, "m", "tip position x, y, z in R0", xyz)
         if goal_conditioned:
             return ObservationSpec([tip, *robot_state_fields(self.params)])
-        return ObservationSpec([
-            tip,
-            Field.uniform("goal", 3, -ell, ell, "m", "goal position x, y, z in R0", xyz),
-            Field.uniform("error", 3, -2 * ell, 2 * ell, "m", "goal − tip", xyz),
-            Field.uniform("error_tanh", 3, -1.0, 1.0, "–", "tanh((goal − tip) / 0.01 m)", xyz),
-            *robot_state_fields(self.params),
-        ])
+        return ObservationSpec(
+            [
+                tip,
+                Field.uniform("goal", 3, -ell, ell, "m", "goal position x, y, z in R0", xyz),
+                Field.uniform("error", 3, -2 * ell, 2 * ell, "m", "goal − tip", xyz),
+                Field.uniform("error_tanh", 3, -1.0, 1.0, "–", "tanh((goal − tip) / 0.01 m)", xyz),
+                *robot_state_fields(self.params),
+            ]
+        )
 
     def observation_spec(self, goal_conditioned: bool) -> ObservationSpec:
         return self._specs[goal_conditioned]
@@ -95,8 +97,10 @@ class Reach(Task):
         else:
             goal = validation.real_array(goal, "options['goal']")
             if goal.shape not in ((3,), (idx.size, 3)):
-                raise ValueError(f"options['goal'] must have shape (3,) or ({idx.size}, 3), "
-                                 f"got shape {goal.shape}")
+                raise ValueError(
+                    f"options['goal'] must have shape (3,) or ({idx.size}, 3), "
+                    f"got shape {goal.shape}"
+                )
             goals = solve_ik(np.broadcast_to(goal, (idx.size, 3)), self.params).tip
         self.goal[idx] = goals
 

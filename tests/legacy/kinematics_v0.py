@@ -72,6 +72,7 @@ assert np.allclose([_S1, _S2, _S3], _SIN_BETA, atol=1e-15)
 # arrays) and on arrays of any shape (the batched env). Dispatch is on ``type(x) is float``:
 # numpy scalars stay on numpy, so a batched call and a per-row call give bit-identical results.
 
+
 def _sqrt(x):
     return math.sqrt(x) if type(x) is float else np.sqrt(x)
 
@@ -128,6 +129,7 @@ def _stack3(x, y, z) -> np.ndarray:
 
 
 # -- component kernels (one formula each; floats or arrays) ---------------------------------------
+
 
 def _arc_profile(theta):
     """(f, g) = ((1 − cos θ)/θ², sin θ/θ), exact and finite at θ = 0 (1/2, 1); even in θ.
@@ -213,9 +215,7 @@ def _as_lengths(lengths: np.ndarray) -> np.ndarray:
     return lengths
 
 
-def arc_from_lengths(
-    lengths: np.ndarray, r: float
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def arc_from_lengths(lengths: np.ndarray, r: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Arc parameters from the three cable lengths (paper eq. 2–4, with atan2).
 
     Args:
@@ -245,9 +245,7 @@ def _arc_from_bending(wx: np.ndarray, wy: np.ndarray) -> tuple[np.ndarray, np.nd
     return theta, phi
 
 
-def lengths_from_arc(
-    theta: np.ndarray, phi: np.ndarray, length: float, r: float
-) -> np.ndarray:
+def lengths_from_arc(theta: np.ndarray, phi: np.ndarray, length: float, r: float) -> np.ndarray:
     """Cable lengths for an arc: l_i = ℓ − r·θ·cos(φ − β_i).
 
     Args:
@@ -304,9 +302,7 @@ def forward_kinematics(lengths: np.ndarray, r: float) -> np.ndarray:
     return _stack3(*_tip_from_bending(_bending_angle(wx, wy), wx, wy, backbone))
 
 
-def arc_from_tip(
-    tip: np.ndarray, length: float
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def arc_from_tip(tip: np.ndarray, length: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The arc whose tip is nearest to ``tip``, and the distance between them.
 
     For a point on the reachable surface, φ = atan2(y, x) and θ = 2·atan2(√(x²+y²), z) (the
@@ -354,7 +350,9 @@ def arc_from_tip(
     return theta, phi, best
 
 
-def _in_plane_distance(theta: np.ndarray, rho: np.ndarray, z: np.ndarray, length: float) -> np.ndarray:
+def _in_plane_distance(
+    theta: np.ndarray, rho: np.ndarray, z: np.ndarray, length: float
+) -> np.ndarray:
     """Distance from the in-plane point (ρ, z) to the arc tip ℓ·(g(θ), h(θ))."""
     return np.hypot(rho - length * _one_minus_cos_over(theta), z - length * _sin_over(theta))
 
@@ -383,7 +381,9 @@ def _profile_derivatives(theta: np.ndarray) -> tuple[np.ndarray, ...]:
     dg = np.where(small, 0.5 - theta**2 / 8.0, (t * s - (1.0 - c)) / t**2)
     dh = np.where(small, -theta / 3.0 + theta**3 / 30.0, (t * c - s) / t**2)
     d2g = np.where(small, -theta / 4.0, (t**2 * c - 2.0 * t * s + 2.0 * (1.0 - c)) / t**3)
-    d2h = np.where(small, -1.0 / 3.0 + theta**2 / 10.0, (-(t**2) * s - 2.0 * t * c + 2.0 * s) / t**3)
+    d2h = np.where(
+        small, -1.0 / 3.0 + theta**2 / 10.0, (-(t**2) * s - 2.0 * t * c + 2.0 * s) / t**3
+    )
     return g, h, dg, dh, d2g, d2h
 
 

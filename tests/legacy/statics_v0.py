@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from legacy.kinematics_v0 import _C2, _C3, _S2, _S3, _arc_from_bending, _max3, _maximum, _min3
 from cdcr_gym.params import CABLE_ANGLES, RobotParams
+from legacy.kinematics_v0 import _C2, _C3, _S2, _S3, _arc_from_bending, _max3, _maximum, _min3
 
 __all__ = ["arc_from_tensions", "tensions_from_arc", "bending_limit", "CABLE_DIRECTIONS"]
 
@@ -37,6 +37,7 @@ def _as_tensions(tensions: np.ndarray) -> np.ndarray:
 # In terms of the bending vector w = θ·(cos φ, sin φ) (rad) the statics are linear:
 # w = (r ℓ / EI)·Σ T_i u_i, and the minimal tensions holding w are
 # (EI/(r ℓ))·(2/3)·(w·u_i − min_j w·u_j).
+
 
 def _bending_from_tensions(t1, t2, t3, compliance):
     """Bending vector w (rad) under tensions (N); ``compliance`` = r ℓ / EI (rad/N)."""
