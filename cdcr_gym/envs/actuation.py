@@ -53,7 +53,7 @@ class Actuation:
         self.params = params
         self.max_tension = float(params.max_tension)
         self._tension_increment = self.tension_step * self.max_tension
-        self._model = PCCModel(params) if mode == "length_delta" else None
+        self._model = PCCModel(params)
 
     @property
     def commands_lengths(self) -> bool:

@@ -186,6 +186,7 @@ class EnvCore:
         flat = np.empty((self.num_envs, self.spec.size), dtype=np.float32)
         task.observe(r, flat, self.goal_conditioned)
         reward, success, info = task.evaluate(r)
+        obs: Any
         if self.goal_conditioned:
             obs = {
                 "observation": flat,

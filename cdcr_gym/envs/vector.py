@@ -79,11 +79,12 @@ class CDCRVectorEnv(VectorEnv):
         n = validation.integer(num_envs, "num_envs", 1)
         if max_episode_steps is not None:
             max_episode_steps = validation.integer(max_episode_steps, "max_episode_steps", 1)
+        mode: AutoresetMode | None
         try:
-            autoreset_mode = AutoresetMode(autoreset_mode)
+            mode = AutoresetMode(autoreset_mode)
         except ValueError:
-            autoreset_mode = None
-        if autoreset_mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
+            mode = None
+        if mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
             raise ValueError(
                 "autoreset_mode must be AutoresetMode.NEXT_STEP or AutoresetMode.SAME_STEP"
             )
@@ -94,7 +95,7 @@ class CDCRVectorEnv(VectorEnv):
             )
         if backend != "CCKA":
             raise ValueError(f"backend must be 'CCKA' for the batched env, got {backend!r}")
-        self.autoreset_mode = autoreset_mode
+        self.autoreset_mode = mode
         self.num_envs = n
         self.max_episode_steps = max_episode_steps
         self.render_mode = None
@@ -136,20 +137,23 @@ class CDCRVectorEnv(VectorEnv):
         self._needs_reset = True
 
     # -- seeding --------------------------------------------------------------------------------
-    @property
-    def np_random(self) -> tuple[np.random.Generator, ...]:
+    # one generator (seed) per env, as SyncVectorEnv's: not the base class's single one
+    @property  # type: ignore[misc]
+    def np_random(self) -> tuple[np.random.Generator, ...]:  # type: ignore[override]
         """The envs' random generators (seeded by ``reset(seed=...)``), like ``SyncVectorEnv``."""
         return tuple(self._rng(i) for i in range(self.num_envs))
 
     @property
-    def np_random_seed(self) -> tuple[int | None, ...]:
+    def np_random_seed(self) -> tuple[int | None, ...]:  # type: ignore[override]
         """The seeds the envs' generators were made from (-1 where none was made yet)."""
         return tuple(-1 if s is None else s for s in self._rng_seeds)
 
     def _rng(self, i: int) -> np.random.Generator:
-        if self._rngs[i] is None:
-            self._rngs[i], self._rng_seeds[i] = seeding.np_random(None)
-        return self._rngs[i]
+        rng = self._rngs[i]
+        if rng is None:
+            rng, self._rng_seeds[i] = seeding.np_random(None)
+            self._rngs[i] = rng
+        return rng
 
     # -- Gymnasium API --------------------------------------------------------------------------
     def reset(
@@ -164,7 +168,7 @@ class CDCRVectorEnv(VectorEnv):
         elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
             seeds = [int(seed) + i for i in range(n)]
         else:
-            seeds = list(seed)
+            seeds = list(seed)  # type: ignore[arg-type]  # a sequence of per-env seeds
             if len(seeds) != n:
                 raise ValueError(
                     f"seed must be None, an int or a list of num_envs={n} seeds, got {len(seeds)}"
