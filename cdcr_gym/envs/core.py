@@ -177,14 +177,16 @@ class EnvCore:
     def observe(self) -> tuple[Any, np.ndarray, np.ndarray, dict[str, Any]]:
         """(observation, reward (N,), success (N,), info) of the current state, batched.
 
-        The observation is an (N, size) float32 array, or the Dict of (N, ·) float32 arrays.
+        The observation is an (N, size) float32 array (the transpose of a field-major buffer),
+        or the Dict of (N, ·) float32 arrays.
         ``info`` holds the task's entries plus ``tip`` (N, 3) m, ``tensions`` (N, C) N and
         ``cable_lengths`` (N, C) m.
         """
         r = self._readings
         task = self.task
-        flat = np.empty((self.num_envs, self.spec.size), dtype=np.float32)
-        task.observe(r, flat, self.goal_conditioned)
+        buffer = np.empty((self.spec.size, self.num_envs), dtype=np.float32)
+        task.observe(r, buffer, self.goal_conditioned)
+        flat = buffer.T  # (N, size), Fortran-ordered (like Gymnasium's CartPoleVectorEnv)
         reward, success, info = task.evaluate(r)
         obs: Any
         if self.goal_conditioned:

@@ -56,6 +56,7 @@ class RobotStateScale:
         self.inv_max_tension = 1.0 / params.max_tension
         self.run_lengths = np.asarray(params.cable_run_lengths)
         self.inv_length_span = 1.0 / (np.pi * np.asarray(params.cable_radii) * (sections + 1))
+        self.inv_length_span_col = self.inv_length_span[:, None]  # (C, 1): per field row
 
 
 def fill_robot_state(
@@ -65,9 +66,10 @@ def fill_robot_state(
     readings: Readings,
     scale: RobotStateScale,
 ) -> None:
-    """Write the ``tensions`` and ``cable_lengths`` fields of ``readings`` into ``out`` (N, ·)."""
-    out[:, tension_slice] = readings.tensions * scale.inv_max_tension
-    out[:, length_slice] = (readings.cable_lengths - scale.run_lengths) * scale.inv_length_span
+    """Write the ``tensions`` and ``cable_lengths`` fields of ``readings`` into the field-major
+    observation buffer ``out`` (size, N)."""
+    out[tension_slice] = readings.tensions.T * scale.inv_max_tension
+    out[length_slice] = (readings.cable_lengths - scale.run_lengths).T * scale.inv_length_span_col
 
 
 class Task(abc.ABC):
@@ -109,7 +111,8 @@ class Task(abc.ABC):
 
     @abc.abstractmethod
     def observe(self, readings: Readings, out: np.ndarray, goal_conditioned: bool) -> None:
-        """Fill the (N, spec size) observation ``out`` from ``readings``."""
+        """Fill the field-major observation buffer ``out`` (spec size, N) from ``readings``
+        (field rows are contiguous: writing them is much faster than strided columns)."""
 
     @abc.abstractmethod
     def achieved_goal(self, readings: Readings) -> np.ndarray:

@@ -108,12 +108,12 @@ class Reach(Task):
     def observe(self, readings: Readings, out: np.ndarray, goal_conditioned: bool) -> None:
         s = self._slices[goal_conditioned]
         tip = readings.tip
-        out[:, s["tip"]] = tip
+        out[s["tip"]] = tip.T
         if not goal_conditioned:
-            error = self.goal - tip
-            out[:, s["goal"]] = self.goal
-            out[:, s["error"]] = error
-            out[:, s["error_tanh"]] = np.tanh(error * (1.0 / ERROR_SCALE))
+            error = (self.goal - tip).T
+            out[s["goal"]] = self.goal.T
+            out[s["error"]] = error
+            np.tanh(error * (1.0 / ERROR_SCALE), out=out[s["error_tanh"]], casting="unsafe")
         fill_robot_state(out, s["tensions"], s["cable_lengths"], readings, self._scale)
 
     def achieved_goal(self, readings: Readings) -> np.ndarray:
