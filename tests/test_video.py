@@ -56,3 +56,21 @@ def test_bad_input_raises(tmp_path):
     with pytest.raises(ValueError, match="fps"):
         write_video(tmp_path / "x.mp4", _frames(2, 16, 16), fps=0)
     assert even_frame(np.zeros((3, 5, 3), np.uint8)).shape == (4, 6, 3)
+
+
+@pytest.mark.parametrize("env_id", ["cdcr_gym/CCKAReach-v0", "cdcr_gym/BulletReach-v0"])
+def test_gymnasium_record_video_wrapper_works_on_every_id(env_id, tmp_path):
+    import gymnasium as gym
+    from gymnasium.wrappers import RecordVideo
+
+    import cdcr_gym  # noqa: F401
+
+    env = gym.make(env_id, render_mode="rgb_array", render_width=96, render_height=96)
+    env = RecordVideo(env, str(tmp_path), episode_trigger=lambda e: True, name_prefix="ep")
+    env.reset(seed=0)
+    for _ in range(12):
+        env.step(env.action_space.sample())
+    env.close()
+    (video,) = tmp_path.glob("ep-episode-0.mp4")
+    info = probe_video(video)
+    assert (info.width, info.height) == (96, 96) and info.n_frames >= 12
