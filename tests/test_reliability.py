@@ -100,3 +100,27 @@ def test_non_real_actions_raise_value_error_naming_action(action):
     env.reset(seed=0)
     with pytest.raises(ValueError, match="action"):
         env.unwrapped.step(action)
+
+
+# 4. a copied bullet env shared the original's pybullet client ---------------------------------
+def test_bullet_envs_refuse_pickle_and_deepcopy_but_subproc_vec_env_works():
+    import copy
+    import pickle
+
+    import cloudpickle
+    from stable_baselines3.common.vec_env import SubprocVecEnv
+
+    env = gym.make("cdcr_gym/BulletReach-v0", gravity=False)
+    env.reset(seed=0)
+    for dump in (pickle.dumps, cloudpickle.dumps, copy.deepcopy):
+        with pytest.raises(TypeError, match="cannot be pickled or copied"):
+            dump(env)
+    env.close()
+    venv = SubprocVecEnv(
+        [lambda: gym.make("cdcr_gym:BulletReach-v0", gravity=False) for _ in range(2)]
+    )
+    venv.seed(0)
+    obs = venv.reset()
+    obs, reward, done, info = venv.step(np.zeros((2, 3), dtype=np.float32))
+    assert obs.shape == (2, 18) and np.isfinite(obs).all()
+    venv.close()

@@ -831,6 +831,17 @@ class BulletBackend(Backend):
         pins = self._read_points()[1].copy()
         return pins if frame == "world" else self._to_base(pins)
 
+    # -- copies -------------------------------------------------------------------------------
+    def __getstate__(self) -> dict:
+        """Refuse pickling, deepcopy and cloudpickle: the state lives in a pybullet client that a
+        copy would share (stepping the copy would move the original). Build a new env instead;
+        SB3's SubprocVecEnv pickles env *factories*, which keeps working."""
+        raise TypeError(
+            "a BulletBackend (and an env holding one) cannot be pickled or copied: its state is a "
+            "pybullet client the copy would share; make a new env with gymnasium.make(...) "
+            "(SubprocVecEnv/AsyncVectorEnv take env factories and work)"
+        )
+
     # -- the batched Backend interface (N = 1) ------------------------------------------------
     num_robots = 1
 
