@@ -124,3 +124,25 @@ def test_bullet_envs_refuse_pickle_and_deepcopy_but_subproc_vec_env_works():
     obs, reward, done, info = venv.step(np.zeros((2, 3), dtype=np.float32))
     assert obs.shape == (2, 18) and np.isfinite(obs).all()
     venv.close()
+
+
+# 5. the bench's default config was relative to the working directory -------------------------
+def test_bench_default_config_does_not_depend_on_the_working_directory(tmp_path, monkeypatch):
+    from training import bench
+
+    monkeypatch.chdir(tmp_path)
+    assert bench.DEFAULT_CONFIG.is_absolute() and bench.DEFAULT_CONFIG.is_file()
+    with pytest.raises(SystemExit) as exc:
+        bench.main(["--config", "configs/ppo_ccka_reach.yaml"])  # relative to tmp: missing
+    assert exc.value.code == 2
+
+
+def test_bench_unwritable_out_fails_before_benchmarking(tmp_path, capsys):
+    from training import bench
+
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    with pytest.raises(SystemExit) as exc:
+        bench.main(["--out", str(blocker / "sub" / "bench.md")])  # a file as a directory
+    assert exc.value.code == 2
+    assert "not writable" in capsys.readouterr().err

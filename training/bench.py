@@ -39,7 +39,17 @@ import numpy as np
 
 __all__ = ["main", "run_benchmarks"]
 
-DEFAULT_CONFIG = Path("configs/ppo_ccka_reach.yaml")
+
+def _default_config() -> Path:
+    """configs/ppo_ccka_reach.yaml of the checkout, else the copy shipped in the wheel
+    (``training.configs``): never relative to the working directory."""
+    checkout = Path(__file__).resolve().parents[1] / "configs" / "ppo_ccka_reach.yaml"
+    if checkout.is_file():
+        return checkout
+    return Path(__file__).resolve().parent / "configs" / "ppo_ccka_reach.yaml"
+
+
+DEFAULT_CONFIG = _default_config()
 VECTOR_SIZES = (64, 1024, 16384)
 
 
@@ -517,6 +527,15 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--repeats must be >= 1")
     if args.out is not None and args.out.suffix not in (".json", ".md"):
         parser.error("--out must end in .json or .md")
+    if not args.config.is_file():
+        parser.error(f"--config {str(args.config)!r} does not exist")
+    if args.out is not None:  # fail now, not after minutes of benchmarking
+        try:
+            args.out.parent.mkdir(parents=True, exist_ok=True)
+            with open(args.out, "a", encoding="utf-8"):
+                pass
+        except OSError as exc:
+            parser.error(f"--out {str(args.out)!r} is not writable: {exc.strerror}")
 
     result = run_benchmarks(quick=args.quick, repeats=args.repeats, config=args.config)
     text = to_markdown(result)
