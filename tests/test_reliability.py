@@ -146,3 +146,39 @@ def test_bench_unwritable_out_fails_before_benchmarking(tmp_path, capsys):
         bench.main(["--out", str(blocker / "sub" / "bench.md")])  # a file as a directory
     assert exc.value.code == 2
     assert "not writable" in capsys.readouterr().err
+
+
+# 10. evaluate on a truncated/empty model or a corrupt VecNormalize: a traceback ---------------
+def _run_dir(tmp_path):
+    import shutil
+    from pathlib import Path
+
+    run = tmp_path / "run"
+    (run / "best_model").mkdir(parents=True)
+    config = Path(__file__).resolve().parents[1] / "configs" / "ppo_ccka_reach.yaml"
+    shutil.copyfile(config, run / "config.yaml")
+    return run
+
+
+def test_evaluate_on_an_empty_model_zip_is_exit_2_naming_the_file(tmp_path, capsys):
+    from training import evaluate
+
+    run = _run_dir(tmp_path)
+    (run / "best_model" / "model.zip").write_bytes(b"")
+    assert evaluate.main([str(run), "--episodes", "1"]) == 2
+    assert "model.zip" in capsys.readouterr().err
+    assert not (run / "eval").exists()  # nothing written
+
+
+def test_evaluate_on_a_corrupt_vecnormalize_is_exit_2_naming_the_file(tmp_path, capsys):
+    from stable_baselines3 import PPO
+
+    from training import evaluate
+
+    run = _run_dir(tmp_path)
+    PPO("MlpPolicy", gym.make(ENV_ID), n_steps=32, batch_size=32, device="cpu").save(
+        run / "best_model" / "model.zip"
+    )
+    (run / "best_model" / "vecnormalize.pkl").write_bytes(b"\x80\x04truncated")
+    assert evaluate.main([str(run), "--episodes", "1"]) == 2
+    assert "vecnormalize.pkl" in capsys.readouterr().err

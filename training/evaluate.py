@@ -417,6 +417,13 @@ def main(argv: list[str] | None = None) -> int:
             raise ConfigError(
                 f"--env-id/--env-kwarg: cannot make {env_id!r} with {env_kwargs}: {exc}"
             ) from None
+        from training.rollout import ModelFileError, PPOPolicy
+
+        vn_path = model_dir / "vecnormalize.pkl"
+        try:  # a truncated model or a corrupt VecNormalize: a clear error, before any output
+            PPOPolicy(model_dir / "model.zip", vn_path if vn_path.exists() else None)
+        except ModelFileError as exc:
+            raise ConfigError(str(exc)) from None
     except ConfigError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

@@ -120,6 +120,10 @@ def make_env(
     return gym.make(env_id, **kwargs)
 
 
+class ModelFileError(ValueError):
+    """A saved model or normalisation file that cannot be read (the message names the file)."""
+
+
 class PPOPolicy:
     """A saved PPO model and its VecNormalize statistics as a batched, deterministic policy.
 
@@ -136,12 +140,24 @@ class PPOPolicy:
 
         # The schedules are not needed to act; replacing them avoids unpickling closures.
         custom = {"learning_rate": 0.0, "lr_schedule": lambda _: 0.0, "clip_range": lambda _: 0.0}
-        self.model = PPO.load(str(model_path), device=device, custom_objects=custom)
+        try:
+            self.model = PPO.load(str(model_path), device=device, custom_objects=custom)
+        except Exception as exc:  # a truncated/empty/foreign zip fails in many ways
+            raise ModelFileError(
+                f"{str(model_path)!r} is not a readable stable-baselines3 model "
+                f"({type(exc).__name__}: {exc})"
+            ) from None
         self.obs_normalizer = None
         if vecnormalize_path is not None:
-            with open(vecnormalize_path, "rb") as f:
-                vecnorm = pickle.load(f)
-            vecnorm.training = False
+            try:
+                with open(vecnormalize_path, "rb") as f:
+                    vecnorm = pickle.load(f)
+                vecnorm.training = False
+            except Exception as exc:
+                raise ModelFileError(
+                    f"{str(vecnormalize_path)!r} is not a readable VecNormalize file "
+                    f"({type(exc).__name__}: {exc})"
+                ) from None
             self.obs_normalizer = vecnorm
 
     @classmethod
