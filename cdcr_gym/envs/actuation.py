@@ -65,8 +65,7 @@ class Actuation:
         if self.mode == "tension":
             return self.max_tension * 0.5 * (action + 1.0)
         t = held + action * self._tension_increment
-        np.maximum(t, 0.0, out=t)
-        np.minimum(t, self.max_tension, out=t)
+        np.clip(t, 0.0, self.max_tension, out=t)  # one pass; same as maximum then minimum
         return t
 
     def lengths(self, action: np.ndarray, held: np.ndarray) -> np.ndarray:

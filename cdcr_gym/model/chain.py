@@ -223,8 +223,15 @@ class PCCModel:
         batch = w.shape[:-2]
         flat = w.reshape(-1, 2 * S)
         buf = self._scratch(flat.shape[0])
-        comp, rest, tmp = buf[: 2 * S], buf[2 * S : 10 * S], buf[10 * S :]
+        comp = buf[: 2 * S]
         np.copyto(comp, flat.T)
+        return self._profile_rows(comp, buf) + (batch,)
+
+    def _profile_rows(self, comp: np.ndarray, buf: np.ndarray):
+        """(wx, wy, f, g, h, tmp) from the component rows ``comp`` (2S, M) = (wx_0, wy_0, wx_1,
+        …); ``buf`` is the scratch buffer of M rows (``comp`` may be its first 2S rows)."""
+        S = self.n_sections
+        rest, tmp = buf[2 * S : 10 * S], buf[10 * S :]
         wx, wy = comp[0::2], comp[1::2]
         th2, x, safe, p, t, den, g, f = (rest[k * S : (k + 1) * S] for k in range(8))
         np.multiply(wx, wx, out=th2)
@@ -247,7 +254,7 @@ class PCCModel:
         h = x  # reuse: cos θ = 1 − f θ²
         np.multiply(f, th2, out=h)
         np.subtract(1.0, h, out=h)
-        return wx, wy, f, g, h, tmp, batch
+        return wx, wy, f, g, h, tmp
 
     @staticmethod
     def _rotate_into(wx, wy, f, g, h, v, tmp) -> None:
@@ -328,6 +335,32 @@ class PCCModel:
         tip = self._pack(tmp[:3], batch)
         self._direction_into(wx, wy, f, g, h, tmp[:3], tmp[3:])
         return tip, tmp[:3].T.copy().reshape(batch + (3,))
+
+    # -- the same, field-major: the batched backend's hot path ----------------------------------
+    def bending_rows_from_tensions(self, tensions: np.ndarray) -> np.ndarray:
+        """Bending components as rows (2S, M) = (wx_0, wy_0, wx_1, …) (rad) from tensions (M, C)
+        (N; any memory layout, finite: the caller validates). A fresh array."""
+        return self.tension_to_bending.T @ tensions.T
+
+    def forward_rows(self, comp: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Tip (3, M) m, tip direction (3, M) and cable lengths (C, M) m, as fresh row arrays,
+        of the bending component rows ``comp`` (2S, M) (finite: the caller validates).
+
+        Field-major twin of :meth:`tip_and_direction_from_bending` and
+        :meth:`lengths_from_bending` (same arithmetic): with one row per component, every numpy
+        call runs over the whole batch and no transposing copy is needed; ``.T`` of the results
+        gives (M, ·) arrays (Fortran-ordered views).
+        """
+        m = comp.shape[1]
+        buf = self._scratch(m)
+        wx, wy, f, g, h, tmp = self._profile_rows(comp, buf)
+        tip = np.empty((3, m))
+        self._tip_into(wx, wy, f, g, h, tip, tmp)
+        direction = np.empty((3, m))
+        self._direction_into(wx, wy, f, g, h, direction, tmp)
+        lengths = self.bending_to_lengths.T @ comp
+        lengths += self.straight_lengths[:, None]
+        return tip, direction, lengths
 
     def section_frames(self, w) -> np.ndarray:
         """Homogeneous frames (..., S+1, 4, 4) in R0: the base frame, then every section's end.

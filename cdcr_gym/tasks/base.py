@@ -57,6 +57,7 @@ class RobotStateScale:
         self.run_lengths = np.asarray(params.cable_run_lengths)
         self.inv_length_span = 1.0 / (np.pi * np.asarray(params.cable_radii) * (sections + 1))
         self.inv_length_span_col = self.inv_length_span[:, None]  # (C, 1): per field row
+        self.run_lengths_col = self.run_lengths[:, None]
 
 
 def fill_robot_state(
@@ -68,8 +69,15 @@ def fill_robot_state(
 ) -> None:
     """Write the ``tensions`` and ``cable_lengths`` fields of ``readings`` into the field-major
     observation buffer ``out`` (size, N)."""
-    out[tension_slice] = readings.tensions.T * scale.inv_max_tension
-    out[length_slice] = (readings.cable_lengths - scale.run_lengths).T * scale.inv_length_span_col
+    np.multiply(
+        readings.tensions.T, scale.inv_max_tension, out=out[tension_slice], casting="unsafe"
+    )
+    np.multiply(
+        readings.cable_lengths.T - scale.run_lengths_col,
+        scale.inv_length_span_col,
+        out=out[length_slice],
+        casting="unsafe",
+    )
 
 
 class Task(abc.ABC):

@@ -59,7 +59,8 @@ class Reach(Task):
 
     def bind(self, params, num_envs: int) -> None:
         super().bind(params, num_envs)
-        self.goal = np.zeros((self.num_envs, 3))
+        # (N, 3) view of field-major rows (3, N): observations copy contiguous rows
+        self.goal = np.zeros((3, self.num_envs)).T
         self.goal[:, 2] = params.length
         self._scale = RobotStateScale(params)
         self._specs = {gc: self._build_spec(gc) for gc in (False, True)}
@@ -131,7 +132,7 @@ class Reach(Task):
         e = self.goal - readings.tip
         distance = np.sqrt(e[:, 0] * e[:, 0] + e[:, 1] * e[:, 1] + e[:, 2] * e[:, 2])
         success = distance <= self.distance_threshold
-        info = {"distance": distance, "is_success": success, "goal": self.goal.copy()}
+        info = {"distance": distance, "is_success": success, "goal": self.goal.copy(order="K")}
         return self._reward(distance), success, info
 
     def compute_reward(
