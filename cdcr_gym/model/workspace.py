@@ -75,6 +75,7 @@ def _one_section(params) -> RobotParams:
     return params
 
 
+@lru_cache(maxsize=32)
 def _theta_max(params: RobotParams) -> float:
     """Largest θ of the tension-reachable region of a one-section robot (rad).
 
@@ -135,8 +136,9 @@ def _candidate_arcs(
     cand_phi = (2.0 * u[..., 1] - 1.0) * np.pi
     # θ_lim(φ) is only evaluated where θ exceeds a lower bound of it (most candidates do not)
     keep = cand_theta <= _inscribed_theta(params)
-    edge = ~keep
-    keep[edge] = cand_theta[edge] <= bending_limit(cand_phi[edge], params)
+    if not keep.all():
+        edge = ~keep
+        keep[edge] = cand_theta[edge] <= bending_limit(cand_phi[edge], params)
     return cand_theta, cand_phi, keep
 
 
