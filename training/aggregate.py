@@ -42,7 +42,6 @@ import argparse
 import csv
 import json
 import math
-import platform
 import shlex
 import sys
 from collections import defaultdict
@@ -179,6 +178,7 @@ class RunResult:
     curve: list[dict[str, float]] = field(default_factory=list)
     error: str | None = None
     loadavg: list[float] = field(default_factory=list)  # 1-min load average, start and end
+    host: str | None = None  # run.json's host platform
 
 
 def _label(record: dict[str, Any]) -> str:
@@ -225,6 +225,8 @@ def load_runs(sweep_dir: Path) -> tuple[dict[str, Any], list[RunResult]]:
             run.steps = meta.get("total_steps")
             run.train_wall_time_s = meta.get("total_wall_time_s")
             run.stopped_by = meta.get("stopped_by")
+            host = meta.get("host") or {}
+            run.host = f"{host.get('hostname', '?')}: {host.get('platform', '?')}"
             if (run_dir / "eval.json").is_file():
                 data = json.loads((run_dir / "eval.json").read_text())
                 for name, c in data["conditions"].items():
@@ -479,6 +481,7 @@ def plot_iqm(result: dict[str, Any], path: Path) -> Path:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import FuncFormatter, NullFormatter
 
     groups = result["groups"]
     labels = [f"{g['task']} · {g['algo']} · {g['condition']}" for g in groups]
@@ -496,8 +499,12 @@ def plot_iqm(result: dict[str, Any], path: Path) -> Path:
         ax.plot(mid, y, "|", color="k", ms=14)
         ax.set_yticks(y, labels if ax is axes[0][0] else [""] * len(y), fontsize=8)
         ax.set_xlabel(f"IQM {title} ({unit})")
-        if unit == "mm" and len(mid) and np.all(low > 0):
+        if unit == "%":
+            ax.set_xlim(-2, 102)
+        elif len(mid) and np.all(low > 0) and high.max() > 20 * low.min():
             ax.set_xscale("log")
+            ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+            ax.xaxis.set_minor_formatter(NullFormatter())
         ax.grid(alpha=0.3, axis="x")
         ax.invert_yaxis()
     fig.tight_layout()
@@ -559,10 +566,8 @@ def _machine(summary: dict[str, Any], runs: list[RunResult]) -> str:
         if loads
         else "load average not recorded"
     )
-    return (
-        f"{platform.processor() or platform.machine()}, {', '.join(map(str, sorted(cpus)))} "
-        f"CPU cores ({platform.platform()}); {load}"
-    )
+    hosts = sorted({r.host for r in runs if r.host})
+    return f"{', '.join(hosts) or '?'}, {', '.join(map(str, sorted(cpus)))} CPU cores; {load}"
 
 
 def write_doc(
