@@ -236,3 +236,14 @@ def test_cdcr_gym_sweep_finds_the_packaged_sweep_file(tmp_path: Path, capsys) ->
         ["ppo_ccka_reach_seed0", "to run"],
         ["ppo_ccka_reach_seed1", "to run"],
     ]
+
+
+def test_ray_executor_without_ray_names_the_extra(tmp_path: Path, monkeypatch, capsys) -> None:
+    real = sweep.importlib.util.find_spec
+    monkeypatch.setattr(
+        sweep.importlib.util, "find_spec", lambda name: None if name == "ray" else real(name)
+    )
+    path = str(REPO / "configs" / "sweeps" / "smoke.yaml")
+    assert sweep.main([path, "--out-dir", str(tmp_path / "out")]) == 2
+    assert "cdcr-gym[sweep]" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()

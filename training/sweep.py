@@ -57,6 +57,7 @@ import argparse
 import dataclasses
 import datetime as _dt
 import difflib
+import importlib.util
 import itertools
 import json
 import os
@@ -448,9 +449,10 @@ def run_trial(trial: Trial | dict[str, Any]) -> dict[str, Any]:
     """
     if isinstance(trial, dict):
         trial = Trial(**trial)
-    repo = str(Path(__file__).resolve().parent.parent)
     env = dict(os.environ)
-    env["PYTHONPATH"] = os.pathsep.join(p for p in (repo, env.get("PYTHONPATH")) if p)
+    repo = Path(__file__).resolve().parent.parent
+    if (repo / "pyproject.toml").is_file():  # a checkout: its training/, not an installed one
+        env["PYTHONPATH"] = os.pathsep.join(p for p in (str(repo), env.get("PYTHONPATH")) if p)
     env.setdefault("MPLBACKEND", "Agg")
     if trial.run_dir.exists():
         shutil.rmtree(trial.run_dir)  # an incomplete earlier attempt: start again
@@ -486,7 +488,7 @@ def run_trial(trial: Trial | dict[str, Any]) -> dict[str, Any]:
             t_cmd = time.perf_counter()
             try:
                 rc = subprocess.run(
-                    cmd, stdout=log, stderr=subprocess.STDOUT, env=env, cwd=repo
+                    cmd, stdout=log, stderr=subprocess.STDOUT, env=env, cwd=trial.out_dir
                 ).returncode
             except OSError as exc:
                 log.write(f"{exc}\n")
@@ -677,6 +679,13 @@ def main(argv: list[str] | None = None) -> int:
         for t in trials:
             print(f"{t.trial_id}\t{'finished' if is_finished(t) else 'to run'}\t{t.run_dir}")
         return 0
+    if args.executor == "ray" and importlib.util.find_spec("ray") is None:
+        print(
+            "error: the Ray executor needs ray: pip install 'cdcr-gym[sweep]' "
+            "(or run the trials one by one with --executor serial)",
+            file=sys.stderr,
+        )
+        return EXIT_USAGE
     summary = run_sweep(spec, args.executor, args.address, argv)
     return _report(summary)
 
