@@ -64,6 +64,7 @@ import os
 import re
 import shlex
 import shutil
+import signal
 import socket
 import subprocess
 import sys
@@ -441,6 +442,18 @@ def _loadavg() -> list[float] | None:
         return None
 
 
+def _terminate_with_parent() -> None:
+    """In the child, before exec (Linux): SIGTERM when the process that started it dies.
+
+    Ray kills a cancelled trial's worker outright; without this its training subprocess would
+    live on as an orphan. ``training.train`` takes SIGTERM as Ctrl-C (checkpoint, exit 130).
+    """
+    import ctypes
+
+    pr_set_pdeathsig = 1
+    ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, signal.SIGTERM)
+
+
 def run_trial(trial: Trial | dict[str, Any]) -> dict[str, Any]:
     """Train (and evaluate) one trial as subprocesses; write and return its record.
 
@@ -488,7 +501,12 @@ def run_trial(trial: Trial | dict[str, Any]) -> dict[str, Any]:
             t_cmd = time.perf_counter()
             try:
                 rc = subprocess.run(
-                    cmd, stdout=log, stderr=subprocess.STDOUT, env=env, cwd=trial.out_dir
+                    cmd,
+                    stdout=log,
+                    stderr=subprocess.STDOUT,
+                    env=env,
+                    cwd=trial.out_dir,
+                    preexec_fn=_terminate_with_parent if sys.platform == "linux" else None,
                 ).returncode
             except OSError as exc:
                 log.write(f"{exc}\n")
@@ -523,11 +541,11 @@ def _run_serial(trials: list[Trial]) -> None:
         print(f"    {record['status']} in {record['wall_time_s']:.0f} s", flush=True)
 
 
-def _ray_trainable(config: dict[str, Any]) -> None:
-    """A Ray Tune function trainable: one :class:`Trial` (``config["trial"]``)."""
+def _ray_trainable(config: dict[str, Any], trials: dict[str, dict[str, Any]]) -> None:
+    """A Ray Tune function trainable: the :class:`Trial` ``trials[config["trial_id"]]``."""
     from ray import tune
 
-    record = run_trial(config["trial"])
+    record = run_trial(trials[config["trial_id"]])
     if record["status"] != "complete":
         raise RuntimeError(
             f"trial {record['trial_id']} failed in {record.get('stage')} "
@@ -538,7 +556,7 @@ def _ray_trainable(config: dict[str, Any]) -> None:
 
 def _ray_trial_name(trial: Any) -> str:
     """Ray's name (and directory name) of a trial: the sweep's trial id."""
-    return str(trial.config["trial"]["trial_id"])
+    return str(trial.config["trial_id"])
 
 
 def _run_ray(trials: list[Trial], spec: SweepSpec, address: str | None) -> None:
@@ -551,13 +569,16 @@ def _run_ray(trials: list[Trial], spec: SweepSpec, address: str | None) -> None:
     else:
         ray.init(include_dashboard=False, log_to_driver=False)
     try:
+        # The trials travel through Ray's object store; the search space is just their ids.
+        by_id = {t.trial_id: dataclasses.asdict(t) for t in trials}
         trainable = tune.with_resources(
-            _ray_trainable, {"cpu": float(spec.resources.cpus_per_trial)}
+            tune.with_parameters(_ray_trainable, trials=by_id),
+            {"cpu": float(spec.resources.cpus_per_trial)},
         )
         stamp = _dt.datetime.now().strftime("%Y%m%d-%H%M%S")
         tuner = tune.Tuner(
             trainable,
-            param_space={"trial": tune.grid_search([dataclasses.asdict(t) for t in trials])},
+            param_space={"trial_id": tune.grid_search(list(by_id))},
             tune_config=tune.TuneConfig(
                 num_samples=1,
                 max_concurrent_trials=spec.resources.max_concurrent,
