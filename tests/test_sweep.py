@@ -163,6 +163,13 @@ def test_failures_are_reported_and_finished_trials_skipped(
     assert calls.read_text().split()[-2:] == ["a_seed1", "a_seed2"]
     assert not (trials[2].run_dir / "partial.txt").exists()
 
+    # the same trial ids with another budget are other trials: they run again
+    spec.set = {"runtime.max_wall_time_s": 7.0}
+    assert not any(is_finished(t) for t in expand(spec))
+    run_sweep(spec, executor="serial")
+    assert calls.read_text().split()[-3:] == ["a_seed0", "a_seed1", "a_seed2"]
+    assert [is_finished(t) for t in expand(spec)] == [True, False, True]
+
 
 def test_wall_time_budget_stops_training(tmp_path: Path) -> None:
     """runtime.max_wall_time_s ends a run early, as complete, with a final evaluation."""

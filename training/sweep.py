@@ -74,7 +74,13 @@ from typing import Any
 
 import yaml
 
-from training.config import ConfigError, config_from_dict, config_to_dict, save_config
+from training.config import (
+    ConfigError,
+    config_from_dict,
+    config_to_dict,
+    load_config,
+    save_config,
+)
 
 __all__ = [
     "SweepSpec",
@@ -415,13 +421,28 @@ def _load_json(path: Path) -> Any:
         return None
 
 
+def _normalized(data: Any) -> Any:
+    return json.loads(json.dumps(data))
+
+
 def is_finished(trial: Trial) -> bool:
-    """True if the trial's record says complete and its run directory still holds the run."""
+    """True if this exact trial ran to completion earlier and its run directory still holds it.
+
+    "This exact trial": the resolved config and the evaluation settings recorded then equal the
+    trial's now (a sweep file whose ``set`` changed, e.g. another budget, reruns its trials).
+    """
     record = _load_json(trial.record_path)
     if not isinstance(record, dict) or record.get("status") != "complete":
         return False
     meta = _load_json(trial.run_dir / "run.json")
     if not isinstance(meta, dict) or meta.get("status") != "complete":
+        return False
+    saved = record.get("resolved_config")
+    if saved is None and (trial.run_dir / "config.yaml").is_file():
+        saved = config_to_dict(load_config(trial.run_dir / "config.yaml"))
+    if saved is not None and _normalized(saved) != _normalized(trial.config):
+        return False
+    if record.get("evaluate", trial.evaluate) != trial.evaluate:
         return False
     return not trial.evaluate.get("enabled", True) or (trial.run_dir / "eval.json").is_file()
 
@@ -483,6 +504,8 @@ def run_trial(trial: Trial | dict[str, Any]) -> dict[str, Any]:
         "run_dir": str(trial.run_dir),
         "config": str(trial.config_path),
         "log": str(trial.log_path),
+        "resolved_config": trial.config,
+        "evaluate": trial.evaluate,
         "host": socket.gethostname(),
         "cpu_count": os.cpu_count(),
         "start": _dt.datetime.now().astimezone().isoformat(timespec="seconds"),
