@@ -38,14 +38,18 @@ hand-started run), then evaluated. ``OUT/trials/<trial id>.json`` records the ou
 commands, return codes, wall times, the machine's load average before and after) and
 ``OUT/logs/<trial id>.log`` its output. ``OUT/sweep.json`` lists all trials.
 
-* **Ray Tune**: by default ``ray.init()`` starts Ray on this machine with one trial per core;
-  ``--address ADDR`` (e.g. ``auto`` or ``ray://head:10001``) joins an existing cluster unchanged
-  (its nodes need cdcr-gym installed and ``out_dir`` on storage they share).
+* **Ray Tune**: by default ``ray.init()`` starts Ray on this machine with one trial per core
+  (``resources.cpus_per_trial: 1``); ``--address ADDR`` joins an existing cluster unchanged:
+  ``auto`` for one started with ``ray start --head`` on this machine, ``ray://head:10001`` for a
+  remote one (its nodes need cdcr-gym installed and ``out_dir`` on storage they share; Ray's
+  own authentication settings apply).
   ``--executor serial`` runs the trials one after another in this process, without Ray (debugging).
 * **Failures** (a non-zero exit of training or evaluation, a crash) are recorded and reported
   with the log's last lines; the other trials go on. Exit status 1 if any trial failed.
-* **Re-running** the same sweep skips the trials whose record says complete; an incomplete run
-  directory (failed or killed) is deleted and its trial runs again from scratch.
+* **Re-running** the same sweep skips the trials that completed with the same resolved config
+  and evaluation settings; any other run directory (failed, killed, or from another budget) is
+  deleted and its trial runs again from scratch. A trial's training process gets SIGTERM if the
+  Ray worker running it dies (Linux), so a cancelled sweep leaves no orphaned training.
 
 Aggregation (IQM with stratified bootstrap confidence intervals, performance profiles, the
 benchmark page) is ``python -m training.aggregate OUT``.
