@@ -1,7 +1,11 @@
 """Verification studies of the pybullet backend: the numbers in ``docs/bullet_backend.md``.
 
-``python -m cdcr_gym.backends.bullet_study`` prints every table of that document (a few
-seconds); ``python -m cdcr_gym.backends.bullet_study --bench`` also measures the speed
+It lives in ``training/`` (the tools that run the package, next to ``training.bench``), not in
+the backend: it is a study of the backend against closed-form mechanics, needs nothing a user
+of the backend needs, and is not part of the paper's reproduction (``training.reproduce``).
+
+``python -m training.verification`` prints every table of that document (a few
+seconds); ``python -m training.verification --bench`` also measures the speed
 (``apply_tensions`` calls per second of the backend and env steps per second of
 ``cdcr_gym/BulletReach-v0``, both at default settings, as wall-clock and as CPU-time rates).
 ``tests/test_bullet.py`` asserts the same quantities through these functions.
@@ -9,7 +13,7 @@ seconds); ``python -m cdcr_gym.backends.bullet_study --bench`` also measures the
 "Settled" states are static equilibria: :meth:`BulletBackend.static_equilibrium`, which the
 simulated dynamics settle to exactly (tests check it). Chains longer than one pybullet
 multibody holds (n_disks × links_per_span > 60 joints) are evaluated with the same model's
-statics, :class:`~cdcr_gym.backends.bullet_chain.DiscreteBackbone`.
+statics, :class:`~cdcr_gym.backends.bullet.chain.DiscreteBackbone`.
 """
 
 from __future__ import annotations
@@ -22,9 +26,9 @@ from dataclasses import replace
 import numpy as np
 
 from cdcr_gym import kinematics
-from cdcr_gym.backends.bullet import MAX_JOINTS, BulletBackend
-from cdcr_gym.backends.bullet_chain import GRAVITY, DiscreteBackbone
+from cdcr_gym.backends.bullet import MAX_JOINTS, BulletBackend, DiscreteBackbone
 from cdcr_gym.model import statics
+from cdcr_gym.model.params import STANDARD_GRAVITY as GRAVITY
 from cdcr_gym.params import RobotParams
 
 __all__ = [
@@ -63,7 +67,7 @@ def discrete_routing_theta(
     so Σ_i T_i·(h²κ/12) adds to the bending moment: θ = θ₀ + (ΣT)·h²·θ/(12·EI), i.e.
     θ = θ₀ / (1 − ΣT·h²/(12·EI)), θ₀ the elastica's angle. With ``links_per_span`` = m the
     estimate is for the rigid-link model instead, whose span-mean excess is (1 + 2/m²) times
-    larger (see ``bullet_chain``).
+    larger (see ``cdcr_gym.backends.bullet.chain``).
     """
     tensions = np.asarray(tensions, dtype=np.float64)
     theta0, _ = statics.arc_from_tensions(tensions, params)
