@@ -26,7 +26,12 @@ from dataclasses import replace
 import numpy as np
 
 from cdcr_gym import kinematics
-from cdcr_gym.backends.bullet import MAX_JOINTS, BulletBackend, DiscreteBackbone
+from cdcr_gym.backends.bullet import (
+    MAX_JOINTS,
+    BulletBackend,
+    DiscreteBackbone,
+    span_buckling_loads,
+)
 from cdcr_gym.model import statics
 from cdcr_gym.model.params import STANDARD_GRAVITY as GRAVITY
 from cdcr_gym.params import RobotParams
@@ -40,6 +45,7 @@ __all__ = [
     "beam_theory_sag",
     "settling_time",
     "benchmark",
+    "linearised_critical_load",
 ]
 
 #: base_orientation that turns the backbone from +Z to +X_world (a horizontal cantilever).
@@ -157,7 +163,7 @@ def settling_time(
     return float(t_settle), overshoot
 
 
-def benchmark(n_steps: int = 5000, seed: int = 0) -> dict[str, float]:
+def benchmark(n_steps: int = 5000, seed: int = 0, robot: str = "paper") -> dict[str, float]:
     """Speed at default settings: backend ``apply_tensions``/s and BulletReach-v0 env steps/s.
 
     Random uniform tensions (backend) and random actions (env, episodes reset as they
@@ -165,9 +171,10 @@ def benchmark(n_steps: int = 5000, seed: int = 0) -> dict[str, float]:
     what one core delivers when other processes share the machine).
     """
     rng = np.random.default_rng(seed)
-    backend = BulletBackend()
-    tensions = rng.uniform(0.0, backend.params.max_tension, (n_steps, 3))
-    backend.reset(np.zeros(3))
+    backend = BulletBackend(RobotParams.preset(robot))
+    c = backend.params.n_cables
+    tensions = rng.uniform(0.0, backend.params.max_tension, (n_steps, c))
+    backend.reset(np.zeros(c))
     t0, c0 = time.perf_counter(), time.process_time()
     for t in tensions:
         backend.apply_tensions(t)
@@ -181,7 +188,7 @@ def benchmark(n_steps: int = 5000, seed: int = 0) -> dict[str, float]:
 
     import cdcr_gym  # noqa: F401 (registers the ids)
 
-    env = gym.make("cdcr_gym/BulletReach-v0")
+    env = gym.make("cdcr_gym/BulletReach-v0", robot=robot)
     env.reset(seed=seed)
     env.action_space.seed(seed)
     actions = [env.action_space.sample() for _ in range(n_steps)]
@@ -335,17 +342,57 @@ def _report() -> None:  # pragma: no cover - prints the tables of docs/bullet_ba
     backend.close()
 
 
+def linearised_critical_load(params: RobotParams, links_per_span: int = 1) -> float:
+    """Total cable load (N) at which the straight chain's tangent stiffness turns singular.
+
+    All cables at one tension T: the cable loads at q = 0 are linear in T, τ ≈ T·J·q with
+    J = ∂τ/∂q (central finite differences at T = 1 N per cable), and the straight pose is
+    stable while K − T·J is positive definite, i.e. up to T_cr = 1/λ_max(K⁻¹·J). Returns
+    C·T_cr, to compare with ``chain.span_buckling_loads`` (one-section robots: every cable
+    crosses every span).
+    """
+    chain = DiscreteBackbone(params, links_per_span, gravity=False)
+    ones, eps = np.ones(params.n_cables), 1e-6
+    cols = [
+        (chain.cable_loads(eps * e, ones)[0] - chain.cable_loads(-eps * e, ones)[0]) / (2 * eps)
+        for e in np.eye(chain.n_dof)
+    ]
+    jac = np.array(cols).T
+    lam = float(np.max(np.linalg.eigvals(jac / chain.stiffness[:, None]).real))
+    return params.n_cables / lam
+
+
+def _buckling_report() -> None:  # pragma: no cover - prints the span-buckling table
+    p = RobotParams()
+    print("## Span buckling: the straight chain's critical load, all cables equal (N)\n")
+    print("| n_disks | m | linearised chain | (4EI/Δ²)·sin²(π/2m) | Euler π²EI/h² | 3 × 80 N |")
+    print("|---|---|---|---|---|---|")
+    for n, m in ((3, 1), (4, 1), (5, 1), (9, 1), (3, 2), (4, 2), (3, 4), (3, 12), (4, 9)):
+        pn = replace(p, n_disks=n, max_tension=1.0)
+        crit = span_buckling_loads(pn, m)[0][0]
+        euler = math.pi**2 * p.bending_stiffness / pn.disk_spacing**2
+        lin = linearised_critical_load(pn, m)
+        print(f"| {n} | {m} | {lin:.1f} | {crit:.1f} | {euler:.1f} | 240 |")
+
+
 def main(argv: list[str] | None = None) -> None:  # pragma: no cover
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--bench", action="store_true", help="also measure the speed")
     parser.add_argument("--bench-only", action="store_true", help="only measure the speed")
     parser.add_argument("--steps", type=int, default=5000, help="steps per speed measurement")
+    parser.add_argument("--robot", default="paper", help="robot preset of the speed rows")
+    parser.add_argument(
+        "--buckling", action="store_true", help="only the span-buckling table (seconds)"
+    )
     args = parser.parse_args(argv)
+    if args.buckling:
+        _buckling_report()
+        return
     if not args.bench_only:
         _report()
     if args.bench or args.bench_only:
-        res = benchmark(args.steps)
-        print("\n## Speed (default settings, one process)\n")
+        res = benchmark(args.steps, robot=args.robot)
+        print(f"\n## Speed ({args.robot} robot, default settings, one process)\n")
         print("| what | per wall-clock s | per CPU s |")
         print("|---|---|---|")
         print(

@@ -179,7 +179,7 @@ class BulletBackend(Backend):
                 "121 joint coordinates); use fewer disks or links per span "
                 "(cdcr_gym.backends.bullet.chain.DiscreteBackbone evaluates longer chains' statics)"
             )
-        check_span_buckling(p)
+        check_span_buckling(p, self.links_per_span)
         self._base_rot = quat_to_matrix(np.asarray(self.base_orientation))
         #: The discretised backbone: geometry, masses, cable and gravity loads, statics.
         self.chain = DiscreteBackbone(
@@ -513,8 +513,17 @@ class BulletBackend(Backend):
     # -- the batched Backend interface (N = 1) ------------------------------------------------
     num_robots = 1
 
+    def _as_array(self, tensions) -> np.ndarray:
+        try:
+            return np.asarray(tensions, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(
+                f"tensions must be real numbers (N), {self.params.n_cables} per robot, "
+                f"got {tensions!r}"
+            ) from None
+
     def _one(self, tensions: np.ndarray) -> np.ndarray:
-        t = np.asarray(tensions, dtype=np.float64)
+        t = self._as_array(tensions)
         if t.ndim == 2 and t.shape[0] == 1:
             t = t[0]
         return t
@@ -547,7 +556,7 @@ class BulletBackend(Backend):
 
         Each is :meth:`static_equilibrium` (gravity as configured): the reachable set of this
         backend, from which the task draws its goals and the env its random starts."""
-        t_all = np.atleast_2d(np.asarray(tensions, dtype=np.float64))
+        t_all = np.atleast_2d(self._as_array(tensions))
         if t_all.ndim != 2:
             raise ValueError(
                 f"tensions must have shape (M, {self.params.n_cables}) (N), got shape {t_all.shape}"

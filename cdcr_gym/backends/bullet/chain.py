@@ -70,11 +70,17 @@ Masses (the paper gives none; see ``RobotParams``)
 
 Span buckling (the valid tension range)
     Between two disks the cables crossing a span are straight and pull the two disks together
-    with Σ T_i: the span is a column under that load. Above Euler's critical load π²·EI/h_j²
-    (one span, ends held by the disks) the straight span buckles, on the real robot as in this
-    model (measured: the paper's robot with 3 disks, 232 N < 3 × 80 N, diverges after ≈ 1.7 s
-    holding 80/80/80 N; with 4 disks, 414 N, it holds). :func:`check_span_buckling` therefore
-    rejects robots whose cables, all at ``max_tension``, load some span beyond π²·EI/h_j².
+    with P = Σ T_i: the span is a column under that load, and above a critical load the
+    straight backbone is unstable. For the real rod that load is Euler's π²·EI/h_j² (pinned
+    ends). The model's span is m links with joints of stiffness EI/Δ (Δ = h/m), whose straight
+    pose loses stability at the discrete column's load
+    P_cr = (4·EI/Δ²)·sin²(π/(2m))  (m = 1: 4·EI/h²; m = 2: 8·EI/h²; → π²·EI/h² as m → ∞),
+    the zero of the smallest eigenvalue of the tangent stiffness K − ∂τ_cable/∂q at q = 0
+    (``python -m training.verification --buckling`` compares the two). Beyond it the chain
+    buckles (the paper's robot with 3 disks and one link per span, P_cr = 3 × 44 N, diverged
+    after ≈ 1.7 s holding 80/80/80 N). :func:`check_span_buckling` rejects robots whose cables,
+    all at ``max_tension``, reach P_cr in some span; as P_cr ≤ π²·EI/h², every accepted robot
+    is also below the real rod's Euler load.
 
 Frames: R0 at the base disk centre, backbone along +Z0, cable 1 at +X0; ``base_rotation`` maps
 R0 to the world frame, where gravity is −9.81 m/s² along −Z_world. Positions here are world.
@@ -139,16 +145,26 @@ def _cardan(ca: np.ndarray, sa: np.ndarray, cb: np.ndarray, sb: np.ndarray) -> n
     return rot.reshape(-1, 3, 3)
 
 
-def span_buckling_loads(params: RobotParams) -> tuple[np.ndarray, np.ndarray]:
-    """Per section: Euler's critical load of one disk span and the cables' load on it, (S,) N each.
+def span_buckling_loads(
+    params: RobotParams, links_per_span: int = 1
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per section: the critical load of one disk span and the cables' load on it, (S,) N each.
 
-    The critical load is π²·EI/h_j² (h_j = ℓ_j/n_disks_j); the load is the number of cables
-    crossing section j's spans (its own and every distal section's) times ``max_tension``
-    (module docstring, "Span buckling").
+    The critical load is the model's P_cr = (4·EI/Δ²)·sin²(π/(2m)) with Δ = h_j/m (m =
+    ``links_per_span``), ≤ Euler's π²·EI/h_j²; the load is the number of cables crossing
+    section j's spans (its own and every distal section's) times ``max_tension`` (module
+    docstring, "Span buckling").
     """
+    m = links_per_span
     owner = np.asarray(params.cable_section)
     critical = np.array(
-        [math.pi**2 * params.bending_stiffness / s.disk_spacing**2 for s in params.sections]
+        [
+            4.0
+            * params.bending_stiffness
+            / (s.disk_spacing / m) ** 2
+            * math.sin(0.5 * math.pi / m) ** 2
+            for s in params.sections
+        ]
     )
     load = np.array(
         [np.count_nonzero(owner >= j) * params.max_tension for j in range(params.n_sections)]
@@ -156,25 +172,27 @@ def span_buckling_loads(params: RobotParams) -> tuple[np.ndarray, np.ndarray]:
     return critical, load
 
 
-def check_span_buckling(params: RobotParams) -> None:
+def check_span_buckling(params: RobotParams, links_per_span: int = 1) -> None:
     """Reject a robot whose disk spans buckle with every cable at ``max_tension``.
 
     Raises:
         ValueError: naming ``params``, the section, both loads and the ways out.
     """
-    critical, load = span_buckling_loads(params)
+    critical, load = span_buckling_loads(params, links_per_span)
     for j, (crit, pull) in enumerate(zip(critical, load)):
         if not pull < crit:
             s = params.sections[j]
-            n_min = math.ceil(s.length * math.sqrt(pull / (math.pi**2 * params.bending_stiffness)))
-            n_min += int(math.pi**2 * params.bending_stiffness * (n_min / s.length) ** 2 <= pull)
+            n_min = math.floor(s.n_disks * math.sqrt(pull / crit)) + 1  # crit ∝ n_disks²
+            euler = math.pi**2 * params.bending_stiffness / s.disk_spacing**2
             raise ValueError(
                 f"params: section {j} (n_disks={s.n_disks}, span {s.disk_spacing * 1e3:.1f} mm) "
                 f"buckles between its disks: its cables at max_tension={params.max_tension:g} N "
-                f"compress each span with {pull:.0f} N, at or above Euler's critical load "
-                f"π²·EI/h² = {crit:.0f} N of one span (the real robot would buckle as well, and "
-                f"the simulation diverges). Use n_disks >= {n_min} for that section, or a "
-                f"max_tension below {crit / (pull / params.max_tension):.1f} N"
+                f"compress each span with {pull:.0f} N, at or above the critical load of one "
+                f"span, {crit:.0f} N with links_per_span={links_per_span} (the straight span is "
+                f"a column; Euler's π²·EI/h² = {euler:.0f} N for the real rod), and the "
+                f"simulation would diverge. Use n_disks >= {n_min} for that section or "
+                f"max_tension < {crit / (pull / params.max_tension):.1f} N"
+                + (" or more links_per_span" if pull < euler else "")
             )
 
 
