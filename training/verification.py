@@ -34,7 +34,7 @@ from cdcr_gym.backends.bullet import (
 )
 from cdcr_gym.model import statics
 from cdcr_gym.model.params import STANDARD_GRAVITY as GRAVITY
-from cdcr_gym.params import RobotParams
+from cdcr_gym.params import RobotParams, SectionParams
 
 __all__ = [
     "HORIZONTAL",
@@ -375,6 +375,55 @@ def _buckling_report() -> None:  # pragma: no cover - prints the span-buckling t
         print(f"| {n} | {m} | {lin:.1f} | {crit:.1f} | {euler:.1f} | 240 |")
 
 
+def with_disks(params: RobotParams, n_disks: int) -> RobotParams:
+    """``params`` with ``n_disks`` spacer disks in every section."""
+    sections = tuple(replace(s, n_disks=n_disks) for s in params.sections)
+    return replace(params, sections=sections, length=None, n_disks=None, cable_radius=None)
+
+
+#: A three-section layout with 4, 3 and 5 cables at other angles (the tests' ``THREE``).
+THREE_SECTIONS = replace(
+    RobotParams.preset("tdcr2"),
+    sections=(
+        SectionParams(0.15, 20, 0.011, tuple(math.radians(a) for a in (0, 90, 180, 270))),
+        SectionParams(0.15, 20, 0.010, tuple(math.radians(a) for a in (30, 150, 270))),
+        SectionParams(0.10, 20, 0.008, tuple(math.radians(a) for a in (10, 100, 200, 300, 350))),
+    ),
+    max_tension=4.0,
+    length=None,
+    n_disks=None,
+    cable_radius=None,
+)
+
+
+def _sections_report() -> None:  # pragma: no cover - prints the n-section table
+    from cdcr_gym.backends.analytic import AnalyticBackend
+
+    print("## Several sections, gravity off: |settled tip − PCC tip| / ℓ (%)\n")
+    print("5 tension sets uniform in [0, max_tension] (seed 0); max and mean over the sets.\n")
+    print("| robot | disks per section | links_per_span | max | mean | source |")
+    print("|---|---|---|---|---|---|")
+    combos = ((10, 1), (10, 2), (10, 3), (20, 1), (30, 1), (60, 1), (100, 1))
+    for name, base in (("tdcr2", RobotParams.preset("tdcr2")), ("three sections", THREE_SECTIONS)):
+        rng = np.random.default_rng(0)
+        tensions = rng.uniform(0.0, base.max_tension, (5, base.n_cables))
+        for n, m in combos:
+            p = with_disks(base, n)
+            pcc = AnalyticBackend(p).equilibrium(tensions).tip
+            if p.n_disks * m <= MAX_JOINTS:
+                b = BulletBackend(p, gravity=False, links_per_span=m)
+                tips, source = b.equilibrium(tensions).tip, "pybullet backend"
+                b.close()
+            else:
+                chain = DiscreteBackbone(p, m, gravity=False)
+                tips = np.array(
+                    [chain.pose(chain.static_equilibrium(t)[0]).stations[-1] for t in tensions]
+                )
+                source = "chain statics"
+            err = 100 * np.linalg.norm(tips - pcc, axis=1) / p.length
+            print(f"| {name} | {n} | {m} | {err.max():.3f} | {err.mean():.3f} | {source} |")
+
+
 def main(argv: list[str] | None = None) -> None:  # pragma: no cover
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--bench", action="store_true", help="also measure the speed")
@@ -384,9 +433,15 @@ def main(argv: list[str] | None = None) -> None:  # pragma: no cover
     parser.add_argument(
         "--buckling", action="store_true", help="only the span-buckling table (seconds)"
     )
+    parser.add_argument(
+        "--sections", action="store_true", help="only the n-section dense-disk table (seconds)"
+    )
     args = parser.parse_args(argv)
-    if args.buckling:
-        _buckling_report()
+    if args.buckling or args.sections:
+        if args.buckling:
+            _buckling_report()
+        if args.sections:
+            _sections_report()
         return
     if not args.bench_only:
         _report()
