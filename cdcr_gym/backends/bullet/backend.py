@@ -75,15 +75,19 @@ class BulletBackend(Backend):
     """The CDCR backbone simulated as a pybullet multibody (see the module docstring).
 
     Args:
-        params: the robot (:class:`~cdcr_gym.params.RobotParams`; default: the paper's Table 1).
+        params: the robot (:class:`~cdcr_gym.params.RobotParams`; default: the paper's Table 1),
+            any number of sections and of cables per section. Rejected (``ValueError``) if its
+            disk spans buckle with every cable at ``max_tension``
+            (:func:`~cdcr_gym.backends.bullet.chain.check_span_buckling`).
         gravity: ``True`` (default) applies −9.81 m/s² along −Z_world; ``False`` switches
             gravity off (the paper's simulation and the pure-moment statics have none).
         links_per_span: rigid links per disk span, m >= 1 (default 1): the chain has
-            ``n_disks·m`` links and twice as many revolute joints. Larger m converges to a
+            ``Σ n_disks·m`` links and twice as many revolute joints. Larger m converges to a
             continuous rod between the disks (the span-mean cable moment-arm excess is
-            (1 + 2/m²) times the physical one, see ``bullet_chain``) at a cost in speed (m = 4:
+            (1 + 2/m²) times the physical one, see ``chain``) at a cost in speed (m = 4:
             ≈ 4.7× slower). Use m = 4 for quantitative studies of the 9-disk robot (tip within
-            0.5 mm of the m → ∞ limit at 40 N, 1.8 mm at 80 N). n_disks·m <= 60 (pybullet).
+            0.5 mm of the m → ∞ limit at 40 N, 1.8 mm at 80 N), m = 3 for tdcr2.
+            Σ n_disks·m <= 60 (:data:`MAX_JOINTS`, one pybullet body).
         control_timestep: simulated time (s) that one :meth:`apply_tensions` advances
             (default 0.02 s, i.e. 50 Hz control).
         physics_timestep: pybullet step h (s), must divide ``control_timestep`` (default
@@ -96,8 +100,8 @@ class BulletBackend(Backend):
             ``(0, sin 45°, 0, cos 45°)`` turns the backbone to +X_world (a horizontal
             cantilever). Returned positions stay in R0.
         tip_payload: point mass (kg, >= 0) at the tip disk centre (default 0.0).
-        gui: open the pybullet GUI (``render_mode="human"``) instead of a headless client
-            (default ``False``). pybullet allows one GUI client per process.
+        gui: open the pybullet GUI instead of a headless client (default ``False``); needs a
+            display (else ``RuntimeError``). pybullet allows one GUI client per process.
         damping_ratio: damping ratio ζ > 0 of the first bending mode (default 0.7); the joint
             damping is D = (2ζ/ω₁)·K. Larger values settle the first mode without overshoot
             but slow the higher modes (rate ω₁/(2ζ)).
