@@ -400,10 +400,6 @@ class DiscreteBackbone:
         )
         return pins
 
-    def cable_lengths_of(self, pose: ChainPose) -> np.ndarray:
-        """Sensed cable lengths (C,) m: summed pinhole-to-pinhole segment lengths of ``pose``."""
-        return self.lengths_between_pinholes(pose.pinholes)
-
     def lengths_between_pinholes(self, pinholes: np.ndarray) -> np.ndarray:
         """Cable lengths (C,) m from pinholes (n_disks+1, C, 3): each cable's segment lengths
         summed over the spans it crosses (base disk to its section's last disk)."""
