@@ -1,7 +1,8 @@
 """The discretised backbone of the pybullet backend, as pure numpy (no simulator).
 
-``cdcr_gym.backends.bullet.BulletBackend`` simulates this model's dynamics in pybullet; this module holds its geometry,
-mass properties, cable and gravity loads and statics, so that they are written once, can be
+``cdcr_gym.backends.bullet.BulletBackend`` simulates this model's dynamics in pybullet; this
+module holds its geometry, mass properties, cable and gravity loads and statics, so that they
+are written once, can be
 checked against pybullet (tests), and can be evaluated for chains longer than one pybullet
 multibody can hold (pybullet's API keeps 121 joint coordinates per body: 60 Cardan joints).
 
