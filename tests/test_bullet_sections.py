@@ -282,3 +282,24 @@ def test_bad_tensions_raise_value_error_naming_tensions(make, tensions):
     for call in (b.reset, b.apply_tensions, b.equilibrium):
         with pytest.raises(ValueError, match="tensions"):
             call(tensions)
+
+
+def test_disk_frames_carry_every_routed_pinhole(make):
+    """Base-interface contract: pinhole = centre_k + R_k (r cos β, r sin β, 0) on every disk a
+    cable passes (MIXED2: different spacings per section, m = 2)."""
+    b = make(MIXED2, links_per_span=2, gravity=True)
+    b.reset(np.linspace(0.0, MIXED2.max_tension, MIXED2.n_cables))
+    centres, rots = b.disk_frames()
+    pins = b.pinhole_positions()
+    local = b.chain.pinhole_local
+    want = centres[:, None, :] + np.einsum("kij,cj->kci", rots, local)
+    np.testing.assert_allclose(pins, want, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(centres[-1], b.tip, rtol=0, atol=1e-15)
+    assert b.backbone_points().shape == (2 * b.n_links + 1, 3)
+
+
+def test_gui_without_a_display_is_a_clear_error(monkeypatch):
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    with pytest.raises(RuntimeError, match="display"):
+        BulletBackend(TDCR2, gui=True)
