@@ -95,6 +95,7 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import math
+import re
 import types
 import typing
 from dataclasses import dataclass, field
@@ -401,6 +402,13 @@ class ExperimentConfig:
                 f"{a}.her.enabled: HER needs the goal-conditioned observation; "
                 f"set env.kwargs.goal_conditioned: true"
             )
+        horizon = self.env.max_episode_steps_or_default
+        if h.enabled and c.learning_starts < horizon * self.env.n_envs:
+            raise ConfigError(
+                f"{a}.learning_starts ({c.learning_starts}) must be >= env.max_episode_steps * "
+                f"env.n_envs ({horizon} * {self.env.n_envs}) with HER: it samples finished "
+                f"episodes only"
+            )
         if h.enabled and c.buffer_size < self.env.max_episode_steps_or_default:
             raise ConfigError(
                 f"{a}.buffer_size ({c.buffer_size}) must hold at least one episode "
@@ -486,9 +494,9 @@ class ExperimentConfig:
             _positive_int("evaluate.horizons[]", h)
         if v.video_episodes < 0:
             raise ConfigError(f"evaluate.video_episodes must be >= 0, got {v.video_episodes!r}")
-        if self.runtime.device not in ("cpu", "cuda", "auto") and not str(
-            self.runtime.device
-        ).startswith("cuda:"):
+        if self.runtime.device not in ("cpu", "auto") and not re.fullmatch(
+            r"cuda(:\d+)?", str(self.runtime.device)
+        ):
             raise ConfigError(
                 f"runtime.device must be 'cpu', 'cuda', 'cuda:N' or 'auto', "
                 f"got {self.runtime.device!r}"
