@@ -614,6 +614,21 @@ def _env_snapshot(venv_base: Any) -> dict[str, Any] | None:
     return {"kind": "per_env", "blobs": blobs}
 
 
+def _pending_log(logger: Any) -> dict[str, Any]:
+    def plain(value: Any) -> Any:
+        return value.item() if isinstance(value, np.generic) else value
+
+    return {
+        "values": {k: plain(v) for k, v in logger.name_to_value.items() if _picklable(v)},
+        "counts": dict(logger.name_to_count),
+        "excluded": dict(logger.name_to_excluded),
+    }
+
+
+def _picklable(value: Any) -> bool:
+    return isinstance(value, (int, float, str, np.number))
+
+
 _BATCHED_ATTRS = ("reset_infos", "_seeds", "_options", "_actions")
 _MONITOR_ATTRS = ("episode_returns", "episode_lengths", "episode_count")
 
@@ -677,6 +692,8 @@ def save_checkpoint(model: Any, run: RunDir, state: dict[str, Any]) -> int:
         "best_score": state.get("best_score"),
         "last_eval_step": state.get("last_eval_step"),
         "wall_time_s": state["wall_before"] + time.perf_counter() - state["t_start"],
+        # values recorded (e.g. train/* of the update just done) but not yet written to the logs
+        "pending_log": _pending_log(model.logger),
     }
     _atomic(run.state_path(steps), lambda tmp: tmp.write_bytes(pickle.dumps(data)))
     state["last_checkpoint"] = steps
@@ -1114,7 +1131,12 @@ def _train(
 
     progress = ProgressBarCallback()  # ours, to close it on an interrupt (no shutdown noise)
     callbacks = [*_make_callbacks(config, run, state), progress]
-    if ckpt is not None:  # last: nothing between here and learn() may draw random numbers
+    if ckpt is not None:
+        pending = ckpt.data.get("pending_log") or {}
+        model.logger.name_to_value.update(pending.get("values", {}))
+        model.logger.name_to_count.update(pending.get("counts", {}))
+        model.logger.name_to_excluded.update(pending.get("excluded", {}))
+        # last: nothing between here and learn() may draw random numbers
         _set_rng_state(model, ckpt.data["rng"])
     state["t_start"] = time.perf_counter()
     status, code = "complete", 0
