@@ -59,6 +59,7 @@ import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -336,13 +337,15 @@ def build_vec_env(config: ExperimentConfig, seed: int, n_envs: int | None = None
         return _init
 
     fns = [factory(i) for i in range(n)]
-    if subproc:
+    if subproc and threading.current_thread() is threading.main_thread():
         # Workers inherit an ignored SIGINT (a terminal's Ctrl-C reaches the whole group).
         previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
         try:
             venv: Any = SubprocVecEnv(fns)
         finally:
             signal.signal(signal.SIGINT, previous)
+    elif subproc:
+        venv = SubprocVecEnv(fns)
     else:
         venv = DummyVecEnv(fns)
     venv.seed(seed)
@@ -1000,7 +1003,10 @@ def train(config: ExperimentConfig, run_dir: Path, resume: bool, argv: list[str]
             flush=True,
         )
 
-    previous = {sig: signal.signal(sig, on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
+    # Signal handlers can only be installed from the main thread (a sweep may train in another).
+    in_main = threading.current_thread() is threading.main_thread()
+    sigs = (signal.SIGINT, signal.SIGTERM) if in_main else ()
+    previous = {sig: signal.signal(sig, on_signal) for sig in sigs}
     try:
         return _train(config, run, resume, argv, command, device, state)
     finally:
@@ -1149,8 +1155,9 @@ def _train(
         if state["stopped"]:
             status, code = "interrupted", EXIT_INTERRUPTED
     except KeyboardInterrupt:  # a second Ctrl-C: stop now, the last checkpoint stays
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
-        signal.signal(signal.SIGTERM, signal.SIG_IGN)
+        if threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+            signal.signal(signal.SIGTERM, signal.SIG_IGN)
         status, code = "interrupted", EXIT_INTERRUPTED
     finally:
         if getattr(progress, "pbar", None) is not None:
