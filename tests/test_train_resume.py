@@ -226,6 +226,18 @@ def test_off_policy_resume_with_replay_buffer_is_bit_identical(tmp_path: Path, d
     # Only the newest two checkpoints keep their replay buffer (and stay resumable).
     buffers = sorted(p.name for p in (run / "checkpoints").glob("replay_buffer_*"))
     assert len(buffers) == 2 and not (run / "checkpoints/state_128_steps.pkl").exists()
+    # training.evaluate loads the model of any algo (from the run's config.yaml).
+    result = subprocess.run(
+        [sys.executable, "-m", "training.evaluate", str(run), "--episodes", "2"],
+        cwd=REPO,
+        env=ENV,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    evaluation = json.loads((run / "eval.json").read_text())
+    assert 0.0 <= evaluation["success_rate"] <= 1.0 and evaluation["error_mm"]["max"] > 0
 
 
 def _interrupt(tmp_path: Path, n_signals: int) -> tuple[int, str, Path]:
@@ -276,3 +288,16 @@ def test_ctrl_c_with_subproc_envs_is_exit_130_without_traceback(
     )
     assert result.returncode == 0, result.stderr[-3000:]
     assert f"from step {stop}" in result.stdout
+
+
+def test_unrestorable_envs_are_reseeded_off_the_evaluation_seeds() -> None:
+    """Envs that cannot be pickled (pybullet) get a hashed seed on resume, not seed + steps."""
+    from training.config import ExperimentConfig
+    from training.train import fallback_env_seed
+
+    config = ExperimentConfig()
+    low = max(config.seed + config.env.n_envs, config.eval.seed + 10**5, config.evaluate.seed)
+    seeds = {fallback_env_seed(s, steps) for s in range(4) for steps in range(0, 10**6, 4096)}
+    assert len(seeds) == 4 * len(range(0, 10**6, 4096))  # distinct per (seed, steps)
+    assert all(low < s and s + 2**16 <= 2**32 - 1 for s in seeds)
+    assert fallback_env_seed(0, 100_000) != 100_000  # the old collision: eval.seed = seed + steps

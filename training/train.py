@@ -919,9 +919,7 @@ def _restore(
     envs = ckpt.data["envs"]
     # Envs that could not be pickled are reseeded from (seed, steps): a deterministic
     # continuation, on seeds that are not the evaluation's (those are seed + i, i small).
-    seed = config.seed
-    if envs is None:
-        seed = int(np.random.SeedSequence([config.seed, steps]).generate_state(1)[0])
+    seed = config.seed if envs is not None else fallback_env_seed(config.seed, steps)
     base = build_vec_env(config, seed)
     try:
         if envs is not None and envs["kind"] == "per_env":
@@ -949,6 +947,16 @@ def _restore(
         base.close()
         raise
     return model, venv, base
+
+
+def fallback_env_seed(seed: int, steps: int) -> int:
+    """Seed of training envs that a resume at ``steps`` cannot restore (not picklable).
+
+    Hashed from (seed, steps) into [2**31, 2**32 - n_envs): unlike the former ``seed + steps``
+    it never lands on evaluation goals (``eval.seed + i``, ``evaluate.seed + i``, below 2**31
+    for any sensible config) nor on the first session's ``seed + rank``."""
+    h = int(np.random.SeedSequence([seed, steps]).generate_state(1, dtype=np.uint32)[0])
+    return 2**31 + h % (2**31 - 2**16)
 
 
 def _find_checkpoint(run: RunDir) -> Checkpoint | None:
