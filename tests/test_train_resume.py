@@ -301,3 +301,16 @@ def test_unrestorable_envs_are_reseeded_off_the_evaluation_seeds() -> None:
     assert len(seeds) == 4 * len(range(0, 10**6, 4096))  # distinct per (seed, steps)
     assert all(low < s and s + 2**16 <= 2**32 - 1 for s in seeds)
     assert fallback_env_seed(0, 100_000) != 100_000  # the old collision: eval.seed = seed + steps
+
+
+def test_a_run_of_the_older_checkpoint_format_is_left_alone(tmp_path: Path) -> None:
+    run = tmp_path / "run"
+    (run / "checkpoints").mkdir(parents=True)
+    (run / "config.yaml").write_text(yaml.safe_dump(PPO_TINY))
+    (run / "run.json").write_text("{}")
+    (run / "checkpoints" / "model_128_steps.zip").write_bytes(b"PK old")
+    (run / "checkpoints" / "state.json").write_text('{"steps": 128}')
+    for extra in (["--resume"], []):
+        result = _train(run / "config.yaml", "--run-dir", run, *extra, timeout=120)
+        assert result.returncode == 2 and "older format" in result.stderr
+    assert (run / "checkpoints" / "model_128_steps.zip").read_bytes() == b"PK old"

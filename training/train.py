@@ -1299,6 +1299,7 @@ def _resolve(args: argparse.Namespace) -> tuple[ExperimentConfig, Path]:
             raise ConfigError(
                 f"--run-dir {str(args.run_dir)!r} is not a training run directory (no config.yaml)"
             )
+        _refuse_legacy(run)
         saved = load_config(run.config)
         if args.total_timesteps is not None:
             saved.total_timesteps = args.total_timesteps
@@ -1330,12 +1331,25 @@ def _resolve(args: argparse.Namespace) -> tuple[ExperimentConfig, Path]:
     if run_dir.exists() and (not run_dir.is_dir() or any(run_dir.iterdir())):
         run = RunDir(run_dir)
         restartable = run_dir.is_dir() and run.config.is_file() and run.latest_checkpoint() is None
-        if not restartable:
+        if restartable:
+            _refuse_legacy(run)
+        else:
             raise ConfigError(
                 f"--run-dir {str(run_dir)!r} already exists and is not empty; "
                 f"pass --resume to continue it, or choose another directory"
             )
     return config, run_dir
+
+
+def _refuse_legacy(run: RunDir) -> None:
+    """A run directory of the previous checkpoint format (``checkpoints/state.json``, no state
+    files) is neither resumed nor restarted over: its checkpoints would be discarded."""
+    if (run.checkpoints / "state.json").is_file() and not run.checkpoint_steps():
+        raise ConfigError(
+            f"--run-dir {str(run.root)!r} holds checkpoints of an older format (no "
+            f"state_N_steps.pkl), which cannot be resumed exactly and would be discarded; "
+            f"train into another --run-dir"
+        )
 
 
 def _flatten(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
