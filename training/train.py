@@ -959,13 +959,27 @@ def fallback_env_seed(seed: int, steps: int) -> int:
     return 2**31 + h % (2**31 - 2**16)
 
 
-def _find_checkpoint(run: RunDir) -> Checkpoint | None:
-    """The newest checkpoint whose files are complete (older ones if the newest is not)."""
-    for steps in run.checkpoint_steps():
+def _load_newest(
+    config: ExperimentConfig, run: RunDir, device: str
+) -> tuple[Checkpoint, Any, Any, Any] | None:
+    """(checkpoint, model, venv, base venv) of the newest checkpoint that is complete and loads;
+    older ones are tried when a newer one is truncated or corrupt (a warning each). None if the
+    run has no checkpoint at all; :class:`ConfigError` if it has some but none loads (nothing
+    is deleted)."""
+    tried = run.checkpoint_steps() if run.checkpoints.is_dir() else []
+    for steps in tried:
         try:
-            return Checkpoint.read(run, steps)
-        except CheckpointError as exc:
+            ckpt = Checkpoint.read(run, steps)
+            model, venv, base = _restore(config, run, ckpt, device)
+        except Exception as exc:  # noqa: BLE001 - a corrupt file fails in many ways
             print(f"warning: skipping checkpoint {steps}: {exc}", file=sys.stderr)
+            continue
+        return ckpt, model, venv, base
+    if tried:
+        raise ConfigError(
+            f"--resume: none of the checkpoints {tried} in {run.checkpoints} loads "
+            f"(warnings above); nothing was changed"
+        )
     return None
 
 
@@ -1031,7 +1045,8 @@ def _train(
     device: str,
     state: dict[str, Any],
 ) -> int:
-    ckpt = _find_checkpoint(run) if resume and run.checkpoints.is_dir() else None
+    restored = _load_newest(config, run, device) if resume else None
+    ckpt = restored[0] if restored is not None else None
     meta: dict[str, Any] | None = None
     if run.run_json.is_file():
         try:
@@ -1039,9 +1054,9 @@ def _train(
         except ValueError:
             meta = None
     if ckpt is None:
-        if run.root.exists():  # a restart, or a resume with no usable checkpoint: afresh
+        if run.root.exists():  # a restart, or a resume with no checkpoint yet: afresh
             if resume or run.config.exists():
-                print(f"{run.root}: no usable checkpoint; training it afresh from step 0")
+                print(f"{run.root}: no checkpoint; training it afresh from step 0")
             _clear_artefacts(run)
         run.root.mkdir(parents=True, exist_ok=True)
         save_config(config, run.config)
@@ -1086,45 +1101,17 @@ def _train(
             f"{run.root}: already trained for {state['start_steps']} >= "
             f"{config.total_timesteps} steps; nothing to do"
         )
+        if restored is not None:
+            _close_quietly(restored[2])
         return 0
 
-    model = None
-    while ckpt is not None:
-        try:
-            model, venv, base = _restore(config, run, ckpt, device)
-            break
-        except Exception as exc:  # noqa: BLE001 - a corrupt file fails in many ways
-            print(
-                f"warning: checkpoint {ckpt.steps} does not load ({type(exc).__name__}: {exc}); "
-                f"trying an older one",
-                file=sys.stderr,
-            )
-            run.state_path(ckpt.steps).unlink(missing_ok=True)
-            ckpt = _find_checkpoint(run)
-            if ckpt is None:
-                print(f"{run.root}: no usable checkpoint; training it afresh from step 0")
-                _clear_artefacts(run)
-                save_config(config, run.config)
-                state.update({"start_steps": 0, "best_score": None, "wall_before": 0.0})
-                state.pop("last_checkpoint", None)
-            else:
-                state.update(
-                    {
-                        "start_steps": ckpt.steps,
-                        "best_score": ckpt.data.get("best_score"),
-                        "last_eval_step": ckpt.data.get("last_eval_step"),
-                        "last_checkpoint": ckpt.steps,
-                        "wall_before": ckpt.data.get("wall_time_s", 0.0),
-                    }
-                )
-                _truncate_csv(run.progress, "time/total_timesteps", ckpt.steps)
-                _truncate_csv(run.eval_log, "timesteps", ckpt.steps)
-    if model is None:
+    if restored is None:
         base = build_vec_env(config, config.seed)
         venv = _wrap_normalize(config, base, None)
         model = _make_model(config, venv, device)
         model.set_random_seed(config.seed)
     else:
+        _, model, venv, base = restored
         print(f"resuming {run.root} from step {model.num_timesteps}")
     state["venv_base"] = base
     model.set_logger(_make_logger(run))
