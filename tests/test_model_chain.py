@@ -318,3 +318,29 @@ def test_disk_frames_and_backbone_points(name):
 def test_bad_input_raises_value_error_naming_it(call, name):
     with pytest.raises(ValueError, match=name):
         call(PCCModel(RobotParams()))
+
+
+@pytest.mark.parametrize("name", sorted(ROBOTS))
+def test_field_major_kernels_match_the_public_api(name):
+    """forward_rows (batched rows and its one-robot Python-float path) against
+    tip_and_direction_from_bending / lengths_from_bending, straight robot included."""
+    model = PCCModel(ROBOTS[name])
+    w = _random_bending(model, 9, seed=7)
+    w[0] = 0.0
+    tip, direction = model.tip_and_direction_from_bending(w)
+    lengths = model.lengths_from_bending(w)
+    comp = np.ascontiguousarray(w.reshape(9, -1).T)
+    rows = model.forward_rows(comp)
+    for got, want in zip(rows, (tip, direction, lengths)):
+        np.testing.assert_allclose(got.T, want, rtol=0.0, atol=1e-15)
+    for k in range(9):
+        one = model.forward_rows(comp[:, k : k + 1].copy())
+        for got, want in zip(one, (tip, direction, lengths)):
+            np.testing.assert_allclose(got[:, 0], want[k], rtol=0.0, atol=1e-15)
+    t = np.random.default_rng(1).uniform(0.0, 30.0, (4, model.n_cables))
+    np.testing.assert_allclose(
+        model.bending_rows_from_tensions(t).T,
+        model.bending_from_tensions(t).reshape(4, -1),
+        rtol=0.0,
+        atol=1e-15,
+    )

@@ -376,3 +376,55 @@ def test_bench_table_and_checks_format():
     assert measured["median"] > 0
     with pytest.raises(SystemExit):
         bench.main(["--out", "bench.txt"])
+
+
+@pytest.mark.parametrize("robot", ["paper", "tdcr2"])
+def test_single_env_fast_path_equals_batched_rows(robot):
+    """The one-env Python-float paths (model and Reach task) give the batched env's numbers."""
+    single = gym.make("cdcr_gym/CCKAReach-v0", robot=robot, action_mode="tension_delta")
+    vec = gym.make_vec(
+        "cdcr_gym/CCKAReach-v0",
+        num_envs=2,
+        vectorization_mode="vector_entry_point",
+        robot=robot,
+        action_mode="tension_delta",
+    )
+    o1, _ = single.reset(seed=3)
+    ov, _ = vec.reset(seed=[3, 4])
+    np.testing.assert_array_equal(o1, ov[0])
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        a = rng.uniform(-1, 1, single.action_space.shape).astype(np.float32)
+        o1, r1, _, _, i1 = single.step(a)
+        ov, rv, _, _, iv = vec.step(np.stack([a, a]))
+        np.testing.assert_allclose(o1, ov[0], rtol=0.0, atol=1e-6)
+        assert abs(r1 - rv[0]) <= 1e-15
+        np.testing.assert_allclose(i1["tip"], iv["tip"][0], rtol=0.0, atol=1e-15)
+
+
+def test_bench_env_share_check_is_an_upper_bound():
+    """The PPO env-share target is met when the share is at most 10 %, not at least."""
+    from training import bench
+
+    def rows(share):
+        return {"ppo_batched": {"key": "ppo_batched", "median": 1.0, "env_share": share}}
+
+    def check(share):
+        (row,) = [c for c in bench._checks(rows(share), "batched") if "env share" in c["name"]]
+        return row
+
+    assert check(0.05)["ok"] is True
+    assert check(0.25)["ok"] is False
+    assert all("env share" not in c["name"] for c in bench._checks(rows(0.05)))
+    text = bench.to_markdown(
+        {
+            "machine": bench.machine(),
+            "rows": [],
+            "load_before": "0",
+            "load_after": "0",
+            "repeats": 1,
+            "quick": True,
+            "checks": [check(0.05)],
+        }
+    )
+    assert "≤ 0.1 | yes |" in text

@@ -6,7 +6,7 @@
     cdcr-gym evaluate RUN_DIR [--video] ...             # python -m training.evaluate
     cdcr-gym reproduce [--out DIR] ...                  # python -m training.reproduce
     cdcr-gym bench [--quick] ...                        # python -m training.bench
-    cdcr-gym sweep ...                                  # python -m training.sweep (if installed)
+    cdcr-gym sweep sweeps/benchmark ...                 # python -m training.sweep (Ray Tune)
     cdcr-gym demo [--env-id ID] ...                     # python -m training.ik_demo
     cdcr-gym configs                                    # the packaged experiment configs
 
@@ -128,6 +128,10 @@ def _rewrite(command: str, argv: list[str]) -> list[str]:
         if i is not None:
             argv[i] = resolve_config(argv[i])
     elif command in ("bench", "sweep"):
+        if command == "sweep":  # the sweep file: a path or a packaged name (sweeps/benchmark)
+            i = _first_positional(argv, {"--address", "--executor", "--out-dir"})
+            if i is not None:
+                argv[i] = resolve_config(argv[i])
         for i, arg in enumerate(argv):
             if arg == "--config" and i + 1 < len(argv):
                 argv[i + 1] = resolve_config(argv[i + 1])

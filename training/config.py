@@ -88,6 +88,8 @@ valid name), wrong types and out-of-range values are errors that name the key an
     runtime:
       device: cpu
       torch_threads: 1            # torch.set_num_threads (tiny MLPs are fastest single-threaded)
+      max_wall_time_s: null       # stop training after this many seconds of training wall time
+                                  # (periodic evaluations included); null: run to total_timesteps
 """
 
 from __future__ import annotations
@@ -297,6 +299,7 @@ class RuntimeConfig:
 
     device: str = "cpu"
     torch_threads: int = 1
+    max_wall_time_s: float | None = None
 
 
 @dataclass
@@ -502,6 +505,8 @@ class ExperimentConfig:
                 f"got {self.runtime.device!r}"
             )
         _positive_int("runtime.torch_threads", self.runtime.torch_threads)
+        if self.runtime.max_wall_time_s is not None:
+            _positive_float("runtime.max_wall_time_s", self.runtime.max_wall_time_s)
 
 
 def _net_arch(key: str, widths: Any) -> None:

@@ -570,12 +570,24 @@ def _make_callbacks(config: ExperimentConfig, run: RunDir, state: dict[str, Any]
             # Always evaluate the final weights too (the best model may be the last one).
             if (
                 state.get("last_eval_step") != self.num_timesteps
-                and self.num_timesteps >= state["total"]
                 and not state["stop_requested"]
+                and (self.num_timesteps >= state["total"] or state.get("stopped_by_wall_time"))
             ):
                 self._evaluate()
 
-    return [StatsCallback(), CheckpointCallback(), EvalCallback()]
+    class WallTimeCallback(BaseCallback):
+        """Stops training once ``runtime.max_wall_time_s`` of training wall time has passed."""
+
+        def _on_step(self) -> bool:
+            limit = config.runtime.max_wall_time_s
+            elapsed = state["wall_before"] + time.perf_counter() - state["t_start"]
+            if limit is not None and elapsed >= limit:
+                state["stopped_by_wall_time"] = True
+                return False
+            return True
+
+    # The wall-time check runs last, so the step that hits the limit is still logged/evaluated.
+    return [StatsCallback(), CheckpointCallback(), EvalCallback(), WallTimeCallback()]
 
 
 def _registered_steps(env_id: str) -> int:
@@ -1177,6 +1189,8 @@ def _train(
         meta["total_steps"] = int(model.num_timesteps)
         meta["total_wall_time_s"] = round(state["wall_before"] + wall, 2)
         meta["status"] = status
+        if state.get("stopped_by_wall_time"):
+            meta["stopped_by"] = "runtime.max_wall_time_s"
         _write_json(run.run_json, meta)
         model.logger.close()
         if status != "complete":

@@ -42,14 +42,24 @@ class AnalyticBackend(Backend):
         self.model = PCCModel(params)
         self._set(np.zeros((self.num_robots, params.n_cables)))
 
-    def _shape(self, tensions: np.ndarray, w: np.ndarray) -> Readings:
-        m = self.model
-        tip, direction = m.tip_and_direction_from_bending(w)
-        return Readings(tip, direction, m.lengths_from_bending(w), tensions)
+    def _shape(self, tensions: np.ndarray, comp: np.ndarray) -> Readings:
+        """Readings of the bending component rows ``comp`` (2S, N) held by ``tensions`` (N, C).
+
+        The model works field-major (one row per component); the computed readings are the
+        transposed views, (N, ·) Fortran-ordered arrays, so the tasks' field-major observation
+        buffers fill from contiguous rows (``tensions`` are kept as given).
+        """
+        tip, direction, lengths = self.model.forward_rows(comp)
+        return Readings(tip.T, direction.T, lengths.T, tensions)
 
     def _set(self, tensions: np.ndarray) -> None:
-        self._w = self.model.bending_from_tensions(tensions)
-        self._readings = self._shape(tensions, self._w)
+        self._comp = self.model.bending_rows_from_tensions(tensions)
+        self._readings = self._shape(tensions, self._comp)
+
+    @property
+    def _w(self) -> np.ndarray:
+        """Bending vectors (N, S, 2), rad."""
+        return self._comp.T.reshape(self.num_robots, self.params.n_sections, 2)
 
     # -- commands -------------------------------------------------------------------------------
     def reset(self, tensions: np.ndarray, mask: np.ndarray | None = None) -> None:
@@ -73,8 +83,8 @@ class AnalyticBackend(Backend):
         m = self.model
         w = m.bending_from_lengths(lengths)
         tensions, _ = minimal_tensions(m, w)
-        self._w = w
-        self._readings = self._shape(tensions, w)
+        self._comp = np.ascontiguousarray(w.reshape(self.num_robots, -1).T)
+        self._readings = self._shape(tensions, self._comp)
 
     # -- readings -------------------------------------------------------------------------------
     def read(self) -> Readings:
@@ -82,7 +92,10 @@ class AnalyticBackend(Backend):
 
     def equilibrium(self, tensions: np.ndarray) -> Readings:
         t = validation.per_cable(tensions, "tensions", self.n_cables, 0.0, self.params.max_tension)
-        return self._shape(t, self.model.bending_from_tensions(t))
+        flat = t.reshape(-1, self.n_cables)
+        r = self._shape(flat, self.model.bending_rows_from_tensions(flat))
+        batch = t.shape[:-1]
+        return Readings(*(x.reshape(batch + x.shape[1:]) for x in r))
 
     @property
     def bending(self) -> np.ndarray:

@@ -65,8 +65,11 @@ class Actuation:
         if self.mode == "tension":
             return self.max_tension * 0.5 * (action + 1.0)
         t = held + action * self._tension_increment
-        np.maximum(t, 0.0, out=t)
-        np.minimum(t, self.max_tension, out=t)
+        if t.size > 64:
+            np.clip(t, 0.0, self.max_tension, out=t)  # one pass instead of two
+        else:  # np.clip's Python wrapper costs more than two ufunc calls on a few numbers
+            np.maximum(t, 0.0, out=t)
+            np.minimum(t, self.max_tension, out=t)
         return t
 
     def lengths(self, action: np.ndarray, held: np.ndarray) -> np.ndarray:

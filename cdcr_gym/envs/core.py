@@ -148,11 +148,11 @@ class EnvCore:
         self.task.reset_goals(idx, rngs, self.backend, goal)
         r = self._readings = self.backend.read()
         if m == self.num_envs:
-            self._held_tensions = r.tensions.copy()
-            self._held_lengths = r.cable_lengths.copy()
+            self._held_tensions = r.tensions.copy(order="K")
+            self._held_lengths = r.cable_lengths.copy(order="K")
         else:
-            self._held_tensions = self._held_tensions.copy()
-            self._held_lengths = self._held_lengths.copy()
+            self._held_tensions = self._held_tensions.copy(order="K")
+            self._held_lengths = self._held_lengths.copy(order="K")
             self._held_tensions[idx] = r.tensions[idx]
             self._held_lengths[idx] = r.cable_lengths[idx]
 

@@ -220,8 +220,7 @@ class CDCRVectorEnv(VectorEnv):
             a = validation.real_array(np.where(resetting[:, None], 0.0, raw), "actions")
         else:
             a = validation.action_array(actions, self._action_shape)
-        np.maximum(a, -1.0, out=a)
-        np.minimum(a, 1.0, out=a)
+        np.clip(a, -1.0, 1.0, out=a)
         self.core.step(a)
         self._steps += 1
         if any_reset:  # NEXT_STEP autoreset: these envs return their reset state instead
@@ -284,7 +283,11 @@ class CDCRVectorEnv(VectorEnv):
         return obs, info
 
     def _reset_envs(self, idx: np.ndarray, initial_tensions: Any = None, goal: Any = None) -> None:
-        self.core.reset(idx, [self._rng(i) for i in idx.tolist()], initial_tensions, goal)
+        rngs = self._rngs
+        if None in rngs:
+            for i in idx.tolist():
+                self._rng(i)
+        self.core.reset(idx, [rngs[i] for i in idx.tolist()], initial_tensions, goal)
         self._steps[idx] = 0
 
     def render(self) -> None:

@@ -103,6 +103,8 @@ class PCCModel:
         self.bending_to_lengths = np.ascontiguousarray(b.reshape(C, 2 * S).T)
         self.straight_lengths = through.astype(np.float64) @ self.section_lengths
         self.lengths_to_bending = self._sequential_least_squares()
+        self._bending_to_lengths_columns = self.bending_to_lengths.T.tolist()
+        self._straight_list = self.straight_lengths.tolist()
         self._tiled: dict[int, np.ndarray] = {}
         self._buffers: dict[int, np.ndarray] = {}
         self.disk_fractions = tuple(
@@ -223,8 +225,15 @@ class PCCModel:
         batch = w.shape[:-2]
         flat = w.reshape(-1, 2 * S)
         buf = self._scratch(flat.shape[0])
-        comp, rest, tmp = buf[: 2 * S], buf[2 * S : 10 * S], buf[10 * S :]
+        comp = buf[: 2 * S]
         np.copyto(comp, flat.T)
+        return self._profile_rows(comp, buf) + (batch,)
+
+    def _profile_rows(self, comp: np.ndarray, buf: np.ndarray):
+        """(wx, wy, f, g, h, tmp) from the component rows ``comp`` (2S, M) = (wx_0, wy_0, wx_1,
+        …); ``buf`` is the scratch buffer of M rows (``comp`` may be its first 2S rows)."""
+        S = self.n_sections
+        rest, tmp = buf[2 * S : 10 * S], buf[10 * S :]
         wx, wy = comp[0::2], comp[1::2]
         th2, x, safe, p, t, den, g, f = (rest[k * S : (k + 1) * S] for k in range(8))
         np.multiply(wx, wx, out=th2)
@@ -247,7 +256,7 @@ class PCCModel:
         h = x  # reuse: cos θ = 1 − f θ²
         np.multiply(f, th2, out=h)
         np.subtract(1.0, h, out=h)
-        return wx, wy, f, g, h, tmp, batch
+        return wx, wy, f, g, h, tmp
 
     @staticmethod
     def _rotate_into(wx, wy, f, g, h, v, tmp) -> None:
@@ -328,6 +337,87 @@ class PCCModel:
         tip = self._pack(tmp[:3], batch)
         self._direction_into(wx, wy, f, g, h, tmp[:3], tmp[3:])
         return tip, tmp[:3].T.copy().reshape(batch + (3,))
+
+    def _forward_one(self, comp: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`forward_rows` for one robot (M = 1), in Python floats.
+
+        The same formulas in the same order as :meth:`_profile_rows`, :meth:`_tip_into` and
+        :meth:`_direction_into` (for any S): at M = 1 each numpy call costs ~1 µs of overhead
+        for one number, which made the single env several times slower than the batched one
+        per robot. Results agree with the rows kernel to rounding (tests/test_model_chain.py).
+        """
+        vals = comp[:, 0].tolist()
+        ell = self.section_lengths.tolist()
+        prof = []
+        for j in range(self.n_sections):
+            wx, wy = vals[2 * j], vals[2 * j + 1]
+            th2 = wx * wx + wy * wy
+            x = math.sqrt(th2) * 0.25
+            safe = x + 1e-300
+            p = math.tan(safe) / safe
+            t = p * x
+            t *= t
+            den = t + 1.0
+            p /= den
+            g = (1.0 - t) * p / den
+            f = p * p * 0.5
+            prof.append((wx, wy, f, g, 1.0 - f * th2))
+
+        def rotate(k: int, v0: float, v1: float, v2: float) -> tuple[float, float, float]:
+            wx, wy, f, g, h = prof[k]
+            c = wx * v0 + wy * v1
+            fd = f * (wx * v1 - wy * v0)
+            gv3 = g * v2
+            return (
+                v0 * h + wx * gv3 - wy * fd,
+                v1 * h + wy * gv3 + wx * fd,
+                v2 * h - g * c,
+            )
+
+        last = self.n_sections - 1
+        wx, wy, f, g, h = prof[last]
+        p0, p1, p2 = f * wx * ell[last], f * wy * ell[last], g * ell[last]
+        d0, d1, d2 = g * wx, g * wy, h
+        for j in range(last - 1, -1, -1):
+            wx, wy, f, g, h = prof[j]
+            p0, p1, p2 = rotate(j, p0, p1, p2)
+            p0 += f * wx * ell[j]
+            p1 += f * wy * ell[j]
+            p2 += g * ell[j]
+            d0, d1, d2 = rotate(j, d0, d1, d2)
+        values = [p0, p1, p2, d0, d1, d2]
+        for column, straight in zip(self._bending_to_lengths_columns, self._straight_list):
+            values.append(sum([b * w for b, w in zip(column, vals)]) + straight)
+        rows = np.array(values)[:, None]
+        return rows[0:3], rows[3:6], rows[6:]
+
+    # -- the same, field-major: the batched backend's hot path ----------------------------------
+    def bending_rows_from_tensions(self, tensions: np.ndarray) -> np.ndarray:
+        """Bending components as rows (2S, M) = (wx_0, wy_0, wx_1, …) (rad) from tensions (M, C)
+        (N; any memory layout, finite: the caller validates). A fresh array."""
+        return self.tension_to_bending.T @ tensions.T
+
+    def forward_rows(self, comp: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Tip (3, M) m, tip direction (3, M) and cable lengths (C, M) m, as fresh row arrays,
+        of the bending component rows ``comp`` (2S, M) (finite: the caller validates).
+
+        Field-major twin of :meth:`tip_and_direction_from_bending` and
+        :meth:`lengths_from_bending` (same arithmetic): with one row per component, every numpy
+        call runs over the whole batch and no transposing copy is needed; ``.T`` of the results
+        gives (M, ·) arrays (Fortran-ordered views).
+        """
+        m = comp.shape[1]
+        if m == 1:
+            return self._forward_one(comp)
+        buf = self._scratch(m)
+        wx, wy, f, g, h, tmp = self._profile_rows(comp, buf)
+        tip = np.empty((3, m))
+        self._tip_into(wx, wy, f, g, h, tip, tmp)
+        direction = np.empty((3, m))
+        self._direction_into(wx, wy, f, g, h, direction, tmp)
+        lengths = self.bending_to_lengths.T @ comp
+        lengths += self.straight_lengths[:, None]
+        return tip, direction, lengths
 
     def section_frames(self, w) -> np.ndarray:
         """Homogeneous frames (..., S+1, 4, 4) in R0: the base frame, then every section's end.

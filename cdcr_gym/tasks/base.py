@@ -20,7 +20,13 @@ from cdcr_gym.backends.base import Backend, Readings
 from cdcr_gym.envs.observation import Field, ObservationSpec
 from cdcr_gym.model.params import RobotParams
 
-__all__ = ["Task", "robot_state_fields", "fill_robot_state", "REWARD_TYPES"]
+__all__ = [
+    "Task",
+    "robot_state_fields",
+    "fill_robot_state",
+    "robot_state_values",
+    "REWARD_TYPES",
+]
 
 #: Reward types: dense (a negative cost each step) or sparse (−1 until success, then 0).
 REWARD_TYPES = ("dense", "sparse")
@@ -57,6 +63,9 @@ class RobotStateScale:
         self.run_lengths = np.asarray(params.cable_run_lengths)
         self.inv_length_span = 1.0 / (np.pi * np.asarray(params.cable_radii) * (sections + 1))
         self.inv_length_span_col = self.inv_length_span[:, None]  # (C, 1): per field row
+        self.run_lengths_col = self.run_lengths[:, None]
+        self.run_lengths_list = self.run_lengths.tolist()
+        self.inv_span_list = self.inv_length_span.tolist()
 
 
 def fill_robot_state(
@@ -68,8 +77,29 @@ def fill_robot_state(
 ) -> None:
     """Write the ``tensions`` and ``cable_lengths`` fields of ``readings`` into the field-major
     observation buffer ``out`` (size, N)."""
-    out[tension_slice] = readings.tensions.T * scale.inv_max_tension
-    out[length_slice] = (readings.cable_lengths - scale.run_lengths).T * scale.inv_length_span_col
+    np.multiply(
+        readings.tensions.T, scale.inv_max_tension, out=out[tension_slice], casting="unsafe"
+    )
+    np.multiply(
+        readings.cable_lengths.T - scale.run_lengths_col,
+        scale.inv_length_span_col,
+        out=out[length_slice],
+        casting="unsafe",
+    )
+
+
+def robot_state_values(readings: Readings, scale: RobotStateScale) -> dict[str, list[float]]:
+    """The ``tensions`` and ``cable_lengths`` fields of env 0 as Python floats (the arithmetic of
+    :func:`fill_robot_state`, for tasks' one-env fast paths)."""
+    return {
+        "tensions": [t * scale.inv_max_tension for t in readings.tensions.ravel().tolist()],
+        "cable_lengths": [
+            (length - run) * inv
+            for length, run, inv in zip(
+                readings.cable_lengths.ravel().tolist(), scale.run_lengths_list, scale.inv_span_list
+            )
+        ],
+    }
 
 
 class Task(abc.ABC):

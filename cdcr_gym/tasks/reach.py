@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -17,6 +18,7 @@ from cdcr_gym.tasks.base import (
     Task,
     fill_robot_state,
     robot_state_fields,
+    robot_state_values,
 )
 
 __all__ = ["Reach", "ERROR_SCALE"]
@@ -59,11 +61,13 @@ class Reach(Task):
 
     def bind(self, params, num_envs: int) -> None:
         super().bind(params, num_envs)
-        self.goal = np.zeros((self.num_envs, 3))
+        # (N, 3) view of field-major rows (3, N): observations copy contiguous rows
+        self.goal = np.zeros((3, self.num_envs)).T
         self.goal[:, 2] = params.length
         self._scale = RobotStateScale(params)
         self._specs = {gc: self._build_spec(gc) for gc in (False, True)}
         self._slices = {gc: spec.slices for gc, spec in self._specs.items()}
+        self._field_order = tuple(self._specs[False].slices)
 
     def _build_spec(self, goal_conditioned: bool) -> ObservationSpec:
         ell = self.params.length
@@ -106,6 +110,9 @@ class Reach(Task):
 
     # -- per step -------------------------------------------------------------------------------
     def observe(self, readings: Readings, out: np.ndarray, goal_conditioned: bool) -> None:
+        if self.num_envs == 1 and not goal_conditioned:
+            self._observe_one(readings, out)
+            return
         s = self._slices[goal_conditioned]
         tip = readings.tip
         out[s["tip"]] = tip.T
@@ -115,6 +122,21 @@ class Reach(Task):
             out[s["error"]] = error
             np.tanh(error * (1.0 / ERROR_SCALE), out=out[s["error_tanh"]], casting="unsafe")
         fill_robot_state(out, s["tensions"], s["cable_lengths"], readings, self._scale)
+
+    def _observe_one(self, readings: Readings, out: np.ndarray) -> None:
+        """:meth:`observe` of the flat layout for one env, in Python floats (same arithmetic;
+        at N = 1 a numpy call per field costs more than the numbers)."""
+        tip = readings.tip.ravel().tolist()
+        goal = self.goal.ravel().tolist()
+        error = [g - t for g, t in zip(goal, tip)]
+        values = {
+            "tip": tip,
+            "goal": goal,
+            "error": error,
+            "error_tanh": [math.tanh(e * (1.0 / ERROR_SCALE)) for e in error],
+            **robot_state_values(readings, self._scale),
+        }
+        out[:, 0] = [x for name in self._field_order for x in values[name]]
 
     def achieved_goal(self, readings: Readings) -> np.ndarray:
         return readings.tip
@@ -129,9 +151,13 @@ class Reach(Task):
 
     def evaluate(self, readings: Readings) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
         e = self.goal - readings.tip
-        distance = np.sqrt(e[:, 0] * e[:, 0] + e[:, 1] * e[:, 1] + e[:, 2] * e[:, 2])
+        if self.num_envs == 1:  # same arithmetic in Python floats (cheaper for one env)
+            e0, e1, e2 = e.ravel().tolist()
+            distance = np.array([math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)])
+        else:
+            distance = np.sqrt(e[:, 0] * e[:, 0] + e[:, 1] * e[:, 1] + e[:, 2] * e[:, 2])
         success = distance <= self.distance_threshold
-        info = {"distance": distance, "is_success": success, "goal": self.goal.copy()}
+        info = {"distance": distance, "is_success": success, "goal": self.goal.copy(order="K")}
         return self._reward(distance), success, info
 
     def compute_reward(
