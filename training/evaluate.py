@@ -101,7 +101,9 @@ def evaluate(
     t0 = time.perf_counter()
     model_dir = run_dir / ("best_model" if model == "best" else "final_model")
     vn_path = model_dir / "vecnormalize.pkl"
-    policy = PPOPolicy(model_dir / "model.zip", vn_path if vn_path.exists() else None)
+    policy = PPOPolicy(
+        model_dir / "model.zip", vn_path if vn_path.exists() else None, algo=config.algo
+    )
     model_info: dict[str, Any] = {}
     if (model_dir / "info.json").exists():
         model_info = json.loads((model_dir / "info.json").read_text())
@@ -421,7 +423,9 @@ def main(argv: list[str] | None = None) -> int:
 
         vn_path = model_dir / "vecnormalize.pkl"
         try:  # a truncated model or a corrupt VecNormalize: a clear error, before any output
-            PPOPolicy(model_dir / "model.zip", vn_path if vn_path.exists() else None)
+            PPOPolicy(
+                model_dir / "model.zip", vn_path if vn_path.exists() else None, algo=config.algo
+            )
         except ModelFileError as exc:
             raise ConfigError(str(exc)) from None
     except ConfigError as exc:
