@@ -27,7 +27,7 @@ MAX_EPISODE_STEPS = 100
 #: Backends (id prefix) and whether they have a batched vector entry point.
 _BACKENDS = {"CCKA": True, "Bullet": False}
 #: Tasks (id infix).
-_TASKS = ("Reach", "Track", "Pose")
+_TASKS = ("Reach", "Track", "Pose", "Obstacle")
 
 
 def _register_all() -> None:

@@ -41,6 +41,7 @@ TASKS = {
     "Reach": "cdcr_gym.tasks.reach:Reach",
     "Track": "cdcr_gym.tasks.track:Track",
     "Pose": "cdcr_gym.tasks.pose:Pose",
+    "Obstacle": "cdcr_gym.tasks.obstacle:Obstacle",
 }
 #: The robot preset of a (backend, task) when neither ``robot`` nor ``params`` is given (else
 #: "paper"). Pose defaults to the two-section robot (a one-section tip direction is fixed by its
