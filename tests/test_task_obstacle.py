@@ -128,6 +128,7 @@ def test_render_draws_the_obstacles():
     "kwargs, name",
     [
         ({"collision_penalty": -1.0}, "collision_penalty"),
+        ({"penetration_weight": -1.0}, "penetration_weight"),
         ({"terminate_on_collision": 1}, "terminate_on_collision"),
         ({"min_obstacles": 0}, "min_obstacles"),
         ({"min_obstacles": 3, "max_obstacles": 2}, "max_obstacles"),

@@ -75,7 +75,8 @@ class Obstacle(Task):
     | 31–33 | (cable length − L_i) / (π r_i m_i), L_i: backbone length the cable spans | -1 | 1 | – |
 
     **Reward**: ``"dense"``: −‖goal − tip‖ (m) − ``collision_penalty`` on every step in
-    collision; ``"sparse"``: −1 until success, then 0, minus the same penalty.
+    collision − ``penetration_weight``·(penetration depth, m: −min_clearance when negative);
+    ``"sparse"``: −1 until success, then 0, minus the same penalties.
     **Success**: distance <= ``distance_threshold`` and no collision so far in the episode.
     **info**: ``distance`` (m), ``is_success``, ``goal`` (m), ``collision`` (in collision now),
     ``collided`` (at any step of the episode so far), ``min_clearance`` (m, unclipped; negative
@@ -89,6 +90,8 @@ class Obstacle(Task):
         reward_type: ``"dense"`` or ``"sparse"``.
         distance_threshold: success radius (m), > 0.
         collision_penalty: reward subtracted on every step in collision (>= 0).
+        penetration_weight: reward subtracted per metre of penetration (1/m·m, >= 0): a
+            graded penalty (grazing costs little, running through a sphere much), 0 = off.
         terminate_on_collision: end the episode at the first collision.
         min_obstacles: fewest spheres per episode (>= 1).
         max_obstacles: most spheres per episode, and the padded count in the observation
@@ -107,6 +110,7 @@ class Obstacle(Task):
         reward_type: str = "dense",
         distance_threshold: float = 0.005,
         collision_penalty: float = 0.5,
+        penetration_weight: float = 0.0,
         terminate_on_collision: bool = False,
         min_obstacles: int = 1,
         max_obstacles: int = 3,
@@ -117,6 +121,9 @@ class Obstacle(Task):
         self.distance_threshold = validation.positive(distance_threshold, "distance_threshold")
         self.collision_penalty = validation.positive(
             collision_penalty, "collision_penalty", allow_zero=True
+        )
+        self.penetration_weight = validation.positive(
+            penetration_weight, "penetration_weight", allow_zero=True
         )
         self.terminate_on_collision = validation.flag(
             terminate_on_collision, "terminate_on_collision"
@@ -308,6 +315,8 @@ class Obstacle(Task):
         else:
             reward = success - 1.0
         reward = reward - self.collision_penalty * self.collision
+        if self.penetration_weight:
+            reward = reward - self.penetration_weight * np.maximum(0.0, -self.min_clearance)
         info = {
             "distance": distance,
             "is_success": success,
