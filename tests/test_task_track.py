@@ -140,3 +140,17 @@ def test_docstring_lists_the_arguments_and_the_observation_table():
             assert f"{name}:" in doc, name
     env = gym.make("cdcr_gym/CCKATrack-v0")
     assert env.unwrapped.observation_spec.table() in doc
+
+
+def test_render_draws_the_target():
+    env = gym.make(
+        "cdcr_gym/CCKATrack-v0", render_mode="rgb_array", render_width=160, render_height=160
+    )
+    env.reset(seed=0)
+    task = env.unwrapped.task
+    task.target[0] = [0.3, 0.0, 0.3]  # beside the straight robot
+    with_target = env.render()
+    task.target[0] = [0.0, 0.0, 10.0]  # far out of view
+    without = env.render()
+    assert with_target.shape == (160, 160, 3)
+    assert np.sum(np.any(with_target != without, axis=-1)) > 5  # a ~10 mm sphere: ~10 px
