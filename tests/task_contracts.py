@@ -12,8 +12,8 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import cdcr_gym  # noqa: F401  (registers the ids)
 
-#: robots per backend: the pybullet backend models one section on this branch
-ROBOTS = {"CCKA": ["paper", "tdcr2"], "Bullet": ["paper"]}
+#: robots per backend (both model n sections)
+ROBOTS = {"CCKA": ["paper", "tdcr2"], "Bullet": ["paper", "tdcr2"]}
 
 
 def combos(task: str) -> list[tuple[str, str]]:

@@ -51,9 +51,8 @@ class Pose(Task):
     is fixed by its tip position (θ = 2·atan2(ρ, z), φ = atan2(y, x)). The task still runs (the
     drawn goals are consistent poses) but then reduces to Reach. ``CCKAPose-v0`` defaults to
     the two-section ``tdcr2`` robot, where position and direction are independent (four shape
-    degrees of freedom for five pose coordinates: goals are drawn from reachable shapes);
-    ``BulletPose-v0`` defaults to it where the pybullet backend models several sections
-    (``cdcr_gym.envs.factory.DEFAULT_ROBOTS``), else to the paper robot.
+    degrees of freedom for five pose coordinates: goals are drawn from reachable shapes), and so
+    does ``BulletPose-v0`` (``cdcr_gym.envs.factory.DEFAULT_ROBOTS``).
 
     **Observation fields** (flat): ``tip`` (3, m), ``tip_direction`` (3, unit), ``goal``
     (3, m), ``goal_direction`` (3, unit), ``error`` = goal − tip (3, m), ``error_tanh`` =
