@@ -123,7 +123,9 @@ class ObstaclePlanner:
             ``obstacle_radii``, ``tensions``).
         tension_step: the env's ``tension_step`` (fraction of max_tension per step).
         margin: clearance (m) every planned configuration keeps from every sphere, >= 0.
-        step, resolution, iterations: RRT-Connect settings (unit tension box, L∞).
+        step: RRT-Connect tree extension (unit tension box, L∞).
+        resolution: spacing of the edge checks (unit tension box, L∞).
+        iterations: most RRT-Connect extension rounds.
         seed: base seed of the plans' generators.
     """
 

@@ -31,9 +31,12 @@ class TrackingIKController(AnalyticIKController):
     """IK on the target one step ahead, for the Track task's flat observation.
 
     Args:
-        params, spec, action_mode, tension_step, length_step: as
-            :class:`~cdcr_gym.controllers.ik.AnalyticIKController`; the controller reads
-            ``target``, ``target_velocity``, ``tensions`` and ``cable_lengths``.
+        params: the robot the IK assumes.
+        spec: the env's observation layout; the controller reads ``target``,
+            ``target_velocity``, ``tensions`` and ``cable_lengths``.
+        action_mode: the env's action mode.
+        tension_step: the env's ``tension_step`` (fraction of max_tension per step).
+        length_step: the env's ``length_step`` (m per step).
         timestep: the time (s) the target moves per step (``Track.step_time``), > 0.
     """
 
