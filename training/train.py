@@ -305,9 +305,15 @@ def build_vec_env(config: ExperimentConfig, seed: int, n_envs: int | None = None
                 f"env.vec_env: 'batched' needs training/sb3_vec.py (BatchedCCKAVecEnv), which "
                 f"could not be imported ({exc}); use 'dummy' or 'subproc'"
             ) from None
-        if "CCKAReach" not in e.id:
+        import gymnasium as gym
+
+        import cdcr_gym  # noqa: F401 - registers the ids
+
+        registered = gym.registry[e.id].kwargs if e.id in gym.registry else {}
+        if registered.get("backend") != "CCKA":
             raise ConfigError(f"env.vec_env: 'batched' supports the CCKA env only, not {e.id!r}")
         kwargs = dict(e.kwargs)
+        kwargs["task"] = registered["task"]
         if e.max_episode_steps is not None:
             kwargs["max_episode_steps"] = e.max_episode_steps
         if e.per_env_kwargs:
@@ -350,6 +356,16 @@ def build_vec_env(config: ExperimentConfig, seed: int, n_envs: int | None = None
         venv = DummyVecEnv(fns)
     venv.seed(seed)
     return venv
+
+
+def _registered_task(env_id: str) -> str:
+    """The task name of a registered id (``"Reach"`` for ids registered elsewhere)."""
+    import gymnasium as gym
+
+    import cdcr_gym  # noqa: F401 - registers the ids
+
+    spec = gym.registry.get(env_id)
+    return str(spec.kwargs.get("task", "Reach")) if spec is not None else "Reach"
 
 
 def _check_env_id(config: ExperimentConfig) -> None:
@@ -511,12 +527,48 @@ def _make_callbacks(config: ExperimentConfig, run: RunDir, state: dict[str, Any]
                 [make_specs(ev.n_episodes, ev.seed, s, params) for s in ev.initial_states]
             )
             self.horizon = config.env.max_episode_steps or _registered_steps(config.env.id)
+            self.task = _registered_task(config.env.id)
+
+        def _task_row(self, policy: Any) -> dict[str, Any]:
+            """Success, errors (mm) and return of the task's own metrics (training.task_metrics):
+            the error is the tracking RMS for Track, the final distance otherwise."""
+            from training.task_metrics import run_task_episodes
+
+            e, ev = config.env, config.eval
+            parts = []
+            for start in ev.initial_states:
+                kwargs = {**e.kwargs, "initial_state": start}
+                parts.append(
+                    run_task_episodes(
+                        lambda k=kwargs: make_env(e.id, k, self.horizon),
+                        policy,
+                        ev.n_episodes,
+                        ev.seed,
+                    )
+                )
+            key = "tracking_rms_mm" if self.task == "Track" else "final_distance_mm"
+            errors = np.concatenate([p[key] for p in parts])
+            return {
+                "timesteps": self.num_timesteps,
+                "success_rate": float(np.mean(np.concatenate([p["success"] for p in parts]))),
+                "within_1mm": float(np.mean(errors <= 1.0)),
+                "mean_error_mm": float(np.mean(errors)),
+                "median_error_mm": float(np.median(errors)),
+                "p95_error_mm": float(np.percentile(errors, 95)),
+                "max_error_mm": float(np.max(errors)),
+                "mean_reward": float(np.mean(np.concatenate([p["return"] for p in parts]))),
+            }
 
         def _evaluate(self) -> None:
             vecnorm = self.model.get_vec_normalize_env()
             policy = SB3Policy.from_model(self.model, vecnorm)
             e = config.env
             t0 = time.perf_counter()
+            if self.task != "Reach":
+                row = self._task_row(policy)
+                row["wall_time_s"] = state["wall_before"] + time.perf_counter() - state["t_start"]
+                self._record(row, vecnorm, t0)
+                return
             rollouts = run_episodes(
                 lambda: make_env(e.id, e.kwargs, self.horizon), policy, self.specs, self.horizon
             )
@@ -533,6 +585,9 @@ def _make_callbacks(config: ExperimentConfig, run: RunDir, state: dict[str, Any]
                 "mean_reward": float(np.mean(rollouts.returns)),
                 "wall_time_s": state["wall_before"] + time.perf_counter() - state["t_start"],
             }
+            self._record(row, vecnorm, t0)
+
+        def _record(self, row: dict[str, Any], vecnorm: Any, t0: float) -> None:
             for key in (
                 "success_rate",
                 "within_1mm",

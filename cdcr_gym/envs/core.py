@@ -6,7 +6,8 @@ batched vector env (``cdcr_gym.envs.vector``) with N = num_envs. Order of a step
 1. the clipped actions (N, C) become cable commands (``Actuation``);
 2. the backend holds them for one control step (``Backend.apply_tensions`` /
    ``apply_cable_lengths``) and is read back (``Backend.read``);
-3. the task fills the observation (``Task.observe``) and computes reward, success and its info
+3. the task moves on by one step (``Task.advance``: a moving target, a collision check);
+4. the task fills the observation (``Task.observe``) and computes reward, success and its info
    entries (``Task.evaluate``); the core adds the robot's own entries (``tip``, ``tensions``,
    ``cable_lengths``) to ``info``.
 
@@ -91,8 +92,7 @@ class EnvCore:
         c = self.n_cables
         self.action_space = spaces.Box(-1.0, 1.0, shape=(c,), dtype=np.float32)
         if self.goal_conditioned:
-            ell = self.params.length
-            goal = spaces.Box(-ell, ell, shape=(task.goal_size,), dtype=np.float32)
+            goal = task.goal_space()
             self.observation_space: spaces.Space = spaces.Dict(
                 {
                     "observation": self.spec.box(),
@@ -167,6 +167,7 @@ class EnvCore:
             self._held_tensions = act.tensions(action, self._held_tensions)
             self.backend.apply_tensions(self._held_tensions)
         self._readings = self.backend.read()
+        self.task.advance(self.backend, self._readings)
 
     @property
     def readings(self) -> Readings:

@@ -193,7 +193,7 @@ class CDCREnv(gym.Env):
         np.minimum(a, 1.0, out=a)
         self.core.step(a[None])
         obs, reward, success, info = self._outputs()
-        terminated = bool(self.terminate_on_success and success)
+        terminated = bool((self.terminate_on_success and success) or self.task.terminal()[0])
         if self.render_mode == "human":
             self.render()
         return obs, reward, terminated, False, info
