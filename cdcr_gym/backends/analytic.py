@@ -6,6 +6,12 @@ Quasi-static and batched: every command moves all N robots straight to their equ
 cable-length commands set the shape by ``PCCModel.bending_from_lengths`` and report the minimal
 tensions that hold it (``model.statics.minimal_tensions``, clipped to max_tension). The single
 env runs it with N = 1, the batched env with N = num_envs.
+
+Per-robot parameters (domain randomisation, :meth:`AnalyticBackend.set_randomized`): a robot
+with Young's modulus E and cable radius r bends by w = (r/r₀)(E₀/E)·w₀(T) under tensions T, and
+its cable lengths change by (r/r₀)·Δl₀(w), where the subscript 0 is the nominal robot
+(``params``): the statics and the length map are linear in r/EI and r. Until parameters are set
+the nominal path runs unchanged.
 """
 
 from __future__ import annotations
@@ -31,6 +37,7 @@ class AnalyticBackend(Backend):
 
     control_timestep = 0.0
     supports_length_control = True
+    randomizable = frozenset({"youngs_modulus", "cable_radius"})
 
     def __init__(self, params: RobotParams | None = None, num_robots: int = 1) -> None:
         if params is None:
@@ -40,15 +47,25 @@ class AnalyticBackend(Backend):
         self.params = params
         self.num_robots = validation.integer(num_robots, "num_robots", 1)
         self.model = PCCModel(params)
+        #: Per-robot factors (N,) on the bending (r/r₀)(E₀/E) and on the cable-length changes
+        #: (r/r₀); None while every robot is nominal.
+        self.bending_scale: np.ndarray | None = None
+        self.length_scale: np.ndarray | None = None
         self._set(np.zeros((self.num_robots, params.n_cables)))
 
     def _shape(self, tensions: np.ndarray, w: np.ndarray) -> Readings:
         m = self.model
         tip, direction = m.tip_and_direction_from_bending(w)
-        return Readings(tip, direction, m.lengths_from_bending(w), tensions)
+        if self.length_scale is not None:  # lengths are linear in w: scaling w scales Δl
+            lengths = m.lengths_from_bending(w * self.length_scale[:, None, None])
+        else:
+            lengths = m.lengths_from_bending(w)
+        return Readings(tip, direction, lengths, tensions)
 
     def _set(self, tensions: np.ndarray) -> None:
         self._w = self.model.bending_from_tensions(tensions)
+        if self.bending_scale is not None:
+            self._w *= self.bending_scale[:, None, None]
         self._readings = self._shape(tensions, self._w)
 
     # -- commands -------------------------------------------------------------------------------
@@ -72,9 +89,31 @@ class AnalyticBackend(Backend):
     def apply_cable_lengths(self, lengths: np.ndarray) -> None:
         m = self.model
         w = m.bending_from_lengths(lengths)
-        tensions, _ = minimal_tensions(m, w)
+        if self.length_scale is not None and self.bending_scale is not None:
+            w /= self.length_scale[:, None, None]
+            tensions, _ = minimal_tensions(m, w / self.bending_scale[:, None, None])
+        else:
+            tensions, _ = minimal_tensions(m, w)
         self._w = w
         self._readings = self._shape(tensions, w)
+
+    def set_randomized(self, index: np.ndarray, values: dict[str, np.ndarray]) -> None:
+        """Set ``youngs_modulus`` (Pa) and ``cable_radius`` (m) of robots ``index`` (others in
+        ``values`` are ignored: this model has no mass, gravity or friction)."""
+        if not self.randomizable.intersection(values):
+            return
+        if self.bending_scale is None or self.length_scale is None:
+            self.bending_scale = np.ones(self.num_robots)
+            self.length_scale = np.ones(self.num_robots)
+        p = self.params
+        r_ratio = np.ones(len(index))
+        e_ratio = np.ones(len(index))
+        if "cable_radius" in values:
+            r_ratio = np.asarray(values["cable_radius"], dtype=np.float64) / p.cable_radii[0]
+        if "youngs_modulus" in values:
+            e_ratio = p.youngs_modulus / np.asarray(values["youngs_modulus"], dtype=np.float64)
+        self.length_scale[index] = r_ratio
+        self.bending_scale[index] = r_ratio * e_ratio
 
     # -- readings -------------------------------------------------------------------------------
     def read(self) -> Readings:

@@ -54,6 +54,9 @@ class Backend(abc.ABC):
     control_timestep: float = 0.0
     #: Whether :meth:`apply_cable_lengths` is available (cable-displacement actions).
     supports_length_control: bool = False
+    #: Names of the randomised parameters (``cdcr_gym.randomization.RANDOMIZABLE``) that
+    #: :meth:`set_randomized` applies; the others are drawn and reported but not modelled.
+    randomizable: frozenset[str] = frozenset()
 
     @property
     def n_cables(self) -> int:
@@ -111,6 +114,14 @@ class Backend(abc.ABC):
         (D + 1, 3, 3) (columns: disk x, y axes and backbone tangent, in R0).
 
         The pinhole of a cable at (r, β) in disk k is ``centre_k + R_k @ (r cos β, r sin β, 0)``.
+        """
+
+    def set_randomized(self, index: np.ndarray, values: dict[str, np.ndarray]) -> None:
+        """Give robots ``index`` (M,) their drawn parameters ``values`` (name → (M,) array, SI
+        units; ``cdcr_gym.randomization``) before they are reset.
+
+        Applies the names in :attr:`randomizable` and ignores the others; the default applies
+        nothing.
         """
 
     def close(self) -> None:
