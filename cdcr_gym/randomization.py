@@ -44,6 +44,10 @@ goal), so a robot drawn less compliant than nominal may not reach the rim of it.
 | ``cable_length_bias``  | m      | σ of a per-episode offset of each observed cable length        |
 | ``tension_bias``       | N      | σ of a per-episode offset of each observed tension             |
 | ``action_delay``       | steps  | integer k >= 0: the action of step t is applied at step t + k |
+| ``tension_lag``        | steps  | time constant τ > 0 of a first-order lag of the applied        |
+|                        |        | tensions behind the commanded ones (per step the gap closes    |
+|                        |        | by 1 − e^(−1/τ)): the settling of a dynamic robot, for a       |
+|                        |        | quasi-static model                                             |
 | ``tension_rate_limit`` | N/step | largest change of an actuator's tension per control step      |
 | ``actuator_noise``     | N      | σ of Gaussian noise on each applied tension, per step          |
 
@@ -53,10 +57,10 @@ observation is clipped to the observation space (a sensor saturates at its range
 goal-conditioned Dict the ``achieved_goal`` stays exact, because the reward is computed from it.
 Actuator imperfections act on the tensions the backend applies (``info["tensions"]`` reports
 what was applied): the delay holds actions in a queue that a reset fills with the action that
-holds the reset state (0 for increments, the reset tensions for absolute tensions); the rate
-limit follows the commanded tensions at most ``tension_rate_limit`` per step; actuator noise is
-added last and clipped to [0, max_tension]. Rate limit and actuator noise need a tension action
-mode. Draw order per env: at a reset the randomised parameters, then the biases (tip, cable
+holds the reset state (0 for increments, the reset tensions for absolute tensions); the lag
+moves the applied tensions towards the commanded ones by the fraction 1 − e^(−1/τ); the rate
+limit then caps that move at ``tension_rate_limit`` per step; actuator noise is added last and
+clipped to [0, max_tension]. Lag, rate limit and actuator noise need a tension action mode. Draw order per env: at a reset the randomised parameters, then the biases (tip, cable
 lengths, tensions); per step the actuator noise (after the action), then the observation noise
 (tip, cable lengths, tensions).
 """
@@ -107,6 +111,7 @@ IMPERFECTIONS: dict[str, str] = {
     "cable_length_bias": "m",
     "tension_bias": "N",
     "action_delay": "steps",
+    "tension_lag": "steps",
     "tension_rate_limit": "N/step",
     "actuator_noise": "N",
 }
@@ -247,12 +252,12 @@ class Imperfections:
             name = f"imperfections[{key!r}]"
             if key == "action_delay":
                 values[key] = validation.integer(value, name, 0)
-            elif key == "tension_rate_limit":
+            elif key in ("tension_rate_limit", "tension_lag"):
                 values[key] = validation.positive(value, name)
             else:
                 values[key] = validation.positive(value, name, allow_zero=True)
         if not commands_tensions:
-            for key in ("tension_rate_limit", "actuator_noise"):
+            for key in ("tension_lag", "tension_rate_limit", "actuator_noise"):
                 if key in values:
                     raise ValueError(
                         f"imperfections[{key!r}] needs a tension action mode ('tension' or "
@@ -267,6 +272,8 @@ class Imperfections:
         get = values.get
         self.delay = int(get("action_delay", 0))
         self.rate_limit = get("tension_rate_limit")
+        lag = get("tension_lag")
+        self.lag_fraction = None if lag is None else -math.expm1(-1.0 / lag)
         self.actuator_sigma = get("actuator_noise", 0.0)
         self.noise = (
             get("tip_noise", 0.0),
@@ -279,7 +286,9 @@ class Imperfections:
             get("tension_bias", 0.0),
         )
         self.senses = any(self.noise) or any(self.bias_sigma)
-        self.actuates = self.rate_limit is not None or self.actuator_sigma > 0.0
+        self.actuates = (
+            self.rate_limit is not None or self.lag_fraction is not None or self.actuator_sigma > 0
+        )
         self.bias = (np.zeros((n, 3)), np.zeros((n, c)), np.zeros((n, c)))
         self.queue = np.zeros((n, self.delay, c))
         self.applied = np.zeros((n, c))
@@ -326,14 +335,15 @@ class Imperfections:
     ) -> np.ndarray:
         """Tensions (N, C) N the actuators apply for commanded tensions (N, C) N.
 
-        Rate limit (from the last applied, noise-free, tensions), then noise drawn from the
-        generators of the ``active`` envs (all if None; the others get none), clipped.
+        Lag and rate limit (from the last applied, noise-free, tensions), then noise drawn from
+        the generators of the ``active`` envs (all if None; the others get none), clipped.
         """
+        step = commanded - self.applied
+        if self.lag_fraction is not None:
+            step *= self.lag_fraction
         if self.rate_limit is not None:
-            step = np.clip(commanded - self.applied, -self.rate_limit, self.rate_limit)
-            target = self.applied + step
-        else:
-            target = commanded.copy()
+            np.clip(step, -self.rate_limit, self.rate_limit, out=step)
+        target = self.applied + step
         self.applied = target
         if self.actuator_sigma <= 0.0:
             return target.copy()
