@@ -60,9 +60,12 @@ what was applied): the delay holds actions in a queue that a reset fills with th
 holds the reset state (0 for increments, the reset tensions for absolute tensions); the lag
 moves the applied tensions towards the commanded ones by the fraction 1 − e^(−1/τ); the rate
 limit then caps that move at ``tension_rate_limit`` per step; actuator noise is added last and
-clipped to [0, max_tension]. Lag, rate limit and actuator noise need a tension action mode. Draw order per env: at a reset the randomised parameters, then the biases (tip, cable
-lengths, tensions); per step the actuator noise (after the action), then the observation noise
-(tip, cable lengths, tensions).
+clipped to [0, max_tension]. Lag, rate limit and actuator noise need a tension action mode.
+
+Draw order per env: at a reset the randomised parameters, then the biases (tip, cable lengths,
+tensions); per step the actuator noise (one normal vector of C entries, after the action), then
+the observation noise (one normal vector: the entries of the noisy channels among tip, cable
+lengths, tensions, in that order).
 """
 
 from __future__ import annotations
@@ -362,11 +365,18 @@ class Imperfections:
         for field, bias, bias_sigma in zip(fields, self.bias, self.bias_sigma):
             if bias_sigma > 0.0:
                 field += bias
-        for i, rng in enumerate(rngs):
-            if rng is None:
-                continue
-            for field, sigma in zip(fields, self.noise):
-                if sigma > 0.0:
-                    field[i] += sigma * rng.standard_normal(field.shape[1])
+        noisy = [(f, sigma) for f, sigma in zip(fields, self.noise) if sigma > 0.0]
+        if noisy:
+            # one draw per env: the noisy channels' entries concatenated (tip, lengths, tensions)
+            sigmas = np.concatenate([np.full(f.shape[1], sigma) for f, sigma in noisy])
+            draws = np.zeros((len(rngs), sigmas.size))
+            for i, rng in enumerate(rngs):
+                if rng is not None:
+                    draws[i] = rng.standard_normal(sigmas.size)
+            draws *= sigmas
+            start = 0
+            for f, _ in noisy:
+                f += draws[:, start : start + f.shape[1]]
+                start += f.shape[1]
         tip, lengths, tensions = fields
         return Readings(tip, readings.tip_direction, lengths, tensions)
