@@ -48,6 +48,10 @@ goal), so a robot drawn less compliant than nominal may not reach the rim of it.
 |                        |        | tensions behind the commanded ones (per step the gap closes    |
 |                        |        | by 1 − e^(−1/τ)): the settling of a dynamic robot, for a       |
 |                        |        | quasi-static model                                             |
+| ``tension_response``   | rad/step | natural frequency ω > 0 (per control step) of a critically  |
+|                        |        | damped second-order response of the applied tensions to the    |
+|                        |        | commanded ones (exact for commands held over a step): the      |
+|                        |        | settling of a dynamic robot (bullet: ω ≈ 0.44, docs/sim2real)  |
 | ``tension_rate_limit`` | N/step | largest change of an actuator's tension per control step      |
 | ``actuator_noise``     | N      | σ of Gaussian noise on each applied tension, per step          |
 
@@ -57,10 +61,12 @@ observation is clipped to the observation space (a sensor saturates at its range
 goal-conditioned Dict the ``achieved_goal`` stays exact, because the reward is computed from it.
 Actuator imperfections act on the tensions the backend applies (``info["tensions"]`` reports
 what was applied): the delay holds actions in a queue that a reset fills with the action that
-holds the reset state (0 for increments, the reset tensions for absolute tensions); the lag
-moves the applied tensions towards the commanded ones by the fraction 1 − e^(−1/τ); the rate
+holds the reset state (0 for increments, the reset tensions for absolute tensions); the
+second-order response (starting at rest at the reset tensions) filters the commanded tensions;
+the lag then moves the applied tensions towards the commanded ones by the fraction 1 − e^(−1/τ); the rate
 limit then caps that move at ``tension_rate_limit`` per step; actuator noise is added last and
-clipped to [0, max_tension]. Lag, rate limit and actuator noise need a tension action mode.
+clipped to [0, max_tension]. Response, lag, rate limit and actuator noise need a tension
+action mode.
 
 Draw order per env: at a reset the randomised parameters, then the biases (tip, cable lengths,
 tensions); per step the actuator noise (one normal vector of C entries, after the action), then
@@ -115,6 +121,7 @@ IMPERFECTIONS: dict[str, str] = {
     "tension_bias": "N",
     "action_delay": "steps",
     "tension_lag": "steps",
+    "tension_response": "rad/step",
     "tension_rate_limit": "N/step",
     "actuator_noise": "N",
 }
@@ -255,12 +262,12 @@ class Imperfections:
             name = f"imperfections[{key!r}]"
             if key == "action_delay":
                 values[key] = validation.integer(value, name, 0)
-            elif key in ("tension_rate_limit", "tension_lag"):
+            elif key in ("tension_rate_limit", "tension_lag", "tension_response"):
                 values[key] = validation.positive(value, name)
             else:
                 values[key] = validation.positive(value, name, allow_zero=True)
         if not commands_tensions:
-            for key in ("tension_lag", "tension_rate_limit", "actuator_noise"):
+            for key in ("tension_response", "tension_lag", "tension_rate_limit", "actuator_noise"):
                 if key in values:
                     raise ValueError(
                         f"imperfections[{key!r}] needs a tension action mode ('tension' or "
@@ -275,6 +282,7 @@ class Imperfections:
         get = values.get
         self.delay = int(get("action_delay", 0))
         self.rate_limit = get("tension_rate_limit")
+        self.omega = get("tension_response")
         lag = get("tension_lag")
         self.lag_fraction = None if lag is None else -math.expm1(-1.0 / lag)
         self.actuator_sigma = get("actuator_noise", 0.0)
@@ -290,11 +298,16 @@ class Imperfections:
         )
         self.senses = any(self.noise) or any(self.bias_sigma)
         self.actuates = (
-            self.rate_limit is not None or self.lag_fraction is not None or self.actuator_sigma > 0
+            self.rate_limit is not None
+            or self.lag_fraction is not None
+            or self.omega is not None
+            or self.actuator_sigma > 0
         )
         self.bias = (np.zeros((n, 3)), np.zeros((n, c)), np.zeros((n, c)))
         self.queue = np.zeros((n, self.delay, c))
         self.applied = np.zeros((n, c))
+        self.response = np.zeros((n, c))  # second-order response: its output (N) and rate
+        self.response_rate = np.zeros((n, c))  # (N per step)
 
     @property
     def enabled(self) -> bool:
@@ -319,6 +332,8 @@ class Imperfections:
             else:
                 self.queue[idx] = 0.0
         self.applied[idx] = tensions
+        self.response[idx] = tensions
+        self.response_rate[idx] = 0.0
 
     # -- step -----------------------------------------------------------------------------------
     def delayed(self, action: np.ndarray) -> np.ndarray:
@@ -338,9 +353,12 @@ class Imperfections:
     ) -> np.ndarray:
         """Tensions (N, C) N the actuators apply for commanded tensions (N, C) N.
 
-        Lag and rate limit (from the last applied, noise-free, tensions), then noise drawn from
-        the generators of the ``active`` envs (all if None; the others get none), clipped.
+        Second-order response, lag and rate limit (from the last applied, noise-free,
+        tensions), then noise drawn from the generators of the ``active`` envs (all if None; the
+        others get none), clipped.
         """
+        if self.omega is not None:
+            commanded = self._respond(commanded)
         step = commanded - self.applied
         if self.lag_fraction is not None:
             step *= self.lag_fraction
@@ -356,6 +374,17 @@ class Imperfections:
                 noisy[i] += self.actuator_sigma * rng.standard_normal(noisy.shape[1])
         np.clip(noisy, 0.0, self.max_tension, out=noisy)
         return noisy
+
+    def _respond(self, commanded: np.ndarray) -> np.ndarray:
+        """One step of x'' + 2ωx' + ω²x = ω²u with u = ``commanded`` held over the step (exact:
+        e = x − u follows (e₀ + (v₀ + ωe₀)t)·e^(−ωt), t in steps)."""
+        w = float(self.omega)  # type: ignore[arg-type]
+        decay = math.exp(-w)
+        e0 = self.response - commanded
+        b = self.response_rate + w * e0
+        self.response = commanded + (e0 + b) * decay
+        self.response_rate = (self.response_rate - w * b) * decay
+        return self.response
 
     def sense(self, readings: Readings, rngs: Sequence[np.random.Generator | None]) -> Readings:
         """The readings the agent observes: true readings plus bias and per-step noise."""

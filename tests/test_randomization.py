@@ -38,6 +38,7 @@ FULL_IMPERFECTIONS = {
     "tension_bias": 0.5,
     "action_delay": 2,
     "tension_lag": 1.5,
+    "tension_response": 0.6,
     "tension_rate_limit": 3.0,
     "actuator_noise": 0.3,
 }
@@ -259,6 +260,16 @@ def test_tension_rate_limit_and_lag():
         np.testing.assert_allclose(info["tensions"], 40.0 * (1 - np.exp(-k / tau)), rtol=1e-12)
 
 
+def test_second_order_tension_response_is_critically_damped():
+    w = 0.44
+    env = gym.make(CCKA, action_mode="tension", imperfections={"tension_response": w})
+    env.reset(seed=0)
+    for k in range(1, 12):
+        _, _, _, _, info = env.step(np.zeros(3, np.float32))  # a 40 N step on every cable
+        expected = 40.0 * (1 - (1 + w * k) * np.exp(-w * k))
+        np.testing.assert_allclose(info["tensions"], expected, rtol=1e-12)
+
+
 def test_actuator_noise_statistics():
     sigma = 0.8
     env = gym.make(
@@ -308,6 +319,7 @@ def test_bad_randomize_is_a_named_value_error(randomize, match):
         ({"action_delay": -1}, {}, r"imperfections\['action_delay'\]"),
         ({"tension_rate_limit": 0.0}, {}, r"imperfections\['tension_rate_limit'\]"),
         ({"tension_lag": -2.0}, {}, r"imperfections\['tension_lag'\]"),
+        ({"tension_response": 0.0}, {}, r"imperfections\['tension_response'\]"),
         (
             {"actuator_noise": 0.1},
             {"action_mode": "length_delta"},
