@@ -408,4 +408,4 @@ class Imperfections:
                 f += draws[:, start : start + f.shape[1]]
                 start += f.shape[1]
         tip, lengths, tensions = fields
-        return Readings(tip, readings.tip_direction, lengths, tensions)
+        return readings._replace(tip=tip, cable_lengths=lengths, tensions=tensions)

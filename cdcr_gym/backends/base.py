@@ -36,6 +36,8 @@ class Readings(NamedTuple):
     tip_direction: np.ndarray  #: (N, 3) unit backbone tangent at the tip in R0
     cable_lengths: np.ndarray  #: (N, C) sensed cable lengths, m
     tensions: np.ndarray  #: (N, C) cable tensions acting at the actuators, N
+    #: (N, C) tensions at the cables' anchors, N, where friction makes them differ (else None)
+    anchor_tensions: np.ndarray | None = None
 
 
 class Backend(abc.ABC):

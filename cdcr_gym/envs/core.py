@@ -265,6 +265,8 @@ class EnvCore:
         info["tip"] = r.tip
         info["tensions"] = r.tensions
         info["cable_lengths"] = r.cable_lengths
+        if r.anchor_tensions is not None:  # a backend with cable friction
+            info["anchor_tensions"] = r.anchor_tensions
         for name, values in self.randomized.items():
             info[INFO_PREFIX + name] = values.copy()
         return obs, reward, success, info

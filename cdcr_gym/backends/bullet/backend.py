@@ -105,6 +105,13 @@ class BulletBackend(Backend):
         damping_ratio: damping ratio ζ > 0 of the first bending mode (default 0.7); the joint
             damping is D = (2ζ/ω₁)·K. Larger values settle the first mode without overshoot
             but slow the higher modes (rate ω₁/(2ζ)).
+        friction_coefficient: cable–disk friction μ in [0, 1] (default 0.0: frictionless,
+            bit-identical to the model without friction). With μ > 0 every cable carries the
+            capstan tension profile along its segments (``integrator`` module docstring,
+            ``cdcr_gym.model.friction``), and :meth:`read` reports the tension at each
+            cable's anchor (``info["anchor_tensions"]``).
+        friction_slip_length: sliding distance x_s (m, > 0; default 1e-4) over which friction
+            builds up after the sliding direction reverses (the regularised stick–slip).
 
     Raises:
         ValueError: naming the argument and the value, for any invalid argument.
@@ -124,6 +131,8 @@ class BulletBackend(Backend):
         tip_payload: float = 0.0,
         gui: bool = False,
         damping_ratio: float = 0.7,
+        friction_coefficient: float = 0.0,
+        friction_slip_length: float = 1e-4,
     ) -> None:
         if not isinstance(params, RobotParams):
             raise ValueError(f"params must be a cdcr_gym.params.RobotParams, got {params!r}")
@@ -172,6 +181,17 @@ class BulletBackend(Backend):
             raise ValueError(f"tip_payload must be finite and >= 0 kg, got {tip_payload!r}")
         self.tip_payload = float(tip_payload)
         self.damping_ratio = _check_positive("damping_ratio", damping_ratio, "")
+        mu = friction_coefficient
+        if (
+            isinstance(mu, (bool, np.bool_))
+            or not isinstance(mu, (int, float, np.integer, np.floating))
+            or not 0.0 <= float(mu) <= 1.0
+        ):
+            raise ValueError(f"friction_coefficient must be a real number in [0, 1], got {mu!r}")
+        self.friction_coefficient = float(mu)
+        self.friction_slip_length = _check_positive(
+            "friction_slip_length", friction_slip_length, "m"
+        )
 
         p = params
         n_links = sum(s.n_disks for s in p.sections) * self.links_per_span
@@ -239,6 +259,8 @@ class BulletBackend(Backend):
                 self.physics_timestep,
                 self.damping_time,
                 gravity_in_base,
+                self.friction_coefficient,
+                self.friction_slip_length,
             )
             self._joint_ids = self._integrator.joint_ids
         except BaseException:
@@ -377,6 +399,7 @@ class BulletBackend(Backend):
         self._set_state(q, np.zeros(self.n_dof))
         self._tensions = t
         self.time = 0.0
+        self._integrator.reset_friction()
 
     def _tick(self) -> None:
         self._pose = self._points = None
@@ -553,7 +576,29 @@ class BulletBackend(Backend):
             self._direction(pose.link_rot)[None],
             self.cable_lengths[None],
             self._tensions.copy()[None],
+            None if self.friction_coefficient == 0.0 else self.anchor_tensions[None],
         )
+
+    @property
+    def segment_tensions(self) -> np.ndarray:
+        """Tension (n_disks, C) N in every cable segment (row k: disk k to k + 1; rows beyond
+        a cable's anchor are not part of it) at the current state and slip."""
+        self._check_open()
+        return self._integrator.segment_tensions(self._state()[0], self._tensions)
+
+    @property
+    def anchor_tensions(self) -> np.ndarray:
+        """Tension (C,) N in each cable's last segment, at its anchor disk (= the actuator
+        tension without friction)."""
+        if self.friction_coefficient == 0.0:
+            return self._tensions.copy()
+        last = self.chain.routed.sum(axis=0) - 1  # index of each cable's last span
+        return self.segment_tensions[last, np.arange(self.params.n_cables)]
+
+    @property
+    def slip(self) -> np.ndarray:
+        """Slip state (C,) of the cables in [−1, 1]: +1 pulled, −1 released, between: stick."""
+        return self._integrator.slip.copy()
 
     def equilibrium(self, tensions: np.ndarray) -> Readings:
         """Static equilibria under ``tensions`` (M, C) N, without changing the state.
