@@ -148,3 +148,32 @@ def test_env_reports_anchor_tensions_and_two_section_robot_runs():
     assert np.all(np.isfinite(info["anchor_tensions"]))
     env.close()
     assert RobotParams.preset("tdcr2").n_cables == 6
+
+
+def test_randomized_bullet_robot_acts_like_the_robot_built_with_those_parameters():
+    dr = {"youngs_modulus": [30e9, 40e9], "friction_coefficient": [0.1, 0.3], "gravity": 0.5}
+    env = gym.make("cdcr_gym/BulletReach-v0", randomize=dr, action_mode="tension")
+    seen_gravity = set()
+    try:
+        for seed in (0, 1, 2, 3):
+            _, info = env.reset(seed=seed)
+            drawn = {k.split("/")[1]: v for k, v in info.items() if k.startswith("randomized/")}
+            seen_gravity.add(drawn["gravity"])
+            ref = BulletBackend(
+                RobotParams(youngs_modulus=drawn["youngs_modulus"]),
+                gravity=bool(drawn["gravity"]),
+                friction_coefficient=drawn["friction_coefficient"],
+            )
+            try:
+                a = np.array([0.2, -0.6, -1.0], np.float32)
+                for _ in range(8):
+                    _, _, _, _, info = env.step(a)
+                    ref.apply_tensions(info["tensions"][None])
+                r = ref.read()
+                np.testing.assert_allclose(info["tip"], r.tip[0], rtol=0, atol=1e-9)
+                np.testing.assert_allclose(info["anchor_tensions"], r.anchor_tensions[0], rtol=1e-9)
+            finally:
+                ref.close()
+    finally:
+        env.close()
+    assert seen_gravity == {0.0, 1.0}

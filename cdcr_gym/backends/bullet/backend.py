@@ -118,6 +118,7 @@ class BulletBackend(Backend):
     """
 
     supports_length_control = False
+    randomizable = frozenset({"youngs_modulus", "friction_coefficient", "gravity"})
 
     def __init__(
         self,
@@ -220,6 +221,9 @@ class BulletBackend(Backend):
         g_base = self._base_rot.T @ np.array([0.0, 0.0, -STANDARD_GRAVITY])
         upright = np.allclose(g_base, (0.0, 0.0, -STANDARD_GRAVITY), rtol=0.0, atol=1e-12)
         gravity_in_base = None if (upright or not self.gravity) else tuple(g_base.tolist())
+        self._tilted_gravity = None if upright else tuple(g_base.tolist())
+        self._nominal_stiffness = self.chain.stiffness.copy()
+        self._report_anchors = self.friction_coefficient > 0.0
         self.time = 0.0
 
         self._connection: Connection | None = Connection(self, self.gui)
@@ -576,8 +580,33 @@ class BulletBackend(Backend):
             self._direction(pose.link_rot)[None],
             self.cable_lengths[None],
             self._tensions.copy()[None],
-            None if self.friction_coefficient == 0.0 else self.anchor_tensions[None],
+            self.anchor_tensions[None] if self._report_anchors else None,
         )
+
+    def set_randomized(self, index: np.ndarray, values: dict[str, np.ndarray]) -> None:
+        """Apply drawn ``youngs_modulus`` (Pa; joint stiffness and damping, the damping ratio
+        kept), ``friction_coefficient`` and ``gravity`` (1.0 on, 0.0 off) to this robot (index
+        0), in the running pybullet client: nothing is rebuilt. Masses, payload and base tilt
+        would need a new multibody and are not applied (reported only)."""
+        if "friction_coefficient" in values:
+            mu = float(values["friction_coefficient"][0])
+            if not 0.0 <= mu <= 1.0:
+                raise ValueError(f"friction_coefficient must be in [0, 1], got {mu!r}")
+            self.friction_coefficient = self._integrator.friction_coefficient = mu
+            self._report_anchors = True  # the same info keys in every episode
+        if "gravity" in values:
+            on = bool(values["gravity"][0] > 0.5)
+            self.gravity = on  # pybullet (dynamics and statics); the chain model keeps its own
+            g = -STANDARD_GRAVITY if on else 0.0
+            self._pb.setGravity(0.0, 0.0, g, physicsClientId=self._client)
+            self._integrator.set_gravity_in_base(self._tilted_gravity if on else None)
+        if "youngs_modulus" in values:
+            e = float(values["youngs_modulus"][0])
+            ratio = e / self.params.youngs_modulus
+            self.chain.stiffness = self._nominal_stiffness * ratio
+            # ω₁ ∝ √K: keep the damping ratio ζ of the first mode
+            beta = self.damping_time / math.sqrt(ratio)
+            self._integrator.set_stiffness(self.chain.stiffness, beta)
 
     @property
     def segment_tensions(self) -> np.ndarray:

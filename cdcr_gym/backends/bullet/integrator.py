@@ -158,6 +158,19 @@ class ImplicitIntegrator:
         self._last_lengths: np.ndarray | None = None
         self._entry = np.ascontiguousarray(chain.base_rotation[:, 2])
 
+    def set_stiffness(self, stiffness: np.ndarray, damping_time: float) -> None:
+        """New joint stiffness K (2n,) N·m/rad and damping time β (s), D = β·K (randomised
+        parameters; the pybullet body is unchanged)."""
+        h = self.h
+        self.K = stiffness.copy()
+        self.D = damping_time * self.K
+        self._A_diag = h * self.D + h * h * self.K
+        self._D_plus_hK = self.D + h * self.K
+
+    def set_gravity_in_base(self, gravity_in_base: tuple[float, float, float] | None) -> None:
+        """See the constructor's ``gravity_in_base`` (gravity switched on or off)."""
+        self._gravity_in_base = gravity_in_base
+
     # -- friction --------------------------------------------------------------------------------
     def reset_friction(self) -> None:
         """Neutral slip state (s = 0) and no sliding history: after a reset to rest."""
