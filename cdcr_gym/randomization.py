@@ -44,14 +44,14 @@ goal), so a robot drawn less compliant than nominal may not reach the rim of it.
 | ``cable_length_bias``  | m      | σ of a per-episode offset of each observed cable length        |
 | ``tension_bias``       | N      | σ of a per-episode offset of each observed tension             |
 | ``action_delay``       | steps  | integer k >= 0: the action of step t is applied at step t + k |
-| ``tension_lag``        | steps  | time constant τ > 0 of a first-order lag of the applied        |
-|                        |        | tensions behind the commanded ones (per step the gap closes    |
-|                        |        | by 1 − e^(−1/τ)): the settling of a dynamic robot, for a       |
-|                        |        | quasi-static model                                             |
+| ``tension_lag``        | steps  | time constant τ > 0 of a first-order settling of the robot:   |
+|                        |        | the shape follows the static shape of the actuator tensions   |
+|                        |        | with a lag (per step the gap closes by 1 − e^(−1/τ))          |
 | ``tension_response``   | rad/step | natural frequency ω > 0 (per control step) of a critically  |
-|                        |        | damped second-order response of the applied tensions to the    |
-|                        |        | commanded ones (exact for commands held over a step): the      |
-|                        |        | settling of a dynamic robot (bullet: ω ≈ 0.44, docs/sim2real)  |
+|                        |        | damped second-order settling of the robot: the shape is that  |
+|                        |        | of the actuator tensions filtered (exact for tensions held    |
+|                        |        | over a step); a dynamic robot's settling for a quasi-static   |
+|                        |        | model (bullet: ω ≈ 0.44, docs/sim2real.md)                    |
 | ``tension_rate_limit`` | N/step | largest change of an actuator's tension per control step      |
 | ``actuator_noise``     | N      | σ of Gaussian noise on each applied tension, per step          |
 
@@ -59,14 +59,16 @@ Sensor noise and bias act on what the agent observes (the ``observation`` / flat
 on the physics, the reward, success or ``info`` (which hold the true values); a noisy
 observation is clipped to the observation space (a sensor saturates at its range); in the
 goal-conditioned Dict the ``achieved_goal`` stays exact, because the reward is computed from it.
-Actuator imperfections act on the tensions the backend applies (``info["tensions"]`` reports
-what was applied): the delay holds actions in a queue that a reset fills with the action that
-holds the reset state (0 for increments, the reset tensions for absolute tensions); the
-second-order response (starting at rest at the reset tensions) filters the commanded tensions;
-the lag then moves the applied tensions towards the commanded ones by the fraction 1 − e^(−1/τ); the rate
-limit then caps that move at ``tension_rate_limit`` per step; actuator noise is added last and
-clipped to [0, max_tension]. Response, lag, rate limit and actuator noise need a tension
-action mode.
+Actuator imperfections act on the tensions the actuators apply (``info["tensions"]`` and the
+observation report them): the delay holds actions in a queue that a reset fills with the action
+that holds the reset state (0 for increments, the reset tensions for absolute tensions); the
+rate limit caps each actuator's change at ``tension_rate_limit`` per step; actuator noise is
+added and clipped to [0, max_tension]. The settling models (response, then lag; both start at
+rest at the reset tensions) act on the robot, not on the actuators: the quasi-static backend
+takes the static shape of the *filtered* actuator tensions, while the actuator tensions are
+reported as a tension sensor at the actuator would (as on the dynamic bullet backend, where the
+commanded tension acts at once and the shape settles). Response, lag, rate limit and actuator
+noise need a tension action mode.
 
 Draw order per env: at a reset the randomised parameters, then the biases (tip, cable lengths,
 tensions); per step the actuator noise (one normal vector of C entries, after the action), then
@@ -306,6 +308,7 @@ class Imperfections:
         self.bias = (np.zeros((n, 3)), np.zeros((n, c)), np.zeros((n, c)))
         self.queue = np.zeros((n, self.delay, c))
         self.applied = np.zeros((n, c))
+        self.lagged = np.zeros((n, c))  # first-order lag output (N)
         self.response = np.zeros((n, c))  # second-order response: its output (N) and rate
         self.response_rate = np.zeros((n, c))  # (N per step)
 
@@ -333,6 +336,7 @@ class Imperfections:
                 self.queue[idx] = 0.0
         self.applied[idx] = tensions
         self.response[idx] = tensions
+        self.lagged[idx] = tensions
         self.response_rate[idx] = 0.0
 
     # -- step -----------------------------------------------------------------------------------
@@ -350,30 +354,33 @@ class Imperfections:
         commanded: np.ndarray,
         rngs: Sequence[np.random.Generator | None],
         active: np.ndarray | None = None,
-    ) -> np.ndarray:
-        """Tensions (N, C) N the actuators apply for commanded tensions (N, C) N.
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """(shape tensions, actuator tensions), each (N, C) N, for commanded tensions (N, C) N.
 
-        Second-order response, lag and rate limit (from the last applied, noise-free,
-        tensions), then noise drawn from the generators of the ``active`` envs (all if None; the
-        others get none), clipped.
+        The actuators: rate limit (from their last noise-free output), then noise drawn from
+        the generators of the ``active`` envs (all if None; the others get none), clipped — the
+        actuator tensions, which the env reports. The robot's settling (second-order response,
+        then first-order lag) filters them into the tensions whose static shape the
+        quasi-static backend takes this step.
         """
-        if self.omega is not None:
-            commanded = self._respond(commanded)
-        step = commanded - self.applied
-        if self.lag_fraction is not None:
-            step *= self.lag_fraction
+        target = commanded
         if self.rate_limit is not None:
-            np.clip(step, -self.rate_limit, self.rate_limit, out=step)
-        target = self.applied + step
-        self.applied = target
-        if self.actuator_sigma <= 0.0:
-            return target.copy()
-        noisy = target.copy()
-        for i, rng in enumerate(rngs):
-            if rng is not None and (active is None or active[i]):
-                noisy[i] += self.actuator_sigma * rng.standard_normal(noisy.shape[1])
-        np.clip(noisy, 0.0, self.max_tension, out=noisy)
-        return noisy
+            step = np.clip(commanded - self.applied, -self.rate_limit, self.rate_limit)
+            target = self.applied + step
+        self.applied = target.copy()
+        actuator = target.copy()
+        if self.actuator_sigma > 0.0:
+            for i, rng in enumerate(rngs):
+                if rng is not None and (active is None or active[i]):
+                    actuator[i] += self.actuator_sigma * rng.standard_normal(actuator.shape[1])
+            np.clip(actuator, 0.0, self.max_tension, out=actuator)
+        shape = actuator
+        if self.omega is not None:
+            shape = self._respond(shape)
+        if self.lag_fraction is not None:
+            self.lagged = self.lagged + (shape - self.lagged) * self.lag_fraction
+            shape = self.lagged
+        return shape.copy(), actuator
 
     def _respond(self, commanded: np.ndarray) -> np.ndarray:
         """One step of x'' + 2ωx' + ω²x = ω²u with u = ``commanded`` held over the step (exact:

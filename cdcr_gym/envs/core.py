@@ -221,9 +221,11 @@ class EnvCore:
         else:
             self._held_tensions = act.tensions(action, self._held_tensions)
             if imp is not None and imp.actuates:
-                self.backend.apply_tensions(imp.actuate(self._held_tensions, self._rngs, active))
-            else:
-                self.backend.apply_tensions(self._held_tensions)
+                shape, actuator = imp.actuate(self._held_tensions, self._rngs, active)
+                self.backend.apply_tensions(shape)
+                self._readings = self.backend.read()._replace(tensions=actuator)
+                return
+            self.backend.apply_tensions(self._held_tensions)
         self._readings = self.backend.read()
 
     @property
