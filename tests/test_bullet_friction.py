@@ -177,3 +177,17 @@ def test_randomized_bullet_robot_acts_like_the_robot_built_with_those_parameters
     finally:
         env.close()
     assert seen_gravity == {0.0, 1.0}
+
+
+def test_capstan_prediction_of_the_hysteresis_study():
+    from training.hysteresis import capstan_equilibrium
+
+    b = BulletBackend(gravity=False)
+    try:
+        # μ = 0: the frictionless static equilibrium
+        frictionless = b.equilibrium(np.array([[50.0, 0.0, 0.0]])).tip[0]
+        np.testing.assert_allclose(capstan_equilibrium(b, 50.0, 0.0), frictionless, atol=1e-9)
+        # μ > 0: a pulled cable bends the robot less
+        assert capstan_equilibrium(b, 50.0, 0.2)[0] < frictionless[0] - 0.005
+    finally:
+        b.close()
