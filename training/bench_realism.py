@@ -7,7 +7,8 @@ tension lag, actuator noise), in µs per step. Run it in two checkouts to compar
 
 ``--bullet``: instead, the median time of a ``BulletReach-v0`` reset (R·5 resets, 5 random steps
 between them) plain and with ``randomize`` (E, friction, gravity: applied in the running
-pybullet client), next to the time to build the env and reset it once.
+pybullet client), next to the time to build the env and reset it once, and the time of a
+control step of ``BulletBackend`` without and with cable friction (μ = 0.2).
 """
 
 from __future__ import annotations
@@ -79,6 +80,18 @@ def bullet_resets(n: int) -> None:
                 env.step(env.action_space.sample())
         env.close()
         print(f"{name:<28} {np.median(times) * 1e3:9.1f} ms (median of {n})")
+    from cdcr_gym.backends.bullet import BulletBackend
+
+    rng = np.random.default_rng(0)
+    commands = rng.uniform(0.0, 80.0, (200, 1, 3))
+    for mu in (0.0, 0.2):
+        backend = BulletBackend(friction_coefficient=mu)
+        t0 = time.perf_counter()
+        for t in commands:
+            backend.apply_tensions(t)
+        backend.close()
+        step = (time.perf_counter() - t0) / len(commands)
+        print(f"{f'control step, mu = {mu}':<28} {step * 1e3:9.2f} ms (mean of {len(commands)})")
 
 
 def main(argv: list[str] | None = None) -> None:
