@@ -456,7 +456,7 @@ def test_a_bowstringing_chain_raises_in_reset_and_in_the_dynamics(make, monkeypa
     reach the guards behind it.)"""
     import cdcr_gym.backends.bullet.backend as backend_module
 
-    monkeypatch.setattr(backend_module, "check_span_buckling", lambda params: None)
+    monkeypatch.setattr(backend_module, "check_span_buckling", lambda params, links: None)
     b = make(RobotParams(n_disks=1))
     with pytest.raises(SimulationDivergedError, match="no static equilibrium"):
         b.reset(np.array([40.0, 0.0, 0.0]))

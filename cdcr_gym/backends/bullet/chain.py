@@ -1,7 +1,8 @@
 """The discretised backbone of the pybullet backend, as pure numpy (no simulator).
 
-``cdcr_gym.backends.bullet.BulletBackend`` simulates this model's dynamics in pybullet; this module holds its geometry,
-mass properties, cable and gravity loads and statics, so that they are written once, can be
+``cdcr_gym.backends.bullet.BulletBackend`` simulates this model's dynamics in pybullet; this
+module holds its geometry, mass properties, cable and gravity loads and statics, so that they
+are written once, can be
 checked against pybullet (tests), and can be evaluated for chains longer than one pybullet
 multibody can hold (pybullet's API keeps 121 joint coordinates per body: 60 Cardan joints).
 
@@ -276,6 +277,7 @@ class DiscreteBackbone:
         #: Whether cable i crosses disk span k (is routed through its pinholes), (n_disks, C).
         self.routed = self.span_section[:, None] <= np.asarray(params.cable_section)[None, :]
         self._routed_f = self.routed.astype(np.float64)
+        self._all_routed = bool(self.routed.all())
         self._base_pinholes = self.pinhole_local @ self.base_rotation.T
         # per section: (its first span, its last span + 1, the cables crossing it, the map of
         # _cable_loads_one_link for those cables and its spacing)
@@ -285,7 +287,7 @@ class DiscreteBackbone:
             (
                 int(ends[j]),
                 int(ends[j + 1]),
-                np.flatnonzero(owner >= j),
+                slice(int(np.argmax(owner >= j)), params.n_cables),  # sections j.. (contiguous)
                 self._build_one_link_map(
                     self.pinhole_local[owner >= j], 0.5 * params.sections[j].disk_spacing
                 ),
@@ -399,15 +401,12 @@ class DiscreteBackbone:
         )
         return pins
 
-    def cable_lengths_of(self, pose: ChainPose) -> np.ndarray:
-        """Sensed cable lengths (C,) m: summed pinhole-to-pinhole segment lengths of ``pose``."""
-        return self.lengths_between_pinholes(pose.pinholes)
-
     def lengths_between_pinholes(self, pinholes: np.ndarray) -> np.ndarray:
         """Cable lengths (C,) m from pinholes (n_disks+1, C, 3): each cable's segment lengths
         summed over the spans it crosses (base disk to its section's last disk)."""
         seg = pinholes[1:] - pinholes[:-1]
-        return (np.sqrt((seg * seg).sum(axis=-1)) * self._routed_f).sum(axis=0)
+        seg_len = np.sqrt((seg * seg).sum(axis=-1))
+        return (seg_len if self._all_routed else seg_len * self._routed_f).sum(axis=0)
 
     # ------------------------------------------------------------------ loads
 
@@ -496,7 +495,7 @@ class DiscreteBackbone:
         moment = np.empty((3, n))  # Σ_i M_i per span, N·m
         lengths = np.zeros(tensions.shape[-1])
         for first, stop, cables, link_map in self._sections:
-            k = cables.size
+            k = link_map.shape[0] // 6  # cables crossing the section
             mapped = link_map @ products[:, first:stop]  # (6k, spans)
             seg = mapped[: 3 * k].reshape(k, 3, -1)  # d_i [cable, xyz, span], m
             lever = mapped[3 * k :].reshape(3, k, -1)  # (o − p_i) × d_i [xyz, cable, span], m²
