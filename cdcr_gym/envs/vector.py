@@ -225,7 +225,7 @@ class CDCRVectorEnv(VectorEnv):
         else:
             a = validation.action_array(actions, self._action_shape)
         np.clip(a, -1.0, 1.0, out=a)
-        self.core.step(a)
+        self.core.step(a, ~resetting if any_reset else None)
         self._steps += 1
         if any_reset:  # NEXT_STEP autoreset: these envs return their reset state instead
             self._reset_envs(np.flatnonzero(resetting))

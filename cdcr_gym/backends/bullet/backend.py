@@ -105,12 +105,20 @@ class BulletBackend(Backend):
         damping_ratio: damping ratio ζ > 0 of the first bending mode (default 0.7); the joint
             damping is D = (2ζ/ω₁)·K. Larger values settle the first mode without overshoot
             but slow the higher modes (rate ω₁/(2ζ)).
+        friction_coefficient: cable–disk friction μ in [0, 1] (default 0.0: frictionless,
+            bit-identical to the model without friction). With μ > 0 every cable carries the
+            capstan tension profile along its segments (``integrator`` module docstring,
+            ``cdcr_gym.model.friction``), and :meth:`read` reports the tension at each
+            cable's anchor (``info["anchor_tensions"]``).
+        friction_slip_length: sliding distance x_s (m, > 0; default 1e-4) over which friction
+            builds up after the sliding direction reverses (the regularised stick–slip).
 
     Raises:
         ValueError: naming the argument and the value, for any invalid argument.
     """
 
     supports_length_control = False
+    randomizable = frozenset({"youngs_modulus", "friction_coefficient", "gravity"})
 
     def __init__(
         self,
@@ -124,6 +132,8 @@ class BulletBackend(Backend):
         tip_payload: float = 0.0,
         gui: bool = False,
         damping_ratio: float = 0.7,
+        friction_coefficient: float = 0.0,
+        friction_slip_length: float = 1e-4,
     ) -> None:
         if not isinstance(params, RobotParams):
             raise ValueError(f"params must be a cdcr_gym.params.RobotParams, got {params!r}")
@@ -172,6 +182,17 @@ class BulletBackend(Backend):
             raise ValueError(f"tip_payload must be finite and >= 0 kg, got {tip_payload!r}")
         self.tip_payload = float(tip_payload)
         self.damping_ratio = _check_positive("damping_ratio", damping_ratio, "")
+        mu = friction_coefficient
+        if (
+            isinstance(mu, (bool, np.bool_))
+            or not isinstance(mu, (int, float, np.integer, np.floating))
+            or not 0.0 <= float(mu) <= 1.0
+        ):
+            raise ValueError(f"friction_coefficient must be a real number in [0, 1], got {mu!r}")
+        self.friction_coefficient = float(mu)
+        self.friction_slip_length = _check_positive(
+            "friction_slip_length", friction_slip_length, "m"
+        )
 
         p = params
         n_links = sum(s.n_disks for s in p.sections) * self.links_per_span
@@ -200,6 +221,9 @@ class BulletBackend(Backend):
         g_base = self._base_rot.T @ np.array([0.0, 0.0, -STANDARD_GRAVITY])
         upright = np.allclose(g_base, (0.0, 0.0, -STANDARD_GRAVITY), rtol=0.0, atol=1e-12)
         gravity_in_base = None if (upright or not self.gravity) else tuple(g_base.tolist())
+        self._tilted_gravity = None if upright else tuple(g_base.tolist())
+        self._nominal_stiffness = self.chain.stiffness.copy()
+        self._report_anchors = self.friction_coefficient > 0.0
         self.time = 0.0
 
         self._connection: Connection | None = Connection(self, self.gui)
@@ -239,6 +263,8 @@ class BulletBackend(Backend):
                 self.physics_timestep,
                 self.damping_time,
                 gravity_in_base,
+                self.friction_coefficient,
+                self.friction_slip_length,
             )
             self._joint_ids = self._integrator.joint_ids
         except BaseException:
@@ -377,6 +403,7 @@ class BulletBackend(Backend):
         self._set_state(q, np.zeros(self.n_dof))
         self._tensions = t
         self.time = 0.0
+        self._integrator.reset_friction()
 
     def _tick(self) -> None:
         self._pose = self._points = None
@@ -553,7 +580,54 @@ class BulletBackend(Backend):
             self._direction(pose.link_rot)[None],
             self.cable_lengths[None],
             self._tensions.copy()[None],
+            self.anchor_tensions[None] if self._report_anchors else None,
         )
+
+    def set_randomized(self, index: np.ndarray, values: dict[str, np.ndarray]) -> None:
+        """Apply drawn ``youngs_modulus`` (Pa; joint stiffness and damping, the damping ratio
+        kept), ``friction_coefficient`` and ``gravity`` (1.0 on, 0.0 off) to this robot (index
+        0), in the running pybullet client: nothing is rebuilt. Masses, payload and base tilt
+        would need a new multibody and are not applied (reported only)."""
+        if "friction_coefficient" in values:
+            mu = float(values["friction_coefficient"][0])
+            if not 0.0 <= mu <= 1.0:
+                raise ValueError(f"friction_coefficient must be in [0, 1], got {mu!r}")
+            self.friction_coefficient = self._integrator.friction_coefficient = mu
+            self._report_anchors = True  # the same info keys in every episode
+        if "gravity" in values:
+            on = bool(values["gravity"][0] > 0.5)
+            self.gravity = on  # pybullet (dynamics and statics); the chain model keeps its own
+            g = -STANDARD_GRAVITY if on else 0.0
+            self._pb.setGravity(0.0, 0.0, g, physicsClientId=self._client)
+            self._integrator.set_gravity_in_base(self._tilted_gravity if on else None)
+        if "youngs_modulus" in values:
+            e = float(values["youngs_modulus"][0])
+            ratio = e / self.params.youngs_modulus
+            self.chain.stiffness = self._nominal_stiffness * ratio
+            # ω₁ ∝ √K: keep the damping ratio ζ of the first mode
+            beta = self.damping_time / math.sqrt(ratio)
+            self._integrator.set_stiffness(self.chain.stiffness, beta)
+
+    @property
+    def segment_tensions(self) -> np.ndarray:
+        """Tension (n_disks, C) N in every cable segment (row k: disk k to k + 1; rows beyond
+        a cable's anchor are not part of it) at the current state and slip."""
+        self._check_open()
+        return self._integrator.segment_tensions(self._state()[0], self._tensions)
+
+    @property
+    def anchor_tensions(self) -> np.ndarray:
+        """Tension (C,) N in each cable's last segment, at its anchor disk (= the actuator
+        tension without friction)."""
+        if self.friction_coefficient == 0.0:
+            return self._tensions.copy()
+        last = self.chain.routed.sum(axis=0) - 1  # index of each cable's last span
+        return self.segment_tensions[last, np.arange(self.params.n_cables)]
+
+    @property
+    def slip(self) -> np.ndarray:
+        """Slip state (C,) of the cables in [−1, 1]: +1 pulled, −1 released, between: stick."""
+        return self._integrator.slip.copy()
 
     def equilibrium(self, tensions: np.ndarray) -> Readings:
         """Static equilibria under ``tensions`` (M, C) N, without changing the state.

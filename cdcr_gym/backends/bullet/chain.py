@@ -413,7 +413,9 @@ class DiscreteBackbone:
     def cable_loads(self, q: np.ndarray, tensions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Generalized cable forces τ = −Σ_i T_i ∂l_i/∂q (2n,) N·m and cable lengths (C,) m.
 
-        ``tensions`` (C,) N, in cable order (section by section).
+        ``tensions`` (C,) N, in cable order (section by section), or per disk span
+        (n_disks, C) N (a cable with friction: segment k's tension in row k). A segment's length
+        depends only on its own span's joints, so per-segment tensions enter span by span.
 
         Evaluated span by span in the frame of the span's proximal disk (generalized forces and
         segment lengths are frame-invariant), so no global forward kinematics is needed: the
@@ -491,14 +493,18 @@ class DiscreteBackbone:
         products = (u[:, None, :] * v[None, :, :]).reshape(9, n)  # u_α·v_β, row 3α + β
         tensions = np.asarray(tensions, dtype=np.float64)
         moment = np.empty((3, n))  # Σ_i M_i per span, N·m
-        lengths = np.zeros(tensions.shape[0])
+        lengths = np.zeros(tensions.shape[-1])
         for first, stop, cables, link_map in self._sections:
             k = link_map.shape[0] // 6  # cables crossing the section
             mapped = link_map @ products[:, first:stop]  # (6k, spans)
             seg = mapped[: 3 * k].reshape(k, 3, -1)  # d_i [cable, xyz, span], m
             lever = mapped[3 * k :].reshape(3, k, -1)  # (o − p_i) × d_i [xyz, cable, span], m²
             seg_len = np.sqrt((seg * seg).sum(axis=1))  # |d_i| (k cables, spans), m
-            moment[:, first:stop] = (lever * (tensions[cables].reshape(k, 1) / seg_len)).sum(axis=1)
+            if tensions.ndim == 1:
+                t = tensions[cables].reshape(k, 1)
+            else:  # per span (one link per span: the links first:stop are those spans)
+                t = tensions[first:stop, cables].T
+            moment[:, first:stop] = (lever * (t / seg_len)).sum(axis=1)
             lengths[cables] += seg_len.sum(axis=1)
         tau = np.empty(self.n_dof)
         tau[0::2] = moment[0]

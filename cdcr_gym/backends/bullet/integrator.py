@@ -20,6 +20,19 @@ Implicit spring–damper integration
     is a fixed point of the update iff K·q = τ_cable(q) − b(q, 0): the settled state is the
     static solution, independent of h.
 
+Cable–disk friction
+    With ``friction_coefficient`` μ > 0 each cable's segments carry the capstan profile of
+    ``cdcr_gym.model.friction``: T_k = T_act·exp(−s·μ·Σ_{j≤k} α_j), with the wrap angles α_j at
+    the current pinholes (the base disk's from the base axis, where the cable arrives from the
+    actuator) and the cable's slip state s ∈ [−1, 1] (+1 pulled, −1 released), which follows
+    the cable's sliding by the Dahl-type law ``friction.update_slip`` over the slip length x_s:
+    the sliding is the change of the cable's length inside the robot since the previous
+    physics step (shortening = sliding towards the base). The segment tensions load the
+    backbone span by span (``DiscreteBackbone.cable_loads`` with per-span tensions); like the
+    frictionless cable loads they are explicit (evaluated at the start of the step). s has
+    memory, so a settled robot keeps the profile of its last motion: load–unload cycles open a
+    hysteresis loop. With μ = 0 none of this runs (bit-identical to the frictionless model).
+
 Damping
     Per-joint, stiffness-proportional (Kelvin–Voigt material damping of the rod): D = β·K with
     β = 2ζ/ω₁, where ω₁ is the first bending mode of the linearised chain at the straight pose
@@ -37,6 +50,7 @@ from types import ModuleType
 import numpy as np
 
 from cdcr_gym.backends.bullet.chain import DiscreteBackbone
+from cdcr_gym.model import friction
 from cdcr_gym.model.params import STANDARD_GRAVITY
 
 __all__ = [
@@ -108,6 +122,8 @@ class ImplicitIntegrator:
         damping_time: β (s), D = β·K.
         gravity_in_base: gravity (m/s²) in R0 components for pybullet's inverse dynamics when
             the base is turned and gravity is on; ``None`` for an upright base or no gravity.
+        friction_coefficient: cable–disk μ >= 0 (0: frictionless, the plain path).
+        slip_length: x_s (m, > 0) of the slip law (module docstring).
     """
 
     def __init__(
@@ -119,6 +135,8 @@ class ImplicitIntegrator:
         physics_timestep: float,
         damping_time: float,
         gravity_in_base: tuple[float, float, float] | None,
+        friction_coefficient: float = 0.0,
+        slip_length: float = 1e-4,
     ) -> None:
         self._pb, self._client, self._body = pb, client, body
         self.chain = chain
@@ -133,6 +151,46 @@ class ImplicitIntegrator:
         self._gravity_in_base = gravity_in_base
         self._q: np.ndarray | None = None
         self._qd: np.ndarray | None = None
+        self.friction_coefficient = friction_coefficient
+        self.slip_length = slip_length
+        #: Slip state s (C,) of every cable (+1 pulled, −1 released, between: stick).
+        self.slip = np.zeros(chain.pinhole_local.shape[0])
+        self._last_lengths: np.ndarray | None = None
+        self._entry = np.ascontiguousarray(chain.base_rotation[:, 2])
+
+    def set_stiffness(self, stiffness: np.ndarray, damping_time: float) -> None:
+        """New joint stiffness K (2n,) N·m/rad and damping time β (s), D = β·K (randomised
+        parameters; the pybullet body is unchanged)."""
+        h = self.h
+        self.K = stiffness.copy()
+        self.D = damping_time * self.K
+        self._A_diag = h * self.D + h * h * self.K
+        self._D_plus_hK = self.D + h * self.K
+
+    def set_gravity_in_base(self, gravity_in_base: tuple[float, float, float] | None) -> None:
+        """See the constructor's ``gravity_in_base`` (gravity switched on or off)."""
+        self._gravity_in_base = gravity_in_base
+
+    # -- friction --------------------------------------------------------------------------------
+    def reset_friction(self) -> None:
+        """Neutral slip state (s = 0) and no sliding history: after a reset to rest."""
+        self.slip = np.zeros_like(self.slip)
+        self._last_lengths = None
+
+    def segment_tensions(self, q: np.ndarray, tensions: np.ndarray) -> np.ndarray:
+        """Tensions (n_disks, C) N of every cable's segment k (row k: from disk k to k + 1)
+        at joint angles ``q`` for actuator ``tensions`` (C,) N and the current slip state."""
+        _, pins = self.chain.stations_and_pinholes(q)
+        wraps = friction.wrap_angles(pins.transpose(1, 0, 2), self._entry)  # (C, n_disks)
+        return friction.tension_profile(tensions, wraps, self.friction_coefficient, self.slip).T
+
+    def _slide(self, lengths: np.ndarray) -> None:
+        """Advance the slip state by the sliding since the last call (lengths (C,) m)."""
+        if self._last_lengths is not None:
+            self.slip = friction.update_slip(
+                self.slip, self._last_lengths - lengths, self.slip_length
+            )
+        self._last_lengths = lengths
 
     # -- state -----------------------------------------------------------------------------------
     def state(self) -> tuple[np.ndarray, np.ndarray]:
@@ -212,10 +270,15 @@ class ImplicitIntegrator:
         K, D, D_plus_hK = self.K, self.D, self._D_plus_hK
         torque_mode = pb.TORQUE_CONTROL
         cable_loads = self.chain.cable_loads
+        rough = self.friction_coefficient > 0.0
         for _ in range(n_steps):
             q, qd = self.state()
             ql = q.tolist()
-            tau_c, _ = cable_loads(q, tensions)
+            if rough:
+                tau_c, lengths = cable_loads(q, self.segment_tensions(q, tensions))
+                self._slide(lengths)
+            else:
+                tau_c, _ = cable_loads(q, tensions)
             # M(q) comes as 2n tuples of 2n floats: fromiter over the flattened rows is the
             # cheapest conversion
             rows = pb.calculateMassMatrix(body, ql, physicsClientId=cid)
