@@ -1062,10 +1062,20 @@ def _clear_artefacts(run: RunDir) -> None:
             path.unlink()
 
 
-def train(config: ExperimentConfig, run_dir: Path, resume: bool, argv: list[str]) -> int:
+def train(
+    config: ExperimentConfig,
+    run_dir: Path,
+    resume: bool,
+    argv: list[str],
+    *,
+    exiting: bool = False,
+) -> int:
     """Train into ``run_dir`` (new, or resumed from its last checkpoint). Returns the exit code.
 
-    ``config`` must have passed :func:`check_env_config`."""
+    ``config`` must have passed :func:`check_env_config`. ``exiting`` (the command line): the
+    process ends after this call, so once a stop was signalled further SIGINT/SIGTERM are ignored
+    instead of the previous handlers being restored — a second Ctrl-C while the interpreter
+    shuts down would otherwise kill it by the signal instead of exiting 130."""
     import torch
 
     run = RunDir(run_dir)
@@ -1082,6 +1092,8 @@ def train(config: ExperimentConfig, run_dir: Path, resume: bool, argv: list[str]
     # Ctrl-C / SIGTERM: the first asks for a stop at the next rollout boundary (after a
     # checkpoint), the second stops at once; either way exit 130 without a traceback.
     def on_signal(signum: int, frame: Any) -> None:
+        if state["stopped"]:  # already past the last checkpoint and winding down: nothing to gain
+            return
         if state["stop_requested"]:
             raise KeyboardInterrupt
         state["stop_requested"] = True
@@ -1100,7 +1112,7 @@ def train(config: ExperimentConfig, run_dir: Path, resume: bool, argv: list[str]
         return _train(config, run, resume, argv, command, device, state)
     finally:
         for sig, handler in previous.items():
-            signal.signal(sig, handler)
+            signal.signal(sig, signal.SIG_IGN if exiting and state["stop_requested"] else handler)
 
 
 def _train(
@@ -1424,7 +1436,7 @@ def main(argv: list[str] | None = None) -> int:
     args = _parse_args(argv)
     try:
         config, run_dir = _resolve(args)
-        return train(config, run_dir, args.resume, argv)
+        return train(config, run_dir, args.resume, argv, exiting=True)
     except ConfigError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
