@@ -64,6 +64,9 @@ class AnalyticBackend(Backend):
         buffers fill from contiguous rows (``tensions`` are kept as given).
         """
         m = self.model
+        if length_scale is None and comp.shape[1] == 1:  # one robot: a row of Python floats
+            row = np.array(m.forward_values_one(comp))[None]
+            return Readings(row[:, 0:3], row[:, 3:6], row[:, 6:], tensions)
         tip, direction, lengths = m.forward_rows(comp)
         if length_scale is not None:  # lengths are linear in w: scaling w scales Δl
             lengths = m.bending_to_lengths.T @ (comp * length_scale)

@@ -64,6 +64,13 @@ class Actuation:
         """Tensions (N, C) N commanded by clipped ``action`` (N, C) given the ``held`` ones."""
         if self.mode == "tension":
             return self.max_tension * 0.5 * (action + 1.0)
+        if action.size <= 16:  # one env: Python floats (numpy's per-call cost dominates)
+            inc, top = self._tension_increment, self.max_tension
+            clipped = []
+            for h, a in zip(held.ravel().tolist(), action.ravel().tolist()):
+                x = h + a * inc
+                clipped.append(0.0 if x < 0.0 else top if x > top else x)
+            return np.array(clipped).reshape(held.shape)
         t = held + action * self._tension_increment
         if t.size > 64:
             np.clip(t, 0.0, self.max_tension, out=t)  # one pass instead of two

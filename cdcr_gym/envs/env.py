@@ -197,10 +197,7 @@ class CDCREnv(gym.Env):
         return obs, info
 
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
-        a = validation.action_array(action, self._action_shape)
-        np.maximum(a, -1.0, out=a)
-        np.minimum(a, 1.0, out=a)
-        self.core.step(a[None])
+        self.core.step(validation.clipped_action(action, self._action_shape)[None])
         obs, reward, success, info = self._outputs()
         terminated = bool((self.terminate_on_success and success) or self.task.terminal()[0])
         if self.render_mode == "human":
@@ -215,8 +212,7 @@ class CDCREnv(gym.Env):
         else:
             obs = obs[0]
         for key, value in info.items():
-            value = value[0]
-            info[key] = value.item() if value.ndim == 0 else value
+            info[key] = value.item() if value.shape == (1,) else value[0]
         return obs, float(reward[0]), bool(success[0]), info
 
     def render(self) -> np.ndarray | None:

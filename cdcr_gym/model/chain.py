@@ -25,6 +25,7 @@ disk centre, backbone along +Z0, the disks' x axis along +X0).
 from __future__ import annotations
 
 import math
+from operator import mul
 
 import numpy as np
 
@@ -105,6 +106,7 @@ class PCCModel:
         self.lengths_to_bending = self._sequential_least_squares()
         self._bending_to_lengths_columns = self.bending_to_lengths.T.tolist()
         self._straight_list = self.straight_lengths.tolist()
+        self._section_length_list = self.section_lengths.tolist()
         self._tiled: dict[int, np.ndarray] = {}
         self._buffers: dict[int, np.ndarray] = {}
         self.disk_fractions = tuple(
@@ -339,7 +341,13 @@ class PCCModel:
         return tip, tmp[:3].T.copy().reshape(batch + (3,))
 
     def _forward_one(self, comp: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """:meth:`forward_rows` for one robot (M = 1), in Python floats.
+        """:meth:`forward_rows` for one robot (M = 1): rows of :meth:`forward_values_one`."""
+        rows = np.array(self.forward_values_one(comp))[:, None]
+        return rows[0:3], rows[3:6], rows[6:]
+
+    def forward_values_one(self, comp: np.ndarray) -> list[float]:
+        """Tip (3) m, tip direction (3) and cable lengths (C) m, as one list of Python floats,
+        of one robot's bending component rows ``comp`` (2S, 1) (finite: the caller validates).
 
         The same formulas in the same order as :meth:`_profile_rows`, :meth:`_tip_into` and
         :meth:`_direction_into` (for any S): at M = 1 each numpy call costs ~1 µs of overhead
@@ -347,7 +355,7 @@ class PCCModel:
         per robot. Results agree with the rows kernel to rounding (tests/test_model_chain.py).
         """
         vals = comp[:, 0].tolist()
-        ell = self.section_lengths.tolist()
+        ell = self._section_length_list
         prof = []
         for j in range(self.n_sections):
             wx, wy = vals[2 * j], vals[2 * j + 1]
@@ -380,16 +388,15 @@ class PCCModel:
         d0, d1, d2 = g * wx, g * wy, h
         for j in range(last - 1, -1, -1):
             wx, wy, f, g, h = prof[j]
-            p0, p1, p2 = rotate(j, p0, p1, p2)
+            p0, p1, p2 = _rotate_one(prof[j], p0, p1, p2)
             p0 += f * wx * ell[j]
             p1 += f * wy * ell[j]
             p2 += g * ell[j]
-            d0, d1, d2 = rotate(j, d0, d1, d2)
+            d0, d1, d2 = _rotate_one(prof[j], d0, d1, d2)
         values = [p0, p1, p2, d0, d1, d2]
         for column, straight in zip(self._bending_to_lengths_columns, self._straight_list):
-            values.append(sum([b * w for b, w in zip(column, vals)]) + straight)
-        rows = np.array(values)[:, None]
-        return rows[0:3], rows[3:6], rows[6:]
+            values.append(sum(map(mul, column, vals)) + straight)
+        return values
 
     # -- the same, field-major: the batched backend's hot path ----------------------------------
     def bending_rows_from_tensions(self, tensions: np.ndarray) -> np.ndarray:
@@ -499,3 +506,19 @@ class PCCModel:
         section's end), in R0, proximal first. A rotation's z column is the backbone tangent, its
         x column the disk's x axis (cable angles β are measured from it)."""
         return self._stations(w, self.disk_fractions)
+
+
+def _rotate_one(
+    profile: tuple[float, float, float, float, float], v0: float, v1: float, v2: float
+) -> tuple[float, float, float]:
+    """One section's rotation of the vector (v0, v1, v2) from the arc profile
+    (wx, wy, f, g, h) of :meth:`PCCModel.forward_values_one` (Python floats)."""
+    wx, wy, f, g, h = profile
+    c = wx * v0 + wy * v1
+    fd = f * (wx * v1 - wy * v0)
+    gv3 = g * v2
+    return (
+        v0 * h + wx * gv3 - wy * fd,
+        v1 * h + wy * gv3 + wx * fd,
+        v2 * h - g * c,
+    )

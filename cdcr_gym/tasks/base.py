@@ -176,8 +176,13 @@ class Task(abc.ABC):
         before :meth:`evaluate`; default: nothing."""
 
     def terminal(self) -> np.ndarray:
-        """(N,) bool: envs whose episode the task ends now (e.g. on a collision); default none."""
-        return np.zeros(self.num_envs, dtype=bool)
+        """(N,) bool: envs whose episode the task ends now (e.g. on a collision); default none.
+        Read-only (callers combine it into their own arrays)."""
+        none = getattr(self, "_never_terminal", None)
+        if none is None or none.shape != (self.num_envs,):
+            none = self._never_terminal = np.zeros(self.num_envs, dtype=bool)
+            none.flags.writeable = False
+        return none
 
     def info_keys(self) -> tuple[str, ...]:
         """Names of the ``info`` entries :meth:`evaluate` returns."""

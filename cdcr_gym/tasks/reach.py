@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from itertools import chain
 from typing import Any
 
 import numpy as np
@@ -25,6 +26,7 @@ __all__ = ["Reach", "ERROR_SCALE"]
 
 #: Length scale (m) of the saturated error feature tanh((goal − tip)/ERROR_SCALE).
 ERROR_SCALE = 0.01
+_INV_ERROR_SCALE = 1.0 / ERROR_SCALE  # the same float as the batched path's 1.0 / ERROR_SCALE
 
 
 class Reach(Task):
@@ -129,14 +131,13 @@ class Reach(Task):
         tip = readings.tip.ravel().tolist()
         goal = self.goal.ravel().tolist()
         error = [g - t for g, t in zip(goal, tip)]
-        values = {
-            "tip": tip,
-            "goal": goal,
-            "error": error,
-            "error_tanh": [math.tanh(e * (1.0 / ERROR_SCALE)) for e in error],
-            **robot_state_values(readings, self._scale),
-        }
-        out[:, 0] = [x for name in self._field_order for x in values[name]]
+        tanh = math.tanh
+        values = robot_state_values(readings, self._scale)
+        values["tip"] = tip
+        values["goal"] = goal
+        values["error"] = error
+        values["error_tanh"] = [tanh(e * _INV_ERROR_SCALE) for e in error]
+        out[:, 0] = list(chain.from_iterable(map(values.__getitem__, self._field_order)))
 
     def achieved_goal(self, readings: Readings) -> np.ndarray:
         return readings.tip
@@ -150,12 +151,18 @@ class Reach(Task):
         return -((distance > self.distance_threshold) * 1.0)
 
     def evaluate(self, readings: Readings) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
-        e = self.goal - readings.tip
         if self.num_envs == 1:  # same arithmetic in Python floats (cheaper for one env)
-            e0, e1, e2 = e.ravel().tolist()
-            distance = np.array([math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)])
-        else:
-            distance = np.sqrt(e[:, 0] * e[:, 0] + e[:, 1] * e[:, 1] + e[:, 2] * e[:, 2])
+            t0, t1, t2 = readings.tip.ravel().tolist()
+            g0, g1, g2 = self.goal.ravel().tolist()
+            e0, e1, e2 = g0 - t0, g1 - t1, g2 - t2
+            d = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+            distance = np.array([d])
+            success = np.array([d <= self.distance_threshold])
+            reward = np.array([-d if self._dense else -float(d > self.distance_threshold)])
+            info = {"distance": distance, "is_success": success, "goal": self.goal.copy()}
+            return reward, success, info
+        e = self.goal - readings.tip
+        distance = np.sqrt(e[:, 0] * e[:, 0] + e[:, 1] * e[:, 1] + e[:, 2] * e[:, 2])
         success = distance <= self.distance_threshold
         info = {"distance": distance, "is_success": success, "goal": self.goal.copy(order="K")}
         return self._reward(distance), success, info
