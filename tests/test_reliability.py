@@ -182,3 +182,54 @@ def test_evaluate_on_a_corrupt_vecnormalize_is_exit_2_naming_the_file(tmp_path, 
     (run / "best_model" / "vecnormalize.pkl").write_bytes(b"\x80\x04truncated")
     assert evaluate.main([str(run), "--episodes", "1"]) == 2
     assert "vecnormalize.pkl" in capsys.readouterr().err
+
+
+# 10. train/evaluate into a directory that cannot be written: a traceback --------------------
+def _unwritable(monkeypatch):
+    """A read-only mount, as root sees it: creating a file fails with EROFS."""
+    import errno
+    import tempfile
+
+    def refuse(*args, **kwargs):
+        raise OSError(errno.EROFS, "Read-only file system")
+
+    monkeypatch.setattr(tempfile, "TemporaryFile", refuse)
+
+
+def test_train_into_a_path_below_a_file_is_exit_2_naming_run_dir(tmp_path, capsys):
+    from training import train
+
+    (tmp_path / "afile").write_text("x")
+    target = tmp_path / "afile" / "run"
+    assert train.main([str(_CONFIG), "--run-dir", str(target)]) == 2
+    err = capsys.readouterr().err
+    assert "--run-dir" in err and "is not a directory" in err and "Traceback" not in err
+
+
+def test_train_into_a_read_only_directory_is_exit_2_and_creates_nothing(
+    tmp_path, capsys, monkeypatch
+):
+    from training import train
+
+    _unwritable(monkeypatch)
+    target = tmp_path / "runs" / "run"
+    assert train.main([str(_CONFIG), "--run-dir", str(target)]) == 2
+    err = capsys.readouterr().err
+    assert "--run-dir" in err and "Read-only file system" in err
+    assert not (tmp_path / "runs").exists()
+
+
+def test_evaluate_into_a_read_only_run_dir_is_exit_2_naming_it(tmp_path, capsys, monkeypatch):
+    from training import evaluate
+
+    run = _run_dir(tmp_path)
+    (run / "best_model" / "model.zip").write_bytes(b"")
+    _unwritable(monkeypatch)
+    assert evaluate.main([str(run), "--episodes", "1"]) == 2
+    err = capsys.readouterr().err
+    assert "RUN_DIR" in err and "Read-only file system" in err
+
+
+_CONFIG = (
+    __import__("pathlib").Path(__file__).resolve().parents[1] / "configs" / "ppo_ccka_reach.yaml"
+)

@@ -145,6 +145,34 @@ class ConfigError(ValueError):
     """A config file that cannot be used; the message names the offending key."""
 
 
+def check_writable_directory(path: Path, what: str) -> None:
+    """Raise :class:`ConfigError` unless ``path`` is (or can be created as) a writable directory.
+
+    Nothing is created: the nearest existing ancestor must be a directory this process may write
+    into (a read-only mount, a path below a regular file, a permission error). An existing
+    directory is also probed with a temporary file, since ``os.access`` may pass for root.
+    ``what`` names the argument in the message, e.g. ``"--run-dir"``.
+    """
+    import os
+    import tempfile
+
+    path = Path(path)
+    probe = path
+    while not probe.exists() and probe != probe.parent:
+        probe = probe.parent
+    if not probe.is_dir():
+        raise ConfigError(f"{what} {str(path)!r}: {str(probe)!r} is not a directory")
+    if not os.access(probe, os.W_OK | os.X_OK):
+        raise ConfigError(f"{what} {str(path)!r}: {str(probe)!r} is not writable")
+    try:
+        with tempfile.TemporaryFile(dir=probe):
+            pass
+    except OSError as exc:
+        raise ConfigError(
+            f"{what} {str(path)!r}: cannot write into {str(probe)!r}: {exc.strerror}"
+        ) from None
+
+
 @dataclass
 class EnvConfig:
     """The environment: a registered id, its kwargs, and how many copies train in parallel."""

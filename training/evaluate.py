@@ -49,7 +49,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from training.config import ConfigError, ExperimentConfig, load_config
+from training.config import ConfigError, ExperimentConfig, check_writable_directory, load_config
 
 __all__ = ["main", "evaluate"]
 
@@ -452,6 +452,7 @@ def main(argv: list[str] | None = None) -> int:
             raise ConfigError(f"RUN_DIR {str(run_dir)!r} is not a directory")
         if not (run_dir / "config.yaml").is_file():
             raise ConfigError(f"RUN_DIR {str(run_dir)!r} is not a training run (no config.yaml)")
+        check_writable_directory(run_dir, "RUN_DIR")
         model_dir = run_dir / ("best_model" if args.model == "best" else "final_model")
         if not (model_dir / "model.zip").is_file():
             raise ConfigError(

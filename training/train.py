@@ -75,6 +75,7 @@ from training.config import (
     SACConfig,
     TD3Config,
     TQCConfig,
+    check_writable_directory,
     config_to_dict,
     load_config,
     save_config,
@@ -1396,6 +1397,7 @@ def _resolve(args: argparse.Namespace) -> tuple[ExperimentConfig, Path]:
         run_dir = Path("runs") / f"{config.name}_seed{config.seed}_{stamp}"
     else:
         run_dir = args.run_dir
+    check_writable_directory(run_dir, "--run-dir")
     if run_dir.exists() and (not run_dir.is_dir() or any(run_dir.iterdir())):
         run = RunDir(run_dir)
         restartable = run_dir.is_dir() and run.config.is_file() and run.latest_checkpoint() is None
