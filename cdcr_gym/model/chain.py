@@ -371,17 +371,6 @@ class PCCModel:
             f = p * p * 0.5
             prof.append((wx, wy, f, g, 1.0 - f * th2))
 
-        def rotate(k: int, v0: float, v1: float, v2: float) -> tuple[float, float, float]:
-            wx, wy, f, g, h = prof[k]
-            c = wx * v0 + wy * v1
-            fd = f * (wx * v1 - wy * v0)
-            gv3 = g * v2
-            return (
-                v0 * h + wx * gv3 - wy * fd,
-                v1 * h + wy * gv3 + wx * fd,
-                v2 * h - g * c,
-            )
-
         last = self.n_sections - 1
         wx, wy, f, g, h = prof[last]
         p0, p1, p2 = f * wx * ell[last], f * wy * ell[last], g * ell[last]
