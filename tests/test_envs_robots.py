@@ -17,22 +17,14 @@ from cdcr_gym.params import RobotParams
 
 IDS = ["cdcr_gym/CCKAReach-v0", "cdcr_gym/BulletReach-v0"]
 ROBOTS = ["paper", "tdcr2"]
-#: every (id, robot) the release supports: the pybullet backend models one section for now
-#: (test_bullet_refuses_several_sections_with_a_clear_error)
-COMBOS = [
-    (i, r) for i in IDS for r in ROBOTS if not (i.startswith("cdcr_gym/Bullet") and r != "paper")
-]
+#: every (id, robot) the release supports
+COMBOS = [(i, r) for i in IDS for r in ROBOTS]
 
 
 def _make(env_id, robot, **kwargs):
     if env_id.startswith("cdcr_gym/Bullet"):
         kwargs.setdefault("gravity", False)
     return gym.make(env_id, robot=robot, **kwargs)
-
-
-def test_bullet_refuses_several_sections_with_a_clear_error():
-    with pytest.raises(ValueError, match="one section"):
-        gym.make("cdcr_gym/BulletReach-v0", robot="tdcr2")
 
 
 @pytest.mark.parametrize("goal_conditioned", [False, True])

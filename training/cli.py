@@ -27,7 +27,7 @@ __all__ = ["main", "configs_dir", "resolve_config", "COMMANDS"]
 
 #: subcommand -> (module, one-line description, the extra it needs)
 COMMANDS: dict[str, tuple[str, str, str]] = {
-    "train": ("training.train", "train a PPO agent from a YAML config", "train"),
+    "train": ("training.train", "train an agent (PPO, SAC, TD3, TQC) from a YAML config", "train"),
     "evaluate": ("training.evaluate", "evaluate a run against the analytic-IK oracle", "train"),
     "reproduce": (
         "training.reproduce",

@@ -8,7 +8,9 @@ valid name), wrong types and out-of-range values are errors that name the key an
 .. code-block:: yaml
 
     name: ppo_ccka_reach          # run-directory prefix
-    seed: 0                       # seeds PPO, torch, the training envs and the evaluation envs
+    algo: ppo                     # ppo | sac | td3 (stable-baselines3) | tqc (sb3-contrib)
+    seed: 0                       # in [0, 2**32 - 1]; seeds the algorithm, torch, numpy and the
+                                  # training envs (seed + i); evaluation goals have their own seeds
     total_timesteps: 1000000      # environment steps (summed over all envs)
     env:
       id: cdcr_gym/CCKAReach-v0   # any registered id
@@ -42,6 +44,33 @@ valid name), wrong types and out-of-range values are errors that name the key an
         activation: tanh          # tanh | relu | elu
         log_std_init: -1.0
         ortho_init: true
+    sac:                          # only with algo: sac (a section of another algo is an error)
+      learning_rate: 3.0e-4
+      lr_schedule: constant
+      buffer_size: 1000000        # transitions kept in the replay buffer
+      learning_starts: 1000       # env steps of uniform random actions before updates start
+      batch_size: 256
+      tau: 0.005
+      gamma: 0.98
+      train_freq: 1               # env steps per env between updates (collection rounds)
+      gradient_steps: 1           # gradient steps after each collection round
+      ent_coef: null              # null: learned ("auto"); a number: fixed
+      her:                        # HER's replay buffer (needs env.kwargs.goal_conditioned: true)
+        enabled: false
+        n_sampled_goal: 4
+        goal_selection_strategy: future   # future | final | episode
+      policy:
+        net_arch: [256, 256]      # same layers for the actor and the critics
+        activation: relu
+    td3:                          # as sac, without ent_coef, plus:
+      action_noise_std: 0.1       # Gaussian exploration noise, in units of the action range/2
+      policy_delay: 2
+      target_policy_noise: 0.2
+      target_noise_clip: 0.5
+    tqc:                          # as sac, plus:
+      n_quantiles: 25
+      n_critics: 2
+      top_quantiles_to_drop_per_net: 2
     eval:                         # periodic evaluation during training (best-model selection)
       freq: 25000                 # environment steps between evaluations
       n_episodes: 50
@@ -68,6 +97,7 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import math
+import re
 import types
 import typing
 from dataclasses import dataclass, field
@@ -82,12 +112,19 @@ __all__ = [
     "NormalizeConfig",
     "PolicyConfig",
     "PPOConfig",
+    "HerConfig",
+    "OffPolicyNetConfig",
+    "SACConfig",
+    "TD3Config",
+    "TQCConfig",
+    "ALGOS",
     "EvalConfig",
     "CheckpointConfig",
     "EvaluateConfig",
     "RuntimeConfig",
     "ExperimentConfig",
     "load_config",
+    "load_yaml",
     "config_from_dict",
     "config_to_dict",
     "save_config",
@@ -98,6 +135,10 @@ LR_SCHEDULES = ("constant", "linear")
 ACTIVATIONS = ("tanh", "relu", "elu")
 BEST_METRICS = ("mean_error", "median_error", "success_rate", "mean_reward")
 INITIAL_STATES = ("straight", "random")
+ALGOS = ("ppo", "sac", "td3", "tqc")
+OFF_POLICY = ("sac", "td3", "tqc")
+GOAL_STRATEGIES = ("future", "final", "episode")
+MAX_SEED = 2**32 - 1
 
 
 class ConfigError(ValueError):
@@ -114,6 +155,11 @@ class EnvConfig:
     max_episode_steps: int | None = None
     n_envs: int = 8
     vec_env: str = "dummy"
+
+    @property
+    def max_episode_steps_or_default(self) -> int:
+        """``max_episode_steps``, or the registered episode length (100) when it is None."""
+        return self.max_episode_steps or 100
 
 
 @dataclass
@@ -154,6 +200,68 @@ class PPOConfig:
     max_grad_norm: float = 0.5
     target_kl: float | None = None
     policy: PolicyConfig = field(default_factory=PolicyConfig)
+
+
+@dataclass
+class HerConfig:
+    """Hindsight experience replay (``stable_baselines3.HerReplayBuffer``) for off-policy algos."""
+
+    enabled: bool = False
+    n_sampled_goal: int = 4
+    goal_selection_strategy: str = "future"
+
+
+@dataclass
+class OffPolicyNetConfig:
+    """The actor and critic MLPs of SAC/TD3/TQC (``policy_kwargs``)."""
+
+    net_arch: list[int] = field(default_factory=lambda: [256, 256])
+    activation: str = "relu"
+
+
+@dataclass
+class OffPolicyConfig:
+    """Hyperparameters shared by the off-policy algorithms (stable-baselines3 names)."""
+
+    learning_rate: float = 3.0e-4
+    lr_schedule: str = "constant"
+    buffer_size: int = 1_000_000
+    learning_starts: int = 1000
+    batch_size: int = 256
+    tau: float = 0.005
+    gamma: float = 0.98
+    train_freq: int = 1
+    gradient_steps: int = 1
+    her: HerConfig = field(default_factory=HerConfig)
+    policy: OffPolicyNetConfig = field(default_factory=OffPolicyNetConfig)
+
+
+@dataclass
+class SACConfig(OffPolicyConfig):
+    """stable-baselines3 SAC."""
+
+    ent_coef: float | None = None
+
+
+@dataclass
+class TD3Config(OffPolicyConfig):
+    """stable-baselines3 TD3 (Gaussian action noise of std ``action_noise_std``)."""
+
+    learning_rate: float = 1.0e-3
+    action_noise_std: float = 0.1
+    policy_delay: int = 2
+    target_policy_noise: float = 0.2
+    target_noise_clip: float = 0.5
+
+
+@dataclass
+class TQCConfig(OffPolicyConfig):
+    """sb3-contrib TQC (truncated quantile critics)."""
+
+    ent_coef: float | None = None
+    n_quantiles: int = 25
+    n_critics: int = 2
+    top_quantiles_to_drop_per_net: int = 2
 
 
 @dataclass
@@ -199,11 +307,15 @@ class ExperimentConfig:
     """One experiment: everything ``python -m training.train`` needs."""
 
     name: str = "experiment"
+    algo: str = "ppo"
     seed: int = 0
     total_timesteps: int = 1_000_000
     env: EnvConfig = field(default_factory=EnvConfig)
     normalize: NormalizeConfig = field(default_factory=NormalizeConfig)
     ppo: PPOConfig = field(default_factory=PPOConfig)
+    sac: SACConfig = field(default_factory=SACConfig)
+    td3: TD3Config = field(default_factory=TD3Config)
+    tqc: TQCConfig = field(default_factory=TQCConfig)
     eval: EvalConfig = field(default_factory=EvalConfig)
     checkpoint: CheckpointConfig = field(default_factory=CheckpointConfig)
     evaluate: EvaluateConfig = field(default_factory=EvaluateConfig)
@@ -212,8 +324,16 @@ class ExperimentConfig:
     def validate(self) -> ExperimentConfig:
         """Check values (types are checked on parsing); raise :class:`ConfigError` naming the key."""
         _positive_int("total_timesteps", self.total_timesteps)
-        if not isinstance(self.seed, int) or self.seed < 0:
-            raise ConfigError(f"seed must be an integer >= 0, got {self.seed!r}")
+        _choice("algo", self.algo, ALGOS)
+        if (
+            isinstance(self.seed, bool)
+            or not isinstance(self.seed, int)
+            or not 0 <= self.seed <= MAX_SEED
+        ):
+            raise ConfigError(
+                f"seed must be an integer in [0, 2**32 - 1 = {MAX_SEED}] (numpy's seed range), "
+                f"got {self.seed!r}"
+            )
         if not self.name or "/" in self.name:
             raise ConfigError(f"name must be a non-empty string without '/', got {self.name!r}")
         e = self.env
@@ -228,10 +348,15 @@ class ExperimentConfig:
         for i, extra in enumerate(e.per_env_kwargs):
             if not all(isinstance(k, str) for k in extra):
                 raise ConfigError(f"env.per_env_kwargs[{i}] keys must be strings, got {extra!r}")
-        if any(kw.get("goal_conditioned") for kw in (e.kwargs, *e.per_env_kwargs)):
+        goal_conditioned = bool(e.kwargs.get("goal_conditioned"))
+        if any(kw.get("goal_conditioned") for kw in e.per_env_kwargs):
             raise ConfigError(
-                "env.kwargs.goal_conditioned: the Dict (HER) observation is not supported by "
-                "training.train (PPO with an MLP on the flat observation); remove the key"
+                "env.per_env_kwargs[].goal_conditioned: set it for all envs in env.kwargs"
+            )
+        if goal_conditioned and self.algo not in OFF_POLICY:
+            raise ConfigError(
+                f"env.kwargs.goal_conditioned: the Dict (goal-conditioned) observation is for the "
+                f"off-policy algos {list(OFF_POLICY)} (with her.enabled), not algo: {self.algo}"
             )
         for key in ("max_episode_steps", "render_mode"):
             if any(key in kw for kw in (e.kwargs, *e.per_env_kwargs)):
@@ -242,6 +367,80 @@ class ExperimentConfig:
         n = self.normalize
         _positive_float("normalize.clip_obs", n.clip_obs)
         _positive_float("normalize.clip_reward", n.clip_reward)
+        if self.algo == "ppo":
+            self._validate_ppo()
+        else:
+            self._validate_off_policy(goal_conditioned)
+        self._validate_rest()
+        return self
+
+    @property
+    def algo_config(self) -> PPOConfig | SACConfig | TD3Config | TQCConfig:
+        """The section of the selected algorithm (``self.ppo``, ``self.sac``, ...)."""
+        section: PPOConfig | SACConfig | TD3Config | TQCConfig = getattr(self, self.algo)
+        return section
+
+    def _validate_off_policy(self, goal_conditioned: bool) -> None:
+        a = self.algo
+        c = typing.cast(OffPolicyConfig, self.algo_config)
+        _positive_float(f"{a}.learning_rate", c.learning_rate)
+        _choice(f"{a}.lr_schedule", c.lr_schedule, LR_SCHEDULES)
+        _positive_int(f"{a}.buffer_size", c.buffer_size)
+        if isinstance(c.learning_starts, bool) or c.learning_starts < 0:
+            raise ConfigError(f"{a}.learning_starts must be >= 0, got {c.learning_starts!r}")
+        _positive_int(f"{a}.batch_size", c.batch_size)
+        if not 0.0 < c.tau <= 1.0:
+            raise ConfigError(f"{a}.tau must be in (0, 1], got {c.tau!r}")
+        if not 0.0 < c.gamma <= 1.0:
+            raise ConfigError(f"{a}.gamma must be in (0, 1], got {c.gamma!r}")
+        _positive_int(f"{a}.train_freq", c.train_freq)
+        _positive_int(f"{a}.gradient_steps", c.gradient_steps)
+        _net_arch(f"{a}.policy.net_arch", c.policy.net_arch)
+        _choice(f"{a}.policy.activation", c.policy.activation, ACTIVATIONS)
+        h = c.her
+        _positive_int(f"{a}.her.n_sampled_goal", h.n_sampled_goal)
+        _choice(f"{a}.her.goal_selection_strategy", h.goal_selection_strategy, GOAL_STRATEGIES)
+        if h.enabled and not goal_conditioned:
+            raise ConfigError(
+                f"{a}.her.enabled: HER needs the goal-conditioned observation; "
+                f"set env.kwargs.goal_conditioned: true"
+            )
+        horizon = self.env.max_episode_steps_or_default
+        if h.enabled and c.learning_starts < horizon * self.env.n_envs:
+            raise ConfigError(
+                f"{a}.learning_starts ({c.learning_starts}) must be >= env.max_episode_steps * "
+                f"env.n_envs ({horizon} * {self.env.n_envs}) with HER: it samples finished "
+                f"episodes only"
+            )
+        if h.enabled and c.buffer_size < self.env.max_episode_steps_or_default:
+            raise ConfigError(
+                f"{a}.buffer_size ({c.buffer_size}) must hold at least one episode "
+                f"({self.env.max_episode_steps_or_default} steps) with HER"
+            )
+        if isinstance(c, (SACConfig, TQCConfig)) and c.ent_coef is not None:
+            _positive_float(f"{a}.ent_coef", c.ent_coef)
+        if isinstance(c, TD3Config):
+            if not math.isfinite(c.action_noise_std) or c.action_noise_std < 0:
+                raise ConfigError(
+                    f"td3.action_noise_std must be finite and >= 0, got {c.action_noise_std!r}"
+                )
+            _positive_int("td3.policy_delay", c.policy_delay)
+            for key in ("target_policy_noise", "target_noise_clip"):
+                value = getattr(c, key)
+                if not math.isfinite(value) or value < 0:
+                    raise ConfigError(f"td3.{key} must be finite and >= 0, got {value!r}")
+        if isinstance(c, TQCConfig):
+            _positive_int("tqc.n_quantiles", c.n_quantiles)
+            _positive_int("tqc.n_critics", c.n_critics)
+            drop = c.top_quantiles_to_drop_per_net
+            if isinstance(drop, bool) or not 0 <= drop < c.n_quantiles:
+                raise ConfigError(
+                    f"tqc.top_quantiles_to_drop_per_net must be in [0, tqc.n_quantiles), "
+                    f"got {drop!r}"
+                )
+
+    def _validate_ppo(self) -> None:
+        e = self.env
         p = self.ppo
         _positive_float("ppo.learning_rate", p.learning_rate)
         _choice("ppo.lr_schedule", p.lr_schedule, LR_SCHEDULES)
@@ -266,18 +465,14 @@ class ExperimentConfig:
         _positive_float("ppo.max_grad_norm", p.max_grad_norm)
         if p.target_kl is not None:
             _positive_float("ppo.target_kl", p.target_kl)
-        if not p.policy.net_arch or not all(
-            isinstance(w, int) and not isinstance(w, bool) and w > 0 for w in p.policy.net_arch
-        ):
-            raise ConfigError(
-                f"ppo.policy.net_arch must be a non-empty list of positive layer widths, "
-                f"got {p.policy.net_arch!r}"
-            )
+        _net_arch("ppo.policy.net_arch", p.policy.net_arch)
         _choice("ppo.policy.activation", p.policy.activation, ACTIVATIONS)
         if not math.isfinite(p.policy.log_std_init):
             raise ConfigError(
                 f"ppo.policy.log_std_init must be finite, got {p.policy.log_std_init}"
             )
+
+    def _validate_rest(self) -> None:
         _positive_int("eval.freq", self.eval.freq)
         _positive_int("eval.n_episodes", self.eval.n_episodes)
         if self.eval.seed < 0:
@@ -302,9 +497,9 @@ class ExperimentConfig:
             _positive_int("evaluate.horizons[]", h)
         if v.video_episodes < 0:
             raise ConfigError(f"evaluate.video_episodes must be >= 0, got {v.video_episodes!r}")
-        if self.runtime.device not in ("cpu", "cuda", "auto") and not str(
-            self.runtime.device
-        ).startswith("cuda:"):
+        if self.runtime.device not in ("cpu", "auto") and not re.fullmatch(
+            r"cuda(:\d+)?", str(self.runtime.device)
+        ):
             raise ConfigError(
                 f"runtime.device must be 'cpu', 'cuda', 'cuda:N' or 'auto', "
                 f"got {self.runtime.device!r}"
@@ -312,7 +507,15 @@ class ExperimentConfig:
         _positive_int("runtime.torch_threads", self.runtime.torch_threads)
         if self.runtime.max_wall_time_s is not None:
             _positive_float("runtime.max_wall_time_s", self.runtime.max_wall_time_s)
-        return self
+
+
+def _net_arch(key: str, widths: Any) -> None:
+    if not widths or not all(
+        isinstance(w, int) and not isinstance(w, bool) and w > 0 for w in widths
+    ):
+        raise ConfigError(
+            f"{key} must be a non-empty list of positive layer widths, got {widths!r}"
+        )
 
 
 def _positive_int(key: str, value: Any) -> None:
@@ -400,19 +603,69 @@ def _build(cls: type, data: Any, prefix: str = "") -> Any:
 
 
 def config_from_dict(data: dict[str, Any]) -> ExperimentConfig:
-    """An :class:`ExperimentConfig` from a parsed YAML mapping; strict (see module docstring)."""
-    return _build(ExperimentConfig, data).validate()
+    """An :class:`ExperimentConfig` from a parsed YAML mapping; strict (see module docstring).
+
+    Only the section of the selected ``algo`` may be given (``sac:`` with ``algo: ppo`` is an
+    error naming the section)."""
+    config = _build(ExperimentConfig, data)
+    if isinstance(data, dict) and config.algo in ALGOS:
+        for other in ALGOS:
+            if other != config.algo and other in data:
+                raise ConfigError(
+                    f"config section '{other}' is for algo: {other}, but algo is "
+                    f"{config.algo!r}; remove the section or set algo: {other}"
+                )
+    return config.validate()
+
+
+class _StrictLoader(yaml.SafeLoader):
+    """A YAML SafeLoader that rejects duplicate keys in a mapping (PyYAML keeps the last)."""
+
+    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
+        seen: dict[Any, int] = {}
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=True)  # type: ignore[no-untyped-call]
+            line = key_node.start_mark.line + 1
+            try:
+                first = seen.get(key)
+            except TypeError:  # an unhashable key: let PyYAML report it
+                break
+            if first is not None:
+                raise ConfigError(
+                    f"duplicate key {key!r} on line {line} (first given on line {first}); "
+                    f"YAML would silently keep the last value"
+                )
+            seen[key] = line
+        return super().construct_mapping(node, deep=deep)
+
+
+def load_yaml(path: str | Path) -> Any:
+    """Parse a YAML file strictly: UTF-8, no duplicate keys. Raises :class:`ConfigError`."""
+    path = Path(path)
+    if path.is_dir():
+        raise ConfigError(f"config file {str(path)!r} is a directory, not a YAML file")
+    if not path.is_file():
+        raise ConfigError(f"config file {str(path)!r} does not exist")
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ConfigError(
+            f"config file {str(path)!r} is not UTF-8 text (byte {exc.start}: "
+            f"{exc.object[exc.start : exc.start + 1]!r})"
+        ) from None
+    except OSError as exc:
+        raise ConfigError(f"config file {str(path)!r} cannot be read: {exc.strerror}") from None
+    try:
+        return yaml.load(text, Loader=_StrictLoader)  # noqa: S506 - a SafeLoader subclass
+    except ConfigError as exc:
+        raise ConfigError(f"config file {str(path)!r}: {exc}") from None
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"config file {str(path)!r} is not valid YAML: {exc}") from None
 
 
 def load_config(path: str | Path) -> ExperimentConfig:
     """Read and validate a YAML config file. Raises :class:`ConfigError` naming the bad key."""
-    path = Path(path)
-    if not path.is_file():
-        raise ConfigError(f"config file {str(path)!r} does not exist")
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"config file {str(path)!r} is not valid YAML: {exc}") from None
+    data = load_yaml(path)
     try:
         return config_from_dict(data if data is not None else {})
     except ConfigError as exc:
@@ -420,8 +673,13 @@ def load_config(path: str | Path) -> ExperimentConfig:
 
 
 def config_to_dict(config: ExperimentConfig) -> dict[str, Any]:
-    """The resolved config as plain data (every key, defaults filled in)."""
-    return dataclasses.asdict(config)
+    """The resolved config as plain data (every key, defaults filled in; only the selected
+    algorithm's section)."""
+    data = dataclasses.asdict(config)
+    for other in ALGOS:
+        if other != config.algo:
+            data.pop(other, None)
+    return data
 
 
 def save_config(config: ExperimentConfig, path: str | Path) -> None:

@@ -101,7 +101,9 @@ def evaluate(
     t0 = time.perf_counter()
     model_dir = run_dir / ("best_model" if model == "best" else "final_model")
     vn_path = model_dir / "vecnormalize.pkl"
-    policy = PPOPolicy(model_dir / "model.zip", vn_path if vn_path.exists() else None)
+    policy = PPOPolicy(
+        model_dir / "model.zip", vn_path if vn_path.exists() else None, algo=config.algo
+    )
     model_info: dict[str, Any] = {}
     if (model_dir / "info.json").exists():
         model_info = json.loads((model_dir / "info.json").read_text())
@@ -111,6 +113,11 @@ def evaluate(
     seed = ev.seed if seed is None else seed
     train_horizon = config.env.max_episode_steps or _registered_steps(config.env.id)
     probe = make_env(env_id, env_kwargs)
+    if type(probe.unwrapped.task).__name__ != "Reach":
+        probe.close()
+        return _evaluate_task(
+            run_dir, config, policy, episodes, env_id, env_kwargs, tag, seed, model_step, command
+        )
     params = probe.unwrapped.params
     threshold = float(probe.unwrapped.task.distance_threshold)
     ik = AnalyticIKController.from_env(probe)
@@ -224,6 +231,68 @@ def evaluate(
     result["wall_time_s"] = round(time.perf_counter() - t0, 1)
     out_json.write_text(json.dumps(result, indent=2) + "\n")
     result["_json_path"] = str(out_json)
+    return result
+
+
+def _evaluate_task(
+    run_dir: Path,
+    config: ExperimentConfig,
+    policy: Any,
+    episodes: int,
+    env_id: str,
+    env_kwargs: dict[str, Any],
+    tag: str | None,
+    seed: int,
+    model_step: int,
+    command: str,
+) -> dict[str, Any]:
+    """Track, Pose, Obstacle: the task's own metrics for the policy beside its oracle's (and, for
+    Obstacle, the plain reach IK's) on the same episodes, per starting state, at the first
+    horizon (``training.task_metrics``). Writes the JSON and the path figures."""
+    from training.oracles import plot_paths
+    from training.rollout import make_env
+    from training.task_metrics import oracle_for, run_task_episodes, summarize_task
+
+    ev = config.evaluate
+    horizon = ev.horizons[0]
+    out_json = run_dir / ("eval.json" if tag is None else f"eval_{tag}.json")
+    fig_dir = run_dir / ("eval" if tag is None else f"eval_{tag}")
+    fig_dir.mkdir(parents=True, exist_ok=True)
+    conditions: dict[str, Any] = {}
+    task = ""
+    for initial_state in ev.initial_states:
+        kwargs = {**env_kwargs, "initial_state": initial_state}
+
+        def env_fn(k: dict[str, Any] = kwargs) -> Any:
+            return make_env(env_id, k, horizon)
+
+        probe = env_fn()
+        baselines = {"oracle": oracle_for(probe)}
+        task = type(probe.unwrapped.task).__name__
+        if task == "Obstacle":
+            baselines["reach_ik"] = oracle_for(probe, "reach_ik")
+        probe.close()
+        record = min(3, episodes)
+        runs = {"policy": run_task_episodes(env_fn, policy, episodes, seed, record=record)}
+        for name, baseline in baselines.items():
+            runs[name] = run_task_episodes(env_fn, baseline, episodes, seed, record=record)
+        name = f"{initial_state}_h{horizon}"
+        conditions[name] = {key: summarize_task(value) for key, value in runs.items()}
+        plot_paths(task, {k: v["paths"] for k, v in runs.items()}, fig_dir / f"{name}_paths.png")
+    headline = conditions[next(iter(conditions))]
+    result = {
+        "run_dir": str(run_dir),
+        "env_id": env_id,
+        "task": task,
+        "env_kwargs": env_kwargs,
+        "episodes": episodes,
+        "seed": seed,
+        "model_step": model_step,
+        "command": command,
+        **headline,
+        "conditions": conditions,
+    }
+    out_json.write_text(json.dumps(result, indent=2, default=str) + "\n")
     return result
 
 
@@ -421,7 +490,9 @@ def main(argv: list[str] | None = None) -> int:
 
         vn_path = model_dir / "vecnormalize.pkl"
         try:  # a truncated model or a corrupt VecNormalize: a clear error, before any output
-            PPOPolicy(model_dir / "model.zip", vn_path if vn_path.exists() else None)
+            PPOPolicy(
+                model_dir / "model.zip", vn_path if vn_path.exists() else None, algo=config.algo
+            )
         except ModelFileError as exc:
             raise ConfigError(str(exc)) from None
     except ConfigError as exc:
@@ -440,8 +511,32 @@ def main(argv: list[str] | None = None) -> int:
         seed=args.seed,
         command=command,
     )
-    _print_table(result)
+    if "task" in result:
+        _print_task_table(result)
+    else:
+        _print_table(result)
     return 0
+
+
+def _print_task_table(result: dict[str, Any]) -> None:
+    """One line per condition and policy: success, error and the task's own numbers."""
+    for name, rows in result["conditions"].items():
+        print(f"{result['task']} {name} ({result['episodes']} episodes)")
+        for who, s in rows.items():
+            extra = ""
+            if "tracking_rms_mm" in s:
+                extra = f"  tracking RMS mean {s['tracking_rms_mm']['mean']:.3f} mm"
+            if "final_angle_deg" in s:
+                extra = f"  angle median {s['final_angle_deg']['median']:.3f} deg"
+            if "collision_rate" in s:
+                extra = (
+                    f"  collision rate {100 * s['collision_rate']:.1f} %, collisions in "
+                    f"successes {s['collisions_in_successful_episodes']}"
+                )
+            print(
+                f"  {who:9s} success {100 * s['success_rate']:5.1f} %  final distance median "
+                f"{s['final_distance_mm']['median']:.3f} mm{extra}"
+            )
 
 
 if __name__ == "__main__":

@@ -3,7 +3,7 @@
 Used by the periodic evaluation during training (``training.train``) and by
 ``training.evaluate``. A *policy* here is a function from a batch of observations (b, obs_dim)
 to a batch of actions (b, 3): a PPO model behind its VecNormalize statistics
-(:class:`PPOPolicy`) or the analytic-IK controller (``cdcr_gym.controllers``), so both run on
+(:class:`SB3Policy`, any algo) or the analytic-IK controller (``cdcr_gym.controllers``), so both run on
 exactly the same goals and starting shapes.
 
 Episode specs (goal, starting tensions) are drawn by resetting a CCKA env with seeds
@@ -30,6 +30,8 @@ __all__ = [
     "EpisodeSpecs",
     "Rollouts",
     "PPOPolicy",
+    "SB3Policy",
+    "algo_class",
     "make_specs",
     "concat_specs",
     "make_env",
@@ -124,24 +126,58 @@ class ModelFileError(ValueError):
     """A saved model or normalisation file that cannot be read (the message names the file)."""
 
 
-class PPOPolicy:
-    """A saved PPO model and its VecNormalize statistics as a batched, deterministic policy.
+def algo_class(algo: str) -> Any:
+    """The stable-baselines3 (or sb3-contrib) class of ``algo`` (ppo | sac | td3 | tqc).
+
+    Raises ValueError naming ``algo`` for an unknown name, ImportError naming the missing
+    package (sb3-contrib for tqc)."""
+    if algo == "tqc":
+        try:
+            from sb3_contrib import TQC
+        except ImportError:
+            raise ImportError(
+                "algo: tqc needs sb3-contrib; pip install 'cdcr-gym[train]' (or sb3-contrib)"
+            ) from None
+        return TQC
+    import stable_baselines3
+
+    classes = {"ppo": "PPO", "sac": "SAC", "td3": "TD3"}
+    if algo not in classes:
+        raise ValueError(f"algo must be one of ['ppo', 'sac', 'td3', 'tqc'], got {algo!r}")
+    return getattr(stable_baselines3, classes[algo])
+
+
+class SB3Policy:
+    """A saved model of any algo and its VecNormalize statistics as a batched, deterministic
+    policy (``PPOPolicy`` is the same class, kept under its old name).
 
     Args:
         model_path: the ``.zip`` saved by stable-baselines3.
         vecnormalize_path: the pickled ``VecNormalize`` of the run (None: no normalisation).
         device: torch device.
+        algo: the algorithm that saved it (ppo | sac | td3 | tqc; the run's ``config.yaml``).
     """
 
     def __init__(
-        self, model_path: str | Path, vecnormalize_path: str | Path | None, device: str = "cpu"
+        self,
+        model_path: str | Path,
+        vecnormalize_path: str | Path | None,
+        device: str = "cpu",
+        algo: str = "ppo",
     ) -> None:
-        from stable_baselines3 import PPO
-
-        # The schedules are not needed to act; replacing them avoids unpickling closures.
-        custom = {"learning_rate": 0.0, "lr_schedule": lambda _: 0.0, "clip_range": lambda _: 0.0}
+        # The schedules are not needed to act; replacing them avoids unpickling closures. An
+        # off-policy model gets a one-transition plain buffer (HER's needs the training env).
+        custom: dict[str, Any] = {
+            "learning_rate": 0.0,
+            "lr_schedule": lambda _: 0.0,
+            "clip_range": lambda _: 0.0,
+        }
+        if algo != "ppo":
+            custom.update({"replay_buffer_class": None, "replay_buffer_kwargs": {}})
+            custom["buffer_size"] = 1
+        cls = algo_class(algo)
         try:
-            self.model = PPO.load(str(model_path), device=device, custom_objects=custom)
+            self.model = cls.load(str(model_path), device=device, custom_objects=custom)
         except Exception as exc:  # a truncated/empty/foreign zip fails in many ways
             raise ModelFileError(
                 f"{str(model_path)!r} is not a readable stable-baselines3 model "
@@ -161,18 +197,38 @@ class PPOPolicy:
             self.obs_normalizer = vecnorm
 
     @classmethod
-    def from_model(cls, model: Any, vecnorm: Any | None) -> PPOPolicy:
+    def from_model(cls, model: Any, vecnorm: Any | None) -> SB3Policy:
         """Wrap a live model (and its live VecNormalize, whose current statistics are used)."""
         self = cls.__new__(cls)
         self.model = model
         self.obs_normalizer = vecnorm
         return self
 
-    def __call__(self, obs: np.ndarray) -> np.ndarray:
+    def __call__(self, obs: Any) -> np.ndarray:
+        """Actions (b, 3) for a batch of observations: an array (b, obs_dim), or a dict of
+        arrays (b, ...) for a goal-conditioned env."""
         if self.obs_normalizer is not None:
             obs = self.obs_normalizer.normalize_obs(obs)
         action, _ = self.model.predict(obs, deterministic=True)
         return action
+
+
+PPOPolicy = SB3Policy
+
+
+def _stack_obs(obs_list: list[Any]) -> Any:
+    """Single-env observations stacked into a batch (a dict of batches for Dict observations)."""
+    if isinstance(obs_list[0], dict):
+        return {k: np.stack([o[k] for o in obs_list]) for k in obs_list[0]}
+    return np.stack(obs_list)
+
+
+def _set_obs_row(batch: Any, k: int, obs: Any) -> None:
+    if isinstance(batch, dict):
+        for key, value in obs.items():
+            batch[key][k] = value
+    else:
+        batch[k] = obs
 
 
 def run_episodes(
@@ -207,7 +263,7 @@ def run_episodes(
                 )
                 obs_list.append(obs)
                 infos.append(info)
-            obs = np.stack(obs_list)
+            obs = _stack_obs(obs_list)
             alive = np.ones(len(idx), dtype=bool)
             tips = [[info["tip"]] for info in infos]
             distances[idx, 0] = [info["distance"] for info in infos]
@@ -216,7 +272,7 @@ def run_episodes(
                 for k, (env, i) in enumerate(zip(envs, idx, strict=False)):
                     if alive[k]:
                         o, reward, terminated, truncated, info = env.step(actions[k])
-                        obs[k] = o
+                        _set_obs_row(obs, k, o)
                         infos[k] = info
                         returns[i] += reward
                         if terminated or (truncated and t < horizon):

@@ -6,6 +6,12 @@ Quasi-static and batched: every command moves all N robots straight to their equ
 cable-length commands set the shape by ``PCCModel.bending_from_lengths`` and report the minimal
 tensions that hold it (``model.statics.minimal_tensions``, clipped to max_tension). The single
 env runs it with N = 1, the batched env with N = num_envs.
+
+Per-robot parameters (domain randomisation, :meth:`AnalyticBackend.set_randomized`): a robot
+with Young's modulus E and cable radius r bends by w = (r/r₀)(E₀/E)·w₀(T) under tensions T, and
+its cable lengths change by (r/r₀)·Δl₀(w), where the subscript 0 is the nominal robot
+(``params``): the statics and the length map are linear in r/EI and r. Until parameters are set
+the nominal path runs unchanged.
 """
 
 from __future__ import annotations
@@ -31,6 +37,7 @@ class AnalyticBackend(Backend):
 
     control_timestep = 0.0
     supports_length_control = True
+    randomizable = frozenset({"youngs_modulus", "cable_radius"})
 
     def __init__(self, params: RobotParams | None = None, num_robots: int = 1) -> None:
         if params is None:
@@ -40,21 +47,35 @@ class AnalyticBackend(Backend):
         self.params = params
         self.num_robots = validation.integer(num_robots, "num_robots", 1)
         self.model = PCCModel(params)
+        #: Per-robot factors (N,) on the bending (r/r₀)(E₀/E) and on the cable-length changes
+        #: (r/r₀); None while every robot is nominal.
+        self.bending_scale: np.ndarray | None = None
+        self.length_scale: np.ndarray | None = None
         self._set(np.zeros((self.num_robots, params.n_cables)))
 
-    def _shape(self, tensions: np.ndarray, comp: np.ndarray) -> Readings:
-        """Readings of the bending component rows ``comp`` (2S, N) held by ``tensions`` (N, C).
+    def _shape(
+        self, tensions: np.ndarray, comp: np.ndarray, length_scale: np.ndarray | None = None
+    ) -> Readings:
+        """Readings of the bending component rows ``comp`` (2S, N) held by ``tensions`` (N, C);
+        ``length_scale`` (N,): per-robot factors on the cable-length changes (None: nominal).
 
         The model works field-major (one row per component); the computed readings are the
         transposed views, (N, ·) Fortran-ordered arrays, so the tasks' field-major observation
         buffers fill from contiguous rows (``tensions`` are kept as given).
         """
-        tip, direction, lengths = self.model.forward_rows(comp)
+        m = self.model
+        tip, direction, lengths = m.forward_rows(comp)
+        if length_scale is not None:  # lengths are linear in w: scaling w scales Δl
+            lengths = m.bending_to_lengths.T @ (comp * length_scale)
+            lengths += m.straight_lengths[:, None]
         return Readings(tip.T, direction.T, lengths.T, tensions)
 
     def _set(self, tensions: np.ndarray) -> None:
-        self._comp = self.model.bending_rows_from_tensions(tensions)
-        self._readings = self._shape(tensions, self._comp)
+        comp = self.model.bending_rows_from_tensions(tensions)
+        if self.bending_scale is not None:
+            comp *= self.bending_scale
+        self._comp = comp
+        self._readings = self._shape(tensions, comp, self.length_scale)
 
     @property
     def _w(self) -> np.ndarray:
@@ -82,9 +103,31 @@ class AnalyticBackend(Backend):
     def apply_cable_lengths(self, lengths: np.ndarray) -> None:
         m = self.model
         w = m.bending_from_lengths(lengths)
-        tensions, _ = minimal_tensions(m, w)
+        if self.length_scale is not None and self.bending_scale is not None:
+            w /= self.length_scale[:, None, None]
+            tensions, _ = minimal_tensions(m, w / self.bending_scale[:, None, None])
+        else:
+            tensions, _ = minimal_tensions(m, w)
         self._comp = np.ascontiguousarray(w.reshape(self.num_robots, -1).T)
-        self._readings = self._shape(tensions, self._comp)
+        self._readings = self._shape(tensions, self._comp, self.length_scale)
+
+    def set_randomized(self, index: np.ndarray, values: dict[str, np.ndarray]) -> None:
+        """Set ``youngs_modulus`` (Pa) and ``cable_radius`` (m) of robots ``index`` (others in
+        ``values`` are ignored: this model has no mass, gravity or friction)."""
+        if not self.randomizable.intersection(values):
+            return
+        if self.bending_scale is None or self.length_scale is None:
+            self.bending_scale = np.ones(self.num_robots)
+            self.length_scale = np.ones(self.num_robots)
+        p = self.params
+        r_ratio = np.ones(len(index))
+        e_ratio = np.ones(len(index))
+        if "cable_radius" in values:
+            r_ratio = np.asarray(values["cable_radius"], dtype=np.float64) / p.cable_radii[0]
+        if "youngs_modulus" in values:
+            e_ratio = p.youngs_modulus / np.asarray(values["youngs_modulus"], dtype=np.float64)
+        self.length_scale[index] = r_ratio
+        self.bending_scale[index] = r_ratio * e_ratio
 
     # -- readings -------------------------------------------------------------------------------
     def read(self) -> Readings:
@@ -95,7 +138,12 @@ class AnalyticBackend(Backend):
         flat = t.reshape(-1, self.n_cables)
         r = self._shape(flat, self.model.bending_rows_from_tensions(flat))
         batch = t.shape[:-1]
-        return Readings(*(x.reshape(batch + x.shape[1:]) for x in r))
+        return Readings(
+            r.tip.reshape(batch + (3,)),
+            r.tip_direction.reshape(batch + (3,)),
+            r.cable_lengths.reshape(t.shape),
+            r.tensions.reshape(t.shape),
+        )
 
     @property
     def bending(self) -> np.ndarray:

@@ -36,6 +36,8 @@ class Readings(NamedTuple):
     tip_direction: np.ndarray  #: (N, 3) unit backbone tangent at the tip in R0
     cable_lengths: np.ndarray  #: (N, C) sensed cable lengths, m
     tensions: np.ndarray  #: (N, C) cable tensions acting at the actuators, N
+    #: (N, C) tensions at the cables' anchors, N, where friction makes them differ (else None)
+    anchor_tensions: np.ndarray | None = None
 
 
 class Backend(abc.ABC):
@@ -54,6 +56,9 @@ class Backend(abc.ABC):
     control_timestep: float = 0.0
     #: Whether :meth:`apply_cable_lengths` is available (cable-displacement actions).
     supports_length_control: bool = False
+    #: Names of the randomised parameters (``cdcr_gym.randomization.RANDOMIZABLE``) that
+    #: :meth:`set_randomized` applies; the others are drawn and reported but not modelled.
+    randomizable: frozenset[str] = frozenset()
 
     @property
     def n_cables(self) -> int:
@@ -111,6 +116,14 @@ class Backend(abc.ABC):
         (D + 1, 3, 3) (columns: disk x, y axes and backbone tangent, in R0).
 
         The pinhole of a cable at (r, β) in disk k is ``centre_k + R_k @ (r cos β, r sin β, 0)``.
+        """
+
+    def set_randomized(self, index: np.ndarray, values: dict[str, np.ndarray]) -> None:
+        """Give robots ``index`` (M,) their drawn parameters ``values`` (name → (M,) array, SI
+        units; ``cdcr_gym.randomization``) before they are reset.
+
+        Applies the names in :attr:`randomizable` and ignores the others; the default applies
+        nothing.
         """
 
     def close(self) -> None:

@@ -6,17 +6,20 @@ batched vector env (``cdcr_gym.envs.vector``) with N = num_envs. Order of a step
 1. the clipped actions (N, C) become cable commands (``Actuation``);
 2. the backend holds them for one control step (``Backend.apply_tensions`` /
    ``apply_cable_lengths``) and is read back (``Backend.read``);
-3. the task fills the observation (``Task.observe``) and computes reward, success and its info
+3. the task moves on by one step (``Task.advance``: a moving target, a collision check);
+4. the task fills the observation (``Task.observe``) and computes reward, success and its info
    entries (``Task.evaluate``); the core adds the robot's own entries (``tip``, ``tensions``,
    ``cable_lengths``) to ``info``.
 
 Randomness: every env owns a generator (the single env's ``np_random``); at a reset the start
-shape (``initial_state="random"``) and then the goal are drawn from it, in that order.
+shape (``initial_state="random"``) and then the goal are drawn from it, in that order. Domain
+randomisation and imperfections (``cdcr_gym.randomization``, off by default) draw from the same
+generator: their episode draws come first at a reset, their per-step noise after the action.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -26,6 +29,7 @@ from cdcr_gym import validation
 from cdcr_gym.backends.base import Backend, Readings
 from cdcr_gym.envs.actuation import Actuation
 from cdcr_gym.model.workspace import sample_tensions_each
+from cdcr_gym.randomization import INFO_PREFIX, DomainRandomization, Imperfections
 from cdcr_gym.tasks.base import Task
 
 __all__ = ["EnvCore", "INITIAL_STATES"]
@@ -45,6 +49,9 @@ class EnvCore:
         initial_state: ``"straight"`` or ``"random"``, or a sequence of N such values.
         goal_conditioned: Dict observations (``observation``, ``achieved_goal``,
             ``desired_goal``) instead of a flat vector.
+        randomize: per-episode parameter ranges (``cdcr_gym.randomization``); None: off.
+        imperfections: sensor and actuator imperfections (``cdcr_gym.randomization``);
+            None: off.
     """
 
     def __init__(
@@ -57,6 +64,8 @@ class EnvCore:
         length_step: float = 0.002,
         initial_state: str | Sequence[str] = "straight",
         goal_conditioned: bool = False,
+        randomize: Mapping[str, Any] | None = None,
+        imperfections: Mapping[str, Any] | None = None,
     ) -> None:
         if not isinstance(backend, Backend):
             raise ValueError(f"backend must be a cdcr_gym.backends.Backend, got {backend!r}")
@@ -91,8 +100,7 @@ class EnvCore:
         c = self.n_cables
         self.action_space = spaces.Box(-1.0, 1.0, shape=(c,), dtype=np.float32)
         if self.goal_conditioned:
-            ell = self.params.length
-            goal = spaces.Box(-ell, ell, shape=(task.goal_size,), dtype=np.float32)
+            goal = task.goal_space()
             self.observation_space: spaces.Space = spaces.Dict(
                 {
                     "observation": self.spec.box(),
@@ -105,6 +113,42 @@ class EnvCore:
         self._readings = backend.read()
         self._held_tensions = self._readings.tensions
         self._held_lengths = self._readings.cable_lengths
+        self._init_realism(randomize, imperfections)
+
+    def _init_realism(
+        self, randomize: Mapping[str, Any] | None, imperfections: Mapping[str, Any] | None
+    ) -> None:
+        """Domain randomisation and imperfections: None each when off (the plain path)."""
+        n, act = self.num_envs, self.actuation
+        dr = DomainRandomization(randomize, self.params)
+        imp = Imperfections(
+            imperfections,
+            self.params,
+            n,
+            commands_tensions=not act.commands_lengths,
+            absolute_tensions=act.mode == "tension",
+        )
+        self.randomization = dr if dr.enabled else None
+        self.imperfections = imp if imp.enabled else None
+        self.randomized = {name: np.full(n, np.nan) for name in dr.reported}
+        self._rngs: list[np.random.Generator | None] = [None] * n
+        box = self.spec.box()
+        self._obs_bounds = (box.low[:, None], box.high[:, None])
+
+    def _draw_episode(self, idx: np.ndarray, rngs: list[np.random.Generator]) -> None:
+        """Episode draws of envs ``idx``: randomised parameters (given to the backend), then
+        the sensor biases."""
+        for i, rng in zip(idx.tolist(), rngs):
+            self._rngs[i] = rng
+        dr = self.randomization
+        if dr is not None:
+            draws = [dr.sample(rng) for rng in rngs]
+            values = {k: np.array([d[k] for d in draws]) for k in dr.reported}
+            for k, v in values.items():
+                self.randomized[k][idx] = v
+            self.backend.set_randomized(idx, values)
+        if self.imperfections is not None:
+            self.imperfections.draw_biases(idx, rngs)
 
     # -- reset ----------------------------------------------------------------------------------
     def reset(
@@ -120,6 +164,8 @@ class EnvCore:
         env) override the draws.
         """
         m, c = idx.size, self.n_cables
+        if self.randomization is not None or self.imperfections is not None:
+            self._draw_episode(idx, rngs)
         if initial_tensions is not None:
             tensions = validation.per_cable(
                 initial_tensions, "options['initial_tensions']", c, 0.0, self.params.max_tension
@@ -155,18 +201,33 @@ class EnvCore:
             self._held_lengths = self._held_lengths.copy(order="K")
             self._held_tensions[idx] = r.tensions[idx]
             self._held_lengths[idx] = r.cable_lengths[idx]
+        if self.imperfections is not None:
+            self.imperfections.reset(idx, r.tensions[idx])
 
     # -- step -----------------------------------------------------------------------------------
-    def step(self, action: np.ndarray) -> None:
-        """Apply clipped, finite actions (N, C) in [−1, 1] for one control step."""
+    def step(self, action: np.ndarray, active: np.ndarray | None = None) -> None:
+        """Apply clipped, finite actions (N, C) in [−1, 1] for one control step.
+
+        ``active`` (N,) bool: the envs whose step counts (the others are reset right after and
+        draw no actuator noise; None: all).
+        """
         act = self.actuation
+        imp = self.imperfections
+        if imp is not None:
+            action = imp.delayed(action)
         if act.commands_lengths:
             self._held_lengths = act.lengths(action, self._held_lengths)
             self.backend.apply_cable_lengths(self._held_lengths)
         else:
             self._held_tensions = act.tensions(action, self._held_tensions)
+            if imp is not None and imp.actuates:
+                shape, actuator = imp.actuate(self._held_tensions, self._rngs, active)
+                self.backend.apply_tensions(shape)
+                self._readings = self.backend.read()._replace(tensions=actuator)
+                return
             self.backend.apply_tensions(self._held_tensions)
         self._readings = self.backend.read()
+        self.task.advance(self.backend, self._readings)
 
     @property
     def readings(self) -> Readings:
@@ -185,7 +246,12 @@ class EnvCore:
         r = self._readings
         task = self.task
         buffer = np.empty((self.spec.size, self.num_envs), dtype=np.float32)
-        task.observe(r, buffer, self.goal_conditioned)
+        imp = self.imperfections
+        if imp is None:
+            task.observe(r, buffer, self.goal_conditioned)
+        else:  # noisy readings; a sensor saturates at the observation space's bounds
+            task.observe(imp.sense(r, self._rngs), buffer, self.goal_conditioned)
+            np.clip(buffer, self._obs_bounds[0], self._obs_bounds[1], out=buffer)
         flat = buffer.T  # (N, size), Fortran-ordered (like Gymnasium's CartPoleVectorEnv)
         reward, success, info = task.evaluate(r)
         obs: Any
@@ -202,4 +268,8 @@ class EnvCore:
         info["tip"] = r.tip
         info["tensions"] = r.tensions
         info["cable_lengths"] = r.cable_lengths
+        if r.anchor_tensions is not None:  # a backend with cable friction
+            info["anchor_tensions"] = r.anchor_tensions
+        for name, values in self.randomized.items():
+            info[INFO_PREFIX + name] = values.copy()
         return obs, reward, success, info

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import gymnasium as gym
@@ -96,6 +97,10 @@ class CDCREnv(gym.Env):
     | ``render_mode``        | None              | ``rgb_array`` or ``human``                       |
     | ``render_width``       | 480               | image width (px)                                 |
     | ``render_height``      | 480               | image height (px)                                |
+    | ``randomize``          | None              | per-episode parameter ranges (domain              |
+    |                        |                   | randomisation, ``cdcr_gym.randomization``)        |
+    | ``imperfections``      | None              | sensor noise/bias, action delay, tension rate     |
+    |                        |                   | limit, actuator noise (``cdcr_gym.randomization``)|
 
     ## Version History
     * v0: initial release (one-section reach); the n-section core keeps its layout and results.
@@ -119,6 +124,8 @@ class CDCREnv(gym.Env):
         render_mode: str | None = None,
         render_width: int = 480,
         render_height: int = 480,
+        randomize: Mapping[str, Any] | None = None,
+        imperfections: Mapping[str, Any] | None = None,
     ) -> None:
         if not isinstance(backend, Backend):
             raise ValueError(f"backend must be a cdcr_gym.backends.Backend, got {backend!r}")
@@ -136,6 +143,8 @@ class CDCREnv(gym.Env):
             length_step=length_step,
             initial_state=initial_state,
             goal_conditioned=self.goal_conditioned,
+            randomize=randomize,
+            imperfections=imperfections,
         )
         self.task = task
         self.action_mode = action_mode
@@ -193,7 +202,7 @@ class CDCREnv(gym.Env):
         np.minimum(a, 1.0, out=a)
         self.core.step(a[None])
         obs, reward, success, info = self._outputs()
-        terminated = bool(self.terminate_on_success and success)
+        terminated = bool((self.terminate_on_success and success) or self.task.terminal()[0])
         if self.render_mode == "human":
             self.render()
         return obs, reward, terminated, False, info

@@ -20,7 +20,16 @@ from cdcr_gym import validation
 from cdcr_gym.envs.env import CDCREnv, GoalCDCREnv
 from cdcr_gym.model.params import RobotParams
 
-__all__ = ["BACKENDS", "TASKS", "make_env", "split_kwargs", "resolve_params", "keyword_names"]
+__all__ = [
+    "BACKENDS",
+    "TASKS",
+    "make_env",
+    "split_kwargs",
+    "resolve_params",
+    "keyword_names",
+    "default_robot",
+    "DEFAULT_ROBOTS",
+]
 
 #: Backend name (id prefix) → class, as "module:attribute" (imported only when used).
 BACKENDS = {
@@ -30,7 +39,14 @@ BACKENDS = {
 #: Task name (id infix) → class, as "module:attribute".
 TASKS = {
     "Reach": "cdcr_gym.tasks.reach:Reach",
+    "Track": "cdcr_gym.tasks.track:Track",
+    "Pose": "cdcr_gym.tasks.pose:Pose",
+    "Obstacle": "cdcr_gym.tasks.obstacle:Obstacle",
 }
+#: The robot preset of a (backend, task) when neither ``robot`` nor ``params`` is given (else
+#: "paper"). Pose defaults to the two-section robot (a one-section tip direction is fixed by its
+#: position) on every backend that models several sections.
+DEFAULT_ROBOTS = {("CCKA", "Pose"): "tdcr2", ("Bullet", "Pose"): "tdcr2"}
 
 
 def _load(table: dict[str, str], name: Any, what: str) -> Any:
@@ -50,15 +66,15 @@ def keyword_names(callable_: Any) -> tuple[str, ...]:
     )
 
 
-def resolve_params(robot: Any = None, params: Any = None) -> RobotParams:
-    """The robot: ``params`` (a RobotParams) or a preset name ``robot``; default the paper's."""
+def resolve_params(robot: Any = None, params: Any = None, default: str = "paper") -> RobotParams:
+    """The robot: ``params`` (a RobotParams) or a preset name ``robot``; else preset ``default``."""
     if robot is not None and params is not None:
         raise ValueError("give either robot (a preset name) or params (a RobotParams), not both")
     if params is not None:
         if not isinstance(params, RobotParams):
             raise ValueError(f"params must be a cdcr_gym.params.RobotParams, got {params!r}")
         return params
-    return RobotParams.preset("paper" if robot is None else robot)
+    return RobotParams.preset(default if robot is None else robot)
 
 
 def split_kwargs(
@@ -84,6 +100,13 @@ def split_kwargs(
     return backend_class, pick(backend_keys), task_class, pick(task_keys), pick(env_keys)
 
 
+def default_robot(backend: Any, task: Any) -> str:
+    """The robot preset of ``task`` on ``backend`` when none is given (:data:`DEFAULT_ROBOTS`,
+    else "paper")."""
+    key = (backend, task)
+    return DEFAULT_ROBOTS.get(key, "paper") if all(isinstance(k, str) for k in key) else "paper"
+
+
 def make_env(
     backend: str,
     task: str,
@@ -96,7 +119,7 @@ def make_env(
     """Entry point of every registered id (``backend`` and ``task`` come from the registry):
     the env of ``task`` on ``backend``, every keyword routed to its owner (module docstring)."""
     env_class = GoalCDCREnv if validation.flag(goal_conditioned, "goal_conditioned") else CDCREnv
-    params = resolve_params(robot, params)
+    params = resolve_params(robot, params, default_robot(backend, task))
     backend_class, backend_kw, task_class, task_kw, env_kw = split_kwargs(
         backend, task, kwargs, env_class
     )

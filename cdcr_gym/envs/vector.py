@@ -100,7 +100,11 @@ class CDCRVectorEnv(VectorEnv):
         self.max_episode_steps = max_episode_steps
         self.render_mode = None
         self.goal_conditioned = validation.flag(goal_conditioned, "goal_conditioned")
-        params = factory.resolve_params(kwargs.pop("robot", None), kwargs.pop("params", None))
+        params = factory.resolve_params(
+            kwargs.pop("robot", None),
+            kwargs.pop("params", None),
+            factory.default_robot(backend, task),
+        )
         backend_class, backend_kw, task_class, task_kw, env_kw = factory.split_kwargs(
             backend, task, kwargs
         )
@@ -221,7 +225,7 @@ class CDCRVectorEnv(VectorEnv):
         else:
             a = validation.action_array(actions, self._action_shape)
         np.clip(a, -1.0, 1.0, out=a)
-        self.core.step(a)
+        self.core.step(a, ~resetting if any_reset else None)
         self._steps += 1
         if any_reset:  # NEXT_STEP autoreset: these envs return their reset state instead
             self._reset_envs(np.flatnonzero(resetting))
@@ -231,6 +235,7 @@ class CDCRVectorEnv(VectorEnv):
             terminated = success.copy()
         else:
             terminated = np.zeros(n, dtype=np.bool_)
+        terminated |= self.task.terminal()
         if self.max_episode_steps is None:
             truncated = np.zeros(n, dtype=np.bool_)
         else:

@@ -15,6 +15,7 @@ import abc
 from typing import Any
 
 import numpy as np
+from gymnasium import spaces
 
 from cdcr_gym.backends.base import Backend, Readings
 from cdcr_gym.envs.observation import Field, ObservationSpec
@@ -106,7 +107,8 @@ class Task(abc.ABC):
     """A task on the env core (batched over N envs).
 
     Subclasses implement the abstract methods; the env core calls :meth:`bind` once, then
-    :meth:`reset_goals` at every (partial) reset and :meth:`evaluate` after every step.
+    :meth:`reset_goals` at every (partial) reset, and after every step :meth:`advance` then
+    :meth:`evaluate`; the envs end an episode where :meth:`terminal` says so.
     """
 
     #: Short name used in registered ids (``"Reach"`` → ``CCKAReach-v0``).
@@ -161,6 +163,21 @@ class Task(abc.ABC):
         self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any = None
     ) -> np.ndarray:
         """Goal-conditioned reward, vectorised over leading dimensions (for HER)."""
+
+    def goal_space(self) -> spaces.Box:
+        """The Box of one achieved/desired goal (goal-conditioned form): by default a point,
+        each coordinate within ±(robot length) m."""
+        ell = self.params.length
+        return spaces.Box(-ell, ell, shape=(self.goal_size,), dtype=np.float32)
+
+    def advance(self, backend: Backend, readings: Readings) -> None:
+        """Move the task on by one control step, after the backend has moved (a moving target,
+        a collision check on the backend's geometry). Called by the env core after every step,
+        before :meth:`evaluate`; default: nothing."""
+
+    def terminal(self) -> np.ndarray:
+        """(N,) bool: envs whose episode the task ends now (e.g. on a collision); default none."""
+        return np.zeros(self.num_envs, dtype=bool)
 
     def info_keys(self) -> tuple[str, ...]:
         """Names of the ``info`` entries :meth:`evaluate` returns."""

@@ -343,7 +343,9 @@ def _resolution_paragraph(f: dict) -> str:
             f"r + h²κ/8 mid-span), the robot bends to {math.degrees(lo['theta_sim_rad']):.0f}° at "
             f"{lo['force_N']:g} N and CCKA misses the tip by up to {_mm(lo['max_m'])} "
             f"({lo['max_pct']:.2f} % of ℓ); with {hi['n_disks']} disks "
-            f"{math.degrees(hi['theta_sim_rad']):.1f}° and {_mm(hi['max_m'])}."
+            f"{math.degrees(hi['theta_sim_rad']):.1f}° and {_mm(hi['max_m'])}. (Fewer "
+            f"disks are not simulated: with 3 the spans buckle when all three cables pull "
+            f"80 N, and the pybullet backend rejects such a robot.)"
         )
     return " ".join(s)
 

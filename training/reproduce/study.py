@@ -224,6 +224,9 @@ class StudyConfig:
             ``params``, gravity off and on).
         n_disks_values: disk counts of the disk-count study (gravity off), each cut into about
             ``disk_study_links`` links (links per span = max(1, disk_study_links // n_disks)).
+            At least 4 for the paper's robot: with 3 disks a span (213.7 mm) buckles under the
+            three cables at max_tension (240 N > π²·EI/h² = 232 N), which the pybullet backend
+            rejects (``cdcr_gym.backends.bullet.chain.check_span_buckling``).
         disk_study_links: target number of links of the disk-count study.
         resolution_forces: forces (N) of both studies; ``None``: ``forces``.
         horizontal: also run the sweep with a horizontal base (gravity across the backbone).
@@ -241,7 +244,7 @@ class StudyConfig:
     shape_dls: tuple[float, ...] | None = None
     payloads: tuple[float, ...] = (0.0, 0.05, 0.1, 0.15, 0.2)
     links_per_span_values: tuple[int, ...] = (1, 2, 4)
-    n_disks_values: tuple[int, ...] = (3, 5, 9, 17, 33)
+    n_disks_values: tuple[int, ...] = (4, 5, 9, 17, 33)
     disk_study_links: int = 36
     resolution_forces: tuple[float, ...] | None = (0.0, 20.0, 40.0, 60.0, 80.0)
     horizontal: bool = True

@@ -1,25 +1,30 @@
 """The discretised backbone of the pybullet backend, as pure numpy (no simulator).
 
-``BulletBackend`` simulates this model's dynamics in pybullet; this module holds its geometry,
-mass properties, cable and gravity loads and statics, so that they are written once, can be
+``cdcr_gym.backends.bullet.BulletBackend`` simulates this model's dynamics in pybullet; this
+module holds its geometry, mass properties, cable and gravity loads and statics, so that they
+are written once, can be
 checked against pybullet (tests), and can be evaluated for chains longer than one pybullet
 multibody can hold (pybullet's API keeps 121 joint coordinates per body: 60 Cardan joints).
 
 Discretisation and joint placement
-    The backbone of length ℓ carries a fixed base disk at s = 0 and ``n_disks`` spacer disks at
-    s_k = k·h (h = ℓ/n_disks, the last at the tip). Each disk span is cut into
-    ``links_per_span`` = m pieces of length Δs = h/m, giving n = n_disks·m *rod stations*
-    s_j = j·Δs, j = 0..n (every m-th carries a disk). The joints sit **half-way between
-    stations**, at s = (j − ½)·Δs, j = 1..n; rigid link j runs from joint j to joint j+1 and is
-    centred on station j. The base holds the half link [0, Δs/2] (clamped); the tip link is the
-    half link [ℓ − Δs/2, ℓ] with the tip disk at its end. Why this placement (a staggered grid):
+    The backbone carries a fixed base disk at s = 0 and, section after section, each section's
+    ``n_disks`` spacer disks evenly over its length ℓ_j (disk span h_j = ℓ_j/n_disks_j, the
+    section's last disk at its end, the robot's last disk at the tip). Each disk span is cut
+    into ``links_per_span`` = m pieces of length Δ = h_j/m, giving n = m·Σ_j n_disks_j *rod
+    stations* s_0 = 0 < s_1 < … < s_n = ℓ (every m-th carries a disk; the spacing Δ_j of the
+    interval (s_{j−1}, s_j] is its section's). The joints sit **half-way between stations**,
+    at s_{j−1} + Δ_j/2, j = 1..n; rigid link j runs from joint j to joint j+1 and carries
+    station j (Δ_j/2 from its joint: the link's centre inside a section, off-centre only on the
+    link that crosses from one section's spacing to the next). The base holds the half link
+    [0, Δ_1/2] (clamped); the tip link is the half link [ℓ − Δ_n/2, ℓ] with the tip disk at its
+    end. Why this placement (a staggered grid):
 
     * every disk sits in the middle of a straight link, so on a bent backbone it lies on the arc
       and is normal to the arc's tangent there, to O(α²) (α = κΔs, the joint angle); joints at
       the disks would tilt each disk by α/2 (first order);
-    * every joint's share of the rod (its Voronoi cell) is exactly Δs, the end joints included,
-      so one stiffness EI/Δs serves all joints, and a pure moment M bends the chain through
-      exactly θ = M·ℓ/EI for any n;
+    * every joint's share of the rod (its Voronoi cell, station j−1 to station j) is exactly
+      Δ_j, the end joints included, so joint j has the stiffness EI/Δ_j, and a pure moment M
+      bends the chain through exactly θ = M·ℓ/EI for any n;
     * a joint never coincides with a pinhole, so exactly one straight segment of each cable
       crosses each joint, and its generalized force is one cross product (below);
     * convergence: with the cable straight between pinholes, a joint at fraction u of a disk span
@@ -38,23 +43,45 @@ Discretisation and joint placement
     so the joint stiffness is diagonal, K = EI/Δs·I (strain energy (EI/2Δs)·(a² + b²), exact
     to fourth order in the joint angle), and every Jacobian column is a single cross product.
 
+Cable routing (n sections)
+    A cable of section j has one pinhole in every disk of sections 1..j, at its fixed (r, β) in
+    the disk's frame, and is anchored at section j's last disk: it runs straight from pinhole to
+    pinhole across every disk span of sections 1..j and crosses no span beyond. The spans it
+    crosses are :attr:`DiscreteBackbone.routed` ((n_disks, C) bool).
+
 Cable loads
-    Cable i is frictionless and anchored at the tip disk: its tension T_i is uniform and its
-    potential is T_i·l_i(q), l_i the sum of the straight pinhole-to-pinhole segment lengths.
+    Cable i is frictionless and anchored at its section's last disk: its tension T_i is uniform
+    and its potential is T_i·l_i(q), l_i the sum of its straight pinhole-to-pinhole segment
+    lengths over the spans it crosses.
     The generalized forces are τ = −Σ_i T_i ∂l_i/∂q. For joint j (point o, axis a) inside disk
-    span k, only the segment p_k → p_{k+1} of cable i depends on q_j (the joints proximal to
+    span k, only the segment p_k → p_{k+1} of cable i (if it crosses span k) depends on q_j (the joints proximal to
     both pinholes move them rigidly together); with u its unit vector,
     ∂l_i/∂q_j = u·(a × (p_{k+1} − o)) = a·((p_{k+1} − o) × u), hence
     τ_j = −Σ_i T_i·a·((p_{k+1,i} − o) × u_{k,i}) = a·(o × F_k − G_k),
-    F_k = Σ_i T_i u_{k,i},  G_k = Σ_i T_i p_{k+1,i} × u_{k,i}.
+    F_k = Σ_i T_i u_{k,i},  G_k = Σ_i T_i p_{k+1,i} × u_{k,i}  (sums over the cables crossing k).
     These are exactly the generalized forces of the point forces ∓T_i·u at the two pinholes of
     every segment (on joints proximal to both pinholes the pair cancels: collinear forces).
 
 Masses (the paper gives none; see ``RobotParams``)
     Rod: linear density ``backbone_linear_density`` (solid cylinder of diameter d). Disks: solid
     disks of ``disk_mass``, ``disk_radius``, ``disk_thickness`` (pinholes and bore neglected).
-    Each link carries its rod piece, its disk (if its station carries one) and, at the tip,
+    Each link carries its rod piece, its disk (if its station carries one; all disks alike) and,
+    at the tip,
     ``tip_payload`` as a point mass. The base's half link and the base disk are clamped.
+
+Span buckling (the valid tension range)
+    Between two disks the cables crossing a span are straight and pull the two disks together
+    with P = Σ T_i: the span is a column under that load, and above a critical load the
+    straight backbone is unstable. For the real rod that load is Euler's π²·EI/h_j² (pinned
+    ends). The model's span is m links with joints of stiffness EI/Δ (Δ = h/m), whose straight
+    pose loses stability at the discrete column's load
+    P_cr = (4·EI/Δ²)·sin²(π/(2m))  (m = 1: 4·EI/h²; m = 2: 8·EI/h²; → π²·EI/h² as m → ∞),
+    the zero of the smallest eigenvalue of the tangent stiffness K − ∂τ_cable/∂q at q = 0
+    (``python -m training.verification --buckling`` compares the two). Beyond it the chain
+    buckles (the paper's robot with 3 disks and one link per span, P_cr = 3 × 44 N, diverged
+    after ≈ 1.7 s holding 80/80/80 N). :func:`check_span_buckling` rejects robots whose cables,
+    all at ``max_tension``, reach P_cr in some span; as P_cr ≤ π²·EI/h², every accepted robot
+    is also below the real rod's Euler load.
 
 Frames: R0 at the base disk centre, backbone along +Z0, cable 1 at +X0; ``base_rotation`` maps
 R0 to the world frame, where gravity is −9.81 m/s² along −Z_world. Positions here are world.
@@ -67,12 +94,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cdcr_gym.params import CABLE_ANGLES, RobotParams
+from cdcr_gym.model.params import STANDARD_GRAVITY, RobotParams
 
-__all__ = ["DiscreteBackbone", "ChainPose", "quat_to_matrix", "GRAVITY"]
-
-#: Standard gravity (m/s²).
-GRAVITY = 9.81
+__all__ = [
+    "DiscreteBackbone",
+    "ChainPose",
+    "quat_to_matrix",
+    "span_buckling_loads",
+    "check_span_buckling",
+]
 
 _LEVI_CIVITA = np.zeros((3, 3, 3))
 _LEVI_CIVITA[0, 1, 2] = _LEVI_CIVITA[1, 2, 0] = _LEVI_CIVITA[2, 0, 1] = 1.0
@@ -116,6 +146,57 @@ def _cardan(ca: np.ndarray, sa: np.ndarray, cb: np.ndarray, sb: np.ndarray) -> n
     return rot.reshape(-1, 3, 3)
 
 
+def span_buckling_loads(
+    params: RobotParams, links_per_span: int = 1
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per section: the critical load of one disk span and the cables' load on it, (S,) N each.
+
+    The critical load is the model's P_cr = (4·EI/Δ²)·sin²(π/(2m)) with Δ = h_j/m (m =
+    ``links_per_span``), ≤ Euler's π²·EI/h_j²; the load is the number of cables crossing
+    section j's spans (its own and every distal section's) times ``max_tension`` (module
+    docstring, "Span buckling").
+    """
+    m = links_per_span
+    owner = np.asarray(params.cable_section)
+    critical = np.array(
+        [
+            4.0
+            * params.bending_stiffness
+            / (s.disk_spacing / m) ** 2
+            * math.sin(0.5 * math.pi / m) ** 2
+            for s in params.sections
+        ]
+    )
+    load = np.array(
+        [np.count_nonzero(owner >= j) * params.max_tension for j in range(params.n_sections)]
+    )
+    return critical, load
+
+
+def check_span_buckling(params: RobotParams, links_per_span: int = 1) -> None:
+    """Reject a robot whose disk spans buckle with every cable at ``max_tension``.
+
+    Raises:
+        ValueError: naming ``params``, the section, both loads and the ways out.
+    """
+    critical, load = span_buckling_loads(params, links_per_span)
+    for j, (crit, pull) in enumerate(zip(critical, load)):
+        if not pull < crit:
+            s = params.sections[j]
+            n_min = math.floor(s.n_disks * math.sqrt(pull / crit)) + 1  # crit ∝ n_disks²
+            euler = math.pi**2 * params.bending_stiffness / s.disk_spacing**2
+            raise ValueError(
+                f"params: section {j} (n_disks={s.n_disks}, span {s.disk_spacing * 1e3:.1f} mm) "
+                f"buckles between its disks: its cables at max_tension={params.max_tension:g} N "
+                f"compress each span with {pull:.0f} N, at or above the critical load of one "
+                f"span, {crit:.0f} N with links_per_span={links_per_span} (the straight span is "
+                f"a column; Euler's π²·EI/h² = {euler:.0f} N for the real rod), and the "
+                f"simulation would diverge. Use n_disks >= {n_min} for that section or "
+                f"max_tension < {crit / (pull / params.max_tension):.1f} N"
+                + (" or more links_per_span" if pull < euler else "")
+            )
+
+
 @dataclass(frozen=True)
 class ChainPose:
     """World-frame geometry of the chain at one set of joint angles (all lengths in m).
@@ -124,8 +205,10 @@ class ChainPose:
         joint_points: (n, 3) joint centres o_j.
         joint_axes: (n, 2, 3) unit axes of the X and the Y revolute of each joint.
         link_rot: (n, 3, 3) orientation of link j (its third column is the link direction).
-        stations: (n+1, 3) rod stations s_j = j·Δs (0: base disk centre, n: tip disk centre).
-        pinholes: (n_disks+1, 3, 3) cable pinholes [disk (base first), cable, xyz].
+        stations: (n+1, 3) rod stations s_j (0: base disk centre, n: tip disk centre).
+        pinholes: (n_disks+1, C, 3) where every cable's pinhole sits on every disk
+            [disk (base first), cable, xyz] (a cable passes only the disks of its own and the
+            proximal sections: :attr:`DiscreteBackbone.routed`).
         coms: (n, 3) link centres of mass.
     """
 
@@ -166,46 +249,78 @@ class DiscreteBackbone:
             np.eye(3) if base_rotation is None else np.asarray(base_rotation, float)
         )
         self.gravity = bool(gravity)
-        #: Number of links (= 2-DOF joints) n and of joint coordinates 2n.
-        self.n_links = params.n_disks * m
+        disks = [s.n_disks for s in params.sections]
+        #: Spacer disks of the whole robot (= disk spans), links n and joint coordinates 2n.
+        self.n_disks = sum(disks)
+        self.n_links = self.n_disks * m
         self.n_dof = 2 * self.n_links
-        #: Link length Δs = h/m (m).
-        self.segment_length = params.length / self.n_links
-        #: Joint stiffness EI/Δs (N·m/rad), the same for the 2n coordinates.
-        self.joint_stiffness = params.bending_stiffness / self.segment_length
-        beta = np.asarray(CABLE_ANGLES)
-        #: Pinhole positions on a disk in the disk's frame, shape (3 cables, 3), m.
-        self.pinhole_local = params.cable_radius * np.stack(
-            [np.cos(beta), np.sin(beta), np.zeros(3)], axis=-1
+        #: Section (0-based) of every disk span, (n_disks,).
+        self.span_section = np.repeat(np.arange(params.n_sections), disks)
+        #: Station spacing Δ_j = h/m of the interval ending at station j, per link (n_links,) m.
+        self.segment_lengths = np.repeat(
+            [s.length / (s.n_disks * m) for s in params.sections], [d * m for d in disks]
         )
+        half = 0.5 * self.segment_lengths
+        #: Distance from joint j to joint j+1 (the base: to joint 1), (n_links,) m.
+        self._lead = np.empty(self.n_links)
+        self._lead[0] = self.segment_lengths[0]
+        self._lead[1:] = half[:-1] + half[1:]
+        self._half = half
+        #: Joint stiffness EI/Δ_j (N·m/rad) of every joint coordinate, (2n,): [a_1, b_1, ...].
+        self.stiffness = np.repeat(params.bending_stiffness / self.segment_lengths, 2)
+        beta = np.asarray(params.cable_angles)
+        radius = np.asarray(params.cable_radii)
+        #: Pinhole positions on a disk in the disk's frame, shape (C cables, 3), m.
+        self.pinhole_local = radius[:, None] * np.stack(
+            [np.cos(beta), np.sin(beta), np.zeros(beta.size)], axis=-1
+        )
+        #: Whether cable i crosses disk span k (is routed through its pinholes), (n_disks, C).
+        self.routed = self.span_section[:, None] <= np.asarray(params.cable_section)[None, :]
+        self._routed_f = self.routed.astype(np.float64)
+        self._all_routed = bool(self.routed.all())
         self._base_pinholes = self.pinhole_local @ self.base_rotation.T
-        self._base_rot_flat = self.base_rotation.reshape(9).copy()
-        self._one_link_map = self._build_one_link_map()  # (18, 9), see _cable_loads_one_link
+        # per section: (its first span, its last span + 1, the cables crossing it, the map of
+        # _cable_loads_one_link for those cables and its spacing)
+        owner = np.asarray(params.cable_section)
+        ends = np.cumsum([0, *disks])
+        self._sections = [
+            (
+                int(ends[j]),
+                int(ends[j + 1]),
+                slice(int(np.argmax(owner >= j)), params.n_cables),  # sections j.. (contiguous)
+                self._build_one_link_map(
+                    self.pinhole_local[owner >= j], 0.5 * params.sections[j].disk_spacing
+                ),
+            )
+            for j in range(params.n_sections)
+        ]
         props = [self._link_properties(j) for j in range(1, self.n_links + 1)]
         #: Link masses (n,) kg, COM offsets along the link from its joint (n,) m, and principal
         #: inertias about the COM (n, 3) kg·m² (Ixx = Iyy, Izz about the link axis).
         self.link_masses = np.array([pr[0] for pr in props])
         self.link_com_offsets = np.array([pr[1] for pr in props])
         self.link_inertias = np.array([pr[2] for pr in props])
-        g = np.array([0.0, 0.0, -GRAVITY]) if self.gravity else np.zeros(3)
+        g = np.array([0.0, 0.0, -STANDARD_GRAVITY]) if self.gravity else np.zeros(3)
         self._weights = self.link_masses[:, None] * g  # (n, 3) N
 
     def _link_properties(self, j: int) -> tuple[float, float, tuple[float, float, float]]:
         """Mass (kg), COM offset along the link from its joint (m), principal inertias (kg·m²).
 
-        Link j (1-based) starts at its joint (z = 0) and runs along +z: Δs long, the tip link
-        Δs/2; its station (and its disk, if any) is at z = Δs/2.
+        Link j (1-based) starts at its joint (z = 0) and runs along +z to the next joint,
+        Δ_j/2 + Δ_{j+1}/2 long (the tip link Δ_n/2); its station (and its disk, if any) is at
+        z = Δ_j/2.
         """
-        p, ds = self.params, self.segment_length
-        length = ds if j < self.n_links else 0.5 * ds
+        p = self.params
+        station = float(self._half[j - 1])
+        length = station + (float(self._half[j]) if j < self.n_links else 0.0)
         a = 0.5 * p.backbone_diameter
         m_rod = p.backbone_linear_density * length
         parts = [(m_rod, 0.5 * length, m_rod * (3 * a * a + length**2) / 12.0, 0.5 * m_rod * a * a)]
         if j % self.links_per_span == 0:
             md, rd, t = p.disk_mass, p.disk_radius, p.disk_thickness
-            parts.append((md, 0.5 * ds, md * (3 * rd * rd + t * t) / 12.0, 0.5 * md * rd * rd))
+            parts.append((md, station, md * (3 * rd * rd + t * t) / 12.0, 0.5 * md * rd * rd))
         if j == self.n_links and self.tip_payload > 0.0:
-            parts.append((self.tip_payload, 0.5 * ds, 0.0, 0.0))
+            parts.append((self.tip_payload, station, 0.0, 0.0))
         mass = sum(pt[0] for pt in parts)
         z_c = sum(pt[0] * pt[1] for pt in parts) / mass
         ixx = sum(pt[2] + pt[0] * (pt[1] - z_c) ** 2 for pt in parts)
@@ -218,7 +333,7 @@ class DiscreteBackbone:
         """World geometry at joint angles ``q`` (2n,) rad (forward kinematics, float64).
 
         Link j's orientation is R_j = R_base·Rx(a_1)·Ry(b_1)·…·Rx(a_j)·Ry(b_j); joint 1 sits
-        Δs/2 above the base, each further joint Δs along the previous link, station j Δs/2 along
+        Δ_1/2 above the base, joint j+1 (Δ_j + Δ_{j+1})/2 along link j, station j Δ_j/2 along
         link j. :meth:`stations_and_pinholes` gives the same stations and pinholes (same bits)
         without the joint axes and COMs.
         """
@@ -237,7 +352,7 @@ class DiscreteBackbone:
         return ChainPose(joint_points, axes, link_rot, stations, pins, coms)
 
     def stations_and_pinholes(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The readings-only part of :meth:`pose`: stations (n+1, 3) and pinholes (n_disks+1, 3, 3), m.
+        """The readings-only part of :meth:`pose`: stations (n+1, 3) and pinholes (n_disks+1, C, 3), m.
 
         World frame, bit-identical to ``pose(q).stations`` and ``pose(q).pinholes``; skips the
         joint axes and link COMs, which the tip and the sensed cable lengths do not need
@@ -268,40 +383,39 @@ class DiscreteBackbone:
     def _joint_points_and_stations(self, tangent: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Joint centres (n, 3) and rod stations (n+1, 3), m, from the base and link directions
         ``tangent`` (n+1, 3) (the third columns of :meth:`_orientations`)."""
-        ds = self.segment_length
-        joint_points = np.cumsum(tangent[:-1] * ds, axis=0)
-        joint_points -= (0.5 * ds) * tangent[0]
+        joint_points = np.cumsum(tangent[:-1] * self._lead[:, None], axis=0)
+        joint_points -= self._half[0] * tangent[0]
         stations = np.empty((self.n_links + 1, 3))
         stations[0] = 0.0
-        stations[1:] = joint_points + (0.5 * ds) * tangent[1:]
+        stations[1:] = joint_points + self._half[:, None] * tangent[1:]
         return joint_points, stations
 
     def _pinholes(self, rot: np.ndarray, stations: np.ndarray) -> np.ndarray:
-        """Pinholes (n_disks+1, 3, 3) [disk (base first), cable, xyz], m, from the orientations
+        """Pinholes (n_disks+1, C, 3) [disk (base first), cable, xyz], m, from the orientations
         (n+1, 3, 3) and stations (n+1, 3): disk k sits at station k·m, on link k·m."""
         m = self.links_per_span
-        pins = np.empty((self.params.n_disks + 1, 3, 3))
+        pins = np.empty((self.n_disks + 1, self.pinhole_local.shape[0], 3))
         pins[0] = self._base_pinholes
         pins[1:] = stations[m::m][:, None, :] + np.matmul(
             self.pinhole_local, rot[m::m].transpose(0, 2, 1)
         )
         return pins
 
-    @staticmethod
-    def cable_lengths_of(pose: ChainPose) -> np.ndarray:
-        """Sensed cable lengths (3,) m: summed pinhole-to-pinhole segment lengths of ``pose``."""
-        return DiscreteBackbone.lengths_between_pinholes(pose.pinholes)
-
-    @staticmethod
-    def lengths_between_pinholes(pinholes: np.ndarray) -> np.ndarray:
-        """Cable lengths (3,) m from pinholes (n_disks+1, 3, 3): summed segment lengths."""
+    def lengths_between_pinholes(self, pinholes: np.ndarray) -> np.ndarray:
+        """Cable lengths (C,) m from pinholes (n_disks+1, C, 3): each cable's segment lengths
+        summed over the spans it crosses (base disk to its section's last disk)."""
         seg = pinholes[1:] - pinholes[:-1]
-        return np.sqrt((seg * seg).sum(axis=-1)).sum(axis=0)
+        seg_len = np.sqrt((seg * seg).sum(axis=-1))
+        return (seg_len if self._all_routed else seg_len * self._routed_f).sum(axis=0)
 
     # ------------------------------------------------------------------ loads
 
     def cable_loads(self, q: np.ndarray, tensions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Generalized cable forces τ = −Σ_i T_i ∂l_i/∂q (2n,) N·m and cable lengths (3,) m.
+        """Generalized cable forces τ = −Σ_i T_i ∂l_i/∂q (2n,) N·m and cable lengths (C,) m.
+
+        ``tensions`` (C,) N, in cable order (section by section), or per disk span
+        (n_disks, C) N (a cable with friction: segment k's tension in row k). A segment's length
+        depends only on its own span's joints, so per-segment tensions enter span by span.
 
         Evaluated span by span in the frame of the span's proximal disk (generalized forces and
         segment lengths are frame-invariant), so no global forward kinematics is needed: the
@@ -318,16 +432,18 @@ class DiscreteBackbone:
         self, q: np.ndarray, tensions: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`cable_loads` for any number of links per span."""
-        n_span, m, half = self.params.n_disks, self.links_per_span, 0.5 * self.segment_length
+        n_span, m = self.n_disks, self.links_per_span
+        half = self._half[::m, None]  # Δ/2 of every span's links, (n_span, 1)
         c, s = np.cos(q).reshape(n_span, m, 2), np.sin(q).reshape(n_span, m, 2)
         points = np.empty((n_span, m, 3))  # joint points in the span frame
         axes = np.empty((n_span, m, 2, 3))  # their X and Y revolute axes
-        rot = pos = None
+        rot = pos = np.empty(0)
         for i in range(m):
             ca, sa = c[:, i, 0], s[:, i, 0]
             local = _cardan(ca, sa, c[:, i, 1], s[:, i, 1])
-            if rot is None:  # the span frame itself; the joint Δs/2 up its axis
-                points[:, 0] = (0.0, 0.0, half)
+            if i == 0:  # the span frame itself; the joint Δ/2 up its axis
+                points[:, 0, :2] = 0.0
+                points[:, 0, 2] = half[:, 0]
                 axes[:, 0, 0] = (1.0, 0.0, 0.0)
                 axes[:, 0, 1, 0] = 0.0
                 axes[:, 0, 1, 1] = ca
@@ -340,56 +456,67 @@ class DiscreteBackbone:
                 rot = np.matmul(rot, local)
             pos = points[:, i] + half * rot[:, :, 2]  # the next station
         p_b = pos[:, None, :] + np.matmul(self.pinhole_local, rot.transpose(0, 2, 1))
-        seg = p_b - self.pinhole_local  # (n_span, 3 cables, 3)
-        seg_len = np.sqrt((seg * seg).sum(axis=-1))  # (n_span, 3)
-        tu = seg * (tensions / seg_len)[..., None]  # T_i·u_i
+        seg = p_b - self.pinhole_local  # (n_span, C cables, 3)
+        seg_len = np.sqrt((seg * seg).sum(axis=-1))  # (n_span, C)
+        tu = seg * (tensions * self._routed_f / seg_len)[..., None]  # T_i·u_i, 0 if not routed
         force = tu.sum(axis=1)  # F (n_span, 3)
         couple = _cross(p_b, tu).sum(axis=1)  # G (n_span, 3)
         moment = _cross(points, force[:, None, :]) - couple[:, None, :]  # (n_span, m, 3)
         tau = (axes * moment[:, :, None, :]).sum(axis=-1).reshape(-1)
-        return tau, seg_len.sum(axis=0)
+        return tau, (seg_len * self._routed_f).sum(axis=0)
 
     def _cable_loads_one_link(
         self, q: np.ndarray, tensions: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`cable_loads` for one link per span (the default), in a handful of numpy calls.
 
-        Each span has one joint, at o = (0, 0, Δs/2) in the span frame, turning the link by
+        Each span has one joint, at o = (0, 0, h/2) in the span frame, turning the link by
         R = Rx(a)·Ry(b) with columns X = (cos b, sin a·sin b, −cos a·sin b), Y = (0, cos a, sin a),
         Z = (sin b, −sin a·cos b, cos a·cos b). Cable i runs from its pinhole p_i = (x_i, y_i, 0)
-        on the proximal disk to o + (Δs/2)·Z + x_i·X + y_i·Y on the distal one: segment d_i.
+        on the proximal disk to o + (h/2)·Z + x_i·X + y_i·Y on the distal one: segment d_i.
         Its pull on the distal disk, −T_i·d_i/|d_i|, has the moment M_i = (T_i/|d_i|)·(o − p_i) × d_i
         about the joint (taken at p_i, on the same line of action), and
         τ_a = e_x·Σ_i M_i,  τ_b = (0, cos a, sin a)·Σ_i M_i
         (the same τ_j = a·(o × F − G) as in the module docstring). Both d_i and (o − p_i) × d_i
         are linear in the nine products u_α·v_β of u = (1, cos a, sin a) and v = (1, cos b, sin b):
-        ``self._one_link_map`` (built once from the geometry, :meth:`_build_one_link_map`) maps
-        them to all spans' segments and unit-tension moments in one matmul.
+        one map per section (built once from its span h and the pinholes of the cables crossing
+        it, :meth:`_build_one_link_map`) gives all its spans' segments and unit-tension moments
+        in one matmul.
         """
         n = self.n_links
         trig = np.empty((3, 2 * n))  # rows: 1, cos q, sin q
         trig[0] = 1.0
         np.cos(q, out=trig[1])
         np.sin(q, out=trig[2])
-        trig = trig.reshape(3, n, 2)
-        u, v = trig[:, :, 0], trig[:, :, 1]  # (3, n): (1, cos, sin) of a and of b, per span
+        trig3 = trig.reshape(3, n, 2)
+        u, v = trig3[:, :, 0], trig3[:, :, 1]  # (3, n): (1, cos, sin) of a and of b, per span
         products = (u[:, None, :] * v[None, :, :]).reshape(9, n)  # u_α·v_β, row 3α + β
-        mapped = self._one_link_map @ products  # (18, n)
-        seg = mapped[:9].reshape(3, 3, n)  # d_i [cable, xyz, span], m
-        lever = mapped[9:].reshape(3, 3, n)  # (o − p_i) × d_i [xyz, cable, span], m²
-        seg_len = np.sqrt((seg * seg).sum(axis=1))  # |d_i| (3 cables, n), m
-        moment = (lever * (np.reshape(tensions, (3, 1)) / seg_len)).sum(
-            axis=1
-        )  # Σ_i M_i (3, n), N·m
+        tensions = np.asarray(tensions, dtype=np.float64)
+        moment = np.empty((3, n))  # Σ_i M_i per span, N·m
+        lengths = np.zeros(tensions.shape[-1])
+        for first, stop, cables, link_map in self._sections:
+            k = link_map.shape[0] // 6  # cables crossing the section
+            mapped = link_map @ products[:, first:stop]  # (6k, spans)
+            seg = mapped[: 3 * k].reshape(k, 3, -1)  # d_i [cable, xyz, span], m
+            lever = mapped[3 * k :].reshape(3, k, -1)  # (o − p_i) × d_i [xyz, cable, span], m²
+            seg_len = np.sqrt((seg * seg).sum(axis=1))  # |d_i| (k cables, spans), m
+            if tensions.ndim == 1:
+                t = tensions[cables].reshape(k, 1)
+            else:  # per span (one link per span: the links first:stop are those spans)
+                t = tensions[first:stop, cables].T
+            moment[:, first:stop] = (lever * (t / seg_len)).sum(axis=1)
+            lengths[cables] += seg_len.sum(axis=1)
         tau = np.empty(self.n_dof)
         tau[0::2] = moment[0]
         tau[1::2] = moment[1] * u[1] + moment[2] * u[2]
-        return tau, seg_len.sum(axis=1)
+        return tau, lengths
 
-    def _build_one_link_map(self) -> np.ndarray:
-        """The (18, 9) map of :meth:`_cable_loads_one_link`: from the products u_α·v_β (row
-        3α + β) of one span to its segments d_i (rows 0–8, [cable, xyz], m) and the levers
-        (o − p_i) × d_i (rows 9–17, [xyz, cable], m²)."""
+    @staticmethod
+    def _build_one_link_map(pinholes: np.ndarray, half: float) -> np.ndarray:
+        """The (6k, 9) map of :meth:`_cable_loads_one_link` for one section: from the products
+        u_α·v_β (row 3α + β) of one of its spans to the segments d_i (rows 0..3k−1,
+        [cable, xyz], m) and the levers (o − p_i) × d_i (rows 3k..6k−1, [xyz, cable], m²) of
+        the k cables crossing it, whose pinholes are ``pinholes`` (k, 3) m; ``half`` = h/2 (m)."""
         one, cos, sin = 0, 1, 2  # indices into u = (1, cos a, sin a) and v = (1, cos b, sin b)
 
         def term(alpha: int, beta: int, vector) -> np.ndarray:
@@ -398,18 +525,20 @@ class DiscreteBackbone:
             out[:, 3 * alpha + beta] = vector
             return out
 
-        half = 0.5 * self.segment_length
+        k = pinholes.shape[0]
         col_x = term(one, cos, (1, 0, 0)) + term(sin, sin, (0, 1, 0)) + term(cos, sin, (0, 0, -1))
         col_y = term(cos, one, (0, 1, 0)) + term(sin, one, (0, 0, 1))
         col_z = term(one, sin, (1, 0, 0)) + term(sin, cos, (0, -1, 0)) + term(cos, cos, (0, 0, 1))
-        centre = half * (term(one, one, (0, 0, 1)) + col_z)  # the distal disk centre o + (Δs/2)·Z
+        centre = half * (term(one, one, (0, 0, 1)) + col_z)  # the distal disk centre o + (h/2)·Z
         joint = np.array([0.0, 0.0, half])
         seg, lever = [], []
-        for p in self.pinhole_local:
+        for p in pinholes:
             d = centre + p[0] * col_x + p[1] * col_y - term(one, one, p)  # (3, 9)
             seg.append(d)
             lever.append(np.cross(joint - p, d.T).T)
-        return np.concatenate([np.stack(seg).reshape(9, 9), np.stack(lever, axis=1).reshape(9, 9)])
+        return np.concatenate(
+            [np.stack(seg).reshape(3 * k, 9), np.stack(lever, axis=1).reshape(3 * k, 9)]
+        )
 
     def gravity_loads(self, q: np.ndarray, pose: ChainPose | None = None) -> np.ndarray:
         """Generalized gravity forces (2n,) N·m: joint j carries the weight of links j..n.
@@ -442,12 +571,12 @@ class DiscreteBackbone:
 
         Fixed-point iteration q ← K⁻¹·(τ_cable(q) + τ_gravity(q)) from the straight pose q = 0,
         to max |Δq| < ``tol`` rad. It converges because the load stiffnesses (the cables'
-        ≲ ΣT·Δs/4 per joint, gravity's ≲ m·g·ℓ) are small against K = EI/Δs: the contraction
+        ≲ ΣT·Δ/4 per joint, gravity's ≲ m·g·ℓ) are small against K = EI/Δ: the contraction
         factor is their ratio (≈ 0.1–0.3 at the maximum tension with m = 1, less with more
         links). Its limit is the stable equilibrium the dynamics settle to.
 
         Args:
-            tensions: (3,) N.
+            tensions: (C,) N.
             gravity_bias: optional callable q -> b(q) (2n,), the joint torques that hold the
                 chain against gravity (``BulletBackend`` passes pybullet's inverse dynamics);
                 default −:meth:`gravity_loads`.
@@ -458,7 +587,7 @@ class DiscreteBackbone:
             ``(q, converged)``; the same tensions always give the same bits.
         """
         tensions = np.asarray(tensions, dtype=np.float64)
-        k = self.joint_stiffness
+        k = self.stiffness
         q = np.zeros(self.n_dof)
         for _ in range(max_iter):
             tau, _ = self.cable_loads(q, tensions)

@@ -1,7 +1,11 @@
 """Verification studies of the pybullet backend: the numbers in ``docs/bullet_backend.md``.
 
-``python -m cdcr_gym.backends.bullet_study`` prints every table of that document (a few
-seconds); ``python -m cdcr_gym.backends.bullet_study --bench`` also measures the speed
+It lives in ``training/`` (the tools that run the package, next to ``training.bench``), not in
+the backend: it is a study of the backend against closed-form mechanics, needs nothing a user
+of the backend needs, and is not part of the paper's reproduction (``training.reproduce``).
+
+``python -m training.verification`` prints every table of that document (a few
+seconds); ``python -m training.verification --bench`` also measures the speed
 (``apply_tensions`` calls per second of the backend and env steps per second of
 ``cdcr_gym/BulletReach-v0``, both at default settings, as wall-clock and as CPU-time rates).
 ``tests/test_bullet.py`` asserts the same quantities through these functions.
@@ -9,7 +13,7 @@ seconds); ``python -m cdcr_gym.backends.bullet_study --bench`` also measures the
 "Settled" states are static equilibria: :meth:`BulletBackend.static_equilibrium`, which the
 simulated dynamics settle to exactly (tests check it). Chains longer than one pybullet
 multibody holds (n_disks × links_per_span > 60 joints) are evaluated with the same model's
-statics, :class:`~cdcr_gym.backends.bullet_chain.DiscreteBackbone`.
+statics, :class:`~cdcr_gym.backends.bullet.chain.DiscreteBackbone`.
 """
 
 from __future__ import annotations
@@ -22,10 +26,15 @@ from dataclasses import replace
 import numpy as np
 
 from cdcr_gym import kinematics
-from cdcr_gym.backends.bullet import MAX_JOINTS, BulletBackend
-from cdcr_gym.backends.bullet_chain import GRAVITY, DiscreteBackbone
+from cdcr_gym.backends.bullet import (
+    MAX_JOINTS,
+    BulletBackend,
+    DiscreteBackbone,
+    span_buckling_loads,
+)
 from cdcr_gym.model import statics
-from cdcr_gym.params import RobotParams
+from cdcr_gym.model.params import STANDARD_GRAVITY as GRAVITY
+from cdcr_gym.params import RobotParams, SectionParams
 
 __all__ = [
     "HORIZONTAL",
@@ -36,6 +45,7 @@ __all__ = [
     "beam_theory_sag",
     "settling_time",
     "benchmark",
+    "linearised_critical_load",
 ]
 
 #: base_orientation that turns the backbone from +Z to +X_world (a horizontal cantilever).
@@ -63,7 +73,7 @@ def discrete_routing_theta(
     so Σ_i T_i·(h²κ/12) adds to the bending moment: θ = θ₀ + (ΣT)·h²·θ/(12·EI), i.e.
     θ = θ₀ / (1 − ΣT·h²/(12·EI)), θ₀ the elastica's angle. With ``links_per_span`` = m the
     estimate is for the rigid-link model instead, whose span-mean excess is (1 + 2/m²) times
-    larger (see ``bullet_chain``).
+    larger (see ``cdcr_gym.backends.bullet.chain``).
     """
     tensions = np.asarray(tensions, dtype=np.float64)
     theta0, _ = statics.arc_from_tensions(tensions, params)
@@ -153,7 +163,7 @@ def settling_time(
     return float(t_settle), overshoot
 
 
-def benchmark(n_steps: int = 5000, seed: int = 0) -> dict[str, float]:
+def benchmark(n_steps: int = 5000, seed: int = 0, robot: str = "paper") -> dict[str, float]:
     """Speed at default settings: backend ``apply_tensions``/s and BulletReach-v0 env steps/s.
 
     Random uniform tensions (backend) and random actions (env, episodes reset as they
@@ -161,9 +171,10 @@ def benchmark(n_steps: int = 5000, seed: int = 0) -> dict[str, float]:
     what one core delivers when other processes share the machine).
     """
     rng = np.random.default_rng(seed)
-    backend = BulletBackend()
-    tensions = rng.uniform(0.0, backend.params.max_tension, (n_steps, 3))
-    backend.reset(np.zeros(3))
+    backend = BulletBackend(RobotParams.preset(robot))
+    c = backend.params.n_cables
+    tensions = rng.uniform(0.0, backend.params.max_tension, (n_steps, c))
+    backend.reset(np.zeros(c))
     t0, c0 = time.perf_counter(), time.process_time()
     for t in tensions:
         backend.apply_tensions(t)
@@ -177,7 +188,7 @@ def benchmark(n_steps: int = 5000, seed: int = 0) -> dict[str, float]:
 
     import cdcr_gym  # noqa: F401 (registers the ids)
 
-    env = gym.make("cdcr_gym/BulletReach-v0")
+    env = gym.make("cdcr_gym/BulletReach-v0", robot=robot)
     env.reset(seed=seed)
     env.action_space.seed(seed)
     actions = [env.action_space.sample() for _ in range(n_steps)]
@@ -331,17 +342,112 @@ def _report() -> None:  # pragma: no cover - prints the tables of docs/bullet_ba
     backend.close()
 
 
+def linearised_critical_load(params: RobotParams, links_per_span: int = 1) -> float:
+    """Total cable load (N) at which the straight chain's tangent stiffness turns singular.
+
+    All cables at one tension T: the cable loads at q = 0 are linear in T, τ ≈ T·J·q with
+    J = ∂τ/∂q (central finite differences at T = 1 N per cable), and the straight pose is
+    stable while K − T·J is positive definite, i.e. up to T_cr = 1/λ_max(K⁻¹·J). Returns
+    C·T_cr, to compare with ``chain.span_buckling_loads`` (one-section robots: every cable
+    crosses every span).
+    """
+    chain = DiscreteBackbone(params, links_per_span, gravity=False)
+    ones, eps = np.ones(params.n_cables), 1e-6
+    cols = [
+        (chain.cable_loads(eps * e, ones)[0] - chain.cable_loads(-eps * e, ones)[0]) / (2 * eps)
+        for e in np.eye(chain.n_dof)
+    ]
+    jac = np.array(cols).T
+    lam = float(np.max(np.linalg.eigvals(jac / chain.stiffness[:, None]).real))
+    return params.n_cables / lam
+
+
+def _buckling_report() -> None:  # pragma: no cover - prints the span-buckling table
+    p = RobotParams()
+    print("## Span buckling: the straight chain's critical load, all cables equal (N)\n")
+    print("| n_disks | m | linearised chain | (4EI/Δ²)·sin²(π/2m) | Euler π²EI/h² | 3 × 80 N |")
+    print("|---|---|---|---|---|---|")
+    for n, m in ((3, 1), (4, 1), (5, 1), (9, 1), (3, 2), (4, 2), (3, 4), (3, 12), (4, 9)):
+        pn = replace(p, n_disks=n, max_tension=1.0)
+        crit = span_buckling_loads(pn, m)[0][0]
+        euler = math.pi**2 * p.bending_stiffness / pn.disk_spacing**2
+        lin = linearised_critical_load(pn, m)
+        print(f"| {n} | {m} | {lin:.1f} | {crit:.1f} | {euler:.1f} | 240 |")
+
+
+def with_disks(params: RobotParams, n_disks: int) -> RobotParams:
+    """``params`` with ``n_disks`` spacer disks in every section."""
+    sections = tuple(replace(s, n_disks=n_disks) for s in params.sections)
+    return replace(params, sections=sections, length=None, n_disks=None, cable_radius=None)
+
+
+#: A three-section layout with 4, 3 and 5 cables at other angles (the tests' ``THREE``).
+THREE_SECTIONS = replace(
+    RobotParams.preset("tdcr2"),
+    sections=(
+        SectionParams(0.15, 20, 0.011, tuple(math.radians(a) for a in (0, 90, 180, 270))),
+        SectionParams(0.15, 20, 0.010, tuple(math.radians(a) for a in (30, 150, 270))),
+        SectionParams(0.10, 20, 0.008, tuple(math.radians(a) for a in (10, 100, 200, 300, 350))),
+    ),
+    max_tension=4.0,
+    length=None,
+    n_disks=None,
+    cable_radius=None,
+)
+
+
+def _sections_report() -> None:  # pragma: no cover - prints the n-section table
+    from cdcr_gym.backends.analytic import AnalyticBackend
+
+    print("## Several sections, gravity off: |settled tip − PCC tip| / ℓ (%)\n")
+    print("5 tension sets uniform in [0, max_tension] (seed 0); max and mean over the sets.\n")
+    print("| robot | disks per section | links_per_span | max | mean | source |")
+    print("|---|---|---|---|---|---|")
+    combos = ((10, 1), (10, 2), (10, 3), (20, 1), (30, 1), (60, 1), (100, 1))
+    for name, base in (("tdcr2", RobotParams.preset("tdcr2")), ("three sections", THREE_SECTIONS)):
+        rng = np.random.default_rng(0)
+        tensions = rng.uniform(0.0, base.max_tension, (5, base.n_cables))
+        for n, m in combos:
+            p = with_disks(base, n)
+            pcc = AnalyticBackend(p).equilibrium(tensions).tip
+            if p.n_disks * m <= MAX_JOINTS:
+                b = BulletBackend(p, gravity=False, links_per_span=m)
+                tips, source = b.equilibrium(tensions).tip, "pybullet backend"
+                b.close()
+            else:
+                chain = DiscreteBackbone(p, m, gravity=False)
+                tips = np.array(
+                    [chain.pose(chain.static_equilibrium(t)[0]).stations[-1] for t in tensions]
+                )
+                source = "chain statics"
+            err = 100 * np.linalg.norm(tips - pcc, axis=1) / p.length
+            print(f"| {name} | {n} | {m} | {err.max():.3f} | {err.mean():.3f} | {source} |")
+
+
 def main(argv: list[str] | None = None) -> None:  # pragma: no cover
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--bench", action="store_true", help="also measure the speed")
     parser.add_argument("--bench-only", action="store_true", help="only measure the speed")
     parser.add_argument("--steps", type=int, default=5000, help="steps per speed measurement")
+    parser.add_argument("--robot", default="paper", help="robot preset of the speed rows")
+    parser.add_argument(
+        "--buckling", action="store_true", help="only the span-buckling table (seconds)"
+    )
+    parser.add_argument(
+        "--sections", action="store_true", help="only the n-section dense-disk table (seconds)"
+    )
     args = parser.parse_args(argv)
+    if args.buckling or args.sections:
+        if args.buckling:
+            _buckling_report()
+        if args.sections:
+            _sections_report()
+        return
     if not args.bench_only:
         _report()
     if args.bench or args.bench_only:
-        res = benchmark(args.steps)
-        print("\n## Speed (default settings, one process)\n")
+        res = benchmark(args.steps, robot=args.robot)
+        print(f"\n## Speed ({args.robot} robot, default settings, one process)\n")
         print("| what | per wall-clock s | per CPU s |")
         print("|---|---|---|")
         print(

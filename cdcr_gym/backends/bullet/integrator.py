@@ -1,0 +1,305 @@
+"""The physics step of the pybullet backend: cable loads as generalized forces, implicit joint
+springs and dampers, and the divergence check.
+
+Implicit spring–damper integration
+    pybullet has no joint springs. The default motors are switched off and every physics step
+    applies a joint torque. The joints are stiff against the light links (the paper's robot, 9
+    links: highest mode ω_max ≈ 3 600 rad/s, the half tip link with its disk; an explicit
+    spring would need h < 2/ω_max ≈ 0.55 ms, explicit damping less), so stiffness and damping
+    are treated by backward Euler: with M = ``calculateMassMatrix(q)`` and b(q, q̇) =
+    ``calculateInverseDynamics(q, q̇, 0)`` (gravity + Coriolis; pybullet evaluates it as if the
+    base were upright, so for a turned base gravity is set to its R0 components for that call),
+    (M + hD + h²K)·Δq̇ = h·(τ_cable − b − K·q − (D + hK)·q̇),   q̇⁺ = q̇ + Δq̇,
+    and the torque sent to pybullet is τ = τ_cable − K·(q + h·q̇⁺) − D·q̇⁺. pybullet's own
+    semi-implicit Euler step (q̇⁺ = q̇ + h·M⁻¹(τ − b), q⁺ = q + h·q̇⁺) then reproduces the
+    backward-Euler update exactly, which is unconditionally stable for the linear spring and
+    damper. Cable and gravity loads stay explicit: their stiffness (the cables' ≈ ΣT·Δ/4 per
+    joint, ≤ 4.3 N·m/rad at 3 × 80 N on the paper's robot; gravity's ≲ 0.4 N·m/rad) is a
+    fraction of K = EI/Δ = 15.1 N·m/rad, which keeps the step stable (checked to h = 0.1 s)
+    as long as the disk spans do not buckle (``chain.check_span_buckling``). A state at rest
+    is a fixed point of the update iff K·q = τ_cable(q) − b(q, 0): the settled state is the
+    static solution, independent of h.
+
+Cable–disk friction
+    With ``friction_coefficient`` μ > 0 each cable's segments carry the capstan profile of
+    ``cdcr_gym.model.friction``: T_k = T_act·exp(−s·μ·Σ_{j≤k} α_j), with the wrap angles α_j at
+    the current pinholes (the base disk's from the base axis, where the cable arrives from the
+    actuator) and the cable's slip state s ∈ [−1, 1] (+1 pulled, −1 released), which follows
+    the cable's sliding by the Dahl-type law ``friction.update_slip`` over the slip length x_s:
+    the sliding is the change of the cable's length inside the robot since the previous
+    physics step (shortening = sliding towards the base). The segment tensions load the
+    backbone span by span (``DiscreteBackbone.cable_loads`` with per-span tensions); like the
+    frictionless cable loads they are explicit (evaluated at the start of the step). s has
+    memory, so a settled robot keeps the profile of its last motion: load–unload cycles open a
+    hysteresis loop. With μ = 0 none of this runs (bit-identical to the frictionless model).
+
+Damping
+    Per-joint, stiffness-proportional (Kelvin–Voigt material damping of the rod): D = β·K with
+    β = 2ζ/ω₁, where ω₁ is the first bending mode of the linearised chain at the straight pose
+    (generalized eigenproblem K·v = ω²·M·v) and ζ = ``damping_ratio``. Higher modes are
+    over-damped and relax at ≈ 1/β = ω₁/(2ζ).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Callable
+from types import ModuleType
+
+import numpy as np
+
+from cdcr_gym.backends.bullet.chain import DiscreteBackbone
+from cdcr_gym.model import friction
+from cdcr_gym.model.params import STANDARD_GRAVITY
+
+__all__ = [
+    "ImplicitIntegrator",
+    "SimulationDivergedError",
+    "MAX_JOINT_ANGLE",
+    "MAX_JOINT_RATE",
+    "bending_modes",
+]
+
+#: A joint whose angle exceeds this (rad) or whose rate exceeds ``MAX_JOINT_RATE`` (rad/s) is
+#: taken as a diverged simulation (a real spacer-disk span never kinks by 90°).
+MAX_JOINT_ANGLE = 0.5 * math.pi
+MAX_JOINT_RATE = 1.0e3
+
+
+class SimulationDivergedError(RuntimeError):
+    """The simulation produced a non-finite or exploding state.
+
+    Attributes:
+        state: dict with the offending ``joint_positions`` (rad), ``joint_velocities`` (rad/s),
+            ``tensions`` (N) and simulated ``time`` (s), as numpy arrays / float.
+    """
+
+    def __init__(self, message: str, state: dict):
+        super().__init__(message)
+        self.state = state
+
+
+def diverged(
+    message: str, q: np.ndarray, qd: np.ndarray, tensions: np.ndarray, time: float
+) -> SimulationDivergedError:
+    """A :class:`SimulationDivergedError` describing the state (q, q̇, tensions, time)."""
+    state = {
+        "joint_positions": q.copy(),
+        "joint_velocities": qd.copy(),
+        "tensions": tensions.copy(),
+        "time": time,
+    }
+    return SimulationDivergedError(
+        f"{message} (t = {time:.4f} s, tensions {tensions.tolist()} N, "
+        f"max |q| = {np.max(np.abs(q))} rad, max |q̇| = {np.max(np.abs(qd))} rad/s)",
+        state,
+    )
+
+
+def bending_modes(mass: np.ndarray, stiffness: np.ndarray) -> tuple[float, float]:
+    """Lowest and highest angular frequency (rad/s) of K·v = ω²·M·v for a diagonal K.
+
+    ``mass`` (2n, 2n) kg·m², ``stiffness`` (2n,) N·m/rad. With K = k·I (one section) the
+    frequencies are √(k / eig(M)); otherwise those of the symmetric K^{-1/2}·M·K^{-1/2}.
+    """
+    if np.all(stiffness == stiffness[0]):
+        eig = np.linalg.eigvalsh(mass)  # ascending
+        k = float(stiffness[0])
+        return float(math.sqrt(k / eig[-1])), float(math.sqrt(k / eig[0]))
+    scale = 1.0 / np.sqrt(stiffness)
+    eig = np.linalg.eigvalsh(mass * scale[:, None] * scale[None, :])
+    return float(math.sqrt(1.0 / eig[-1])), float(math.sqrt(1.0 / eig[0]))
+
+
+class ImplicitIntegrator:
+    """Advances one pybullet multibody by backward-Euler joint springs and dampers.
+
+    Args:
+        pb, client, body: the pybullet module, client id and multibody.
+        chain: the discretised model (cable loads, stiffness K).
+        physics_timestep: h (s).
+        damping_time: β (s), D = β·K.
+        gravity_in_base: gravity (m/s²) in R0 components for pybullet's inverse dynamics when
+            the base is turned and gravity is on; ``None`` for an upright base or no gravity.
+        friction_coefficient: cable–disk μ >= 0 (0: frictionless, the plain path).
+        slip_length: x_s (m, > 0) of the slip law (module docstring).
+    """
+
+    def __init__(
+        self,
+        pb: ModuleType,
+        client: int,
+        body: int,
+        chain: DiscreteBackbone,
+        physics_timestep: float,
+        damping_time: float,
+        gravity_in_base: tuple[float, float, float] | None,
+        friction_coefficient: float = 0.0,
+        slip_length: float = 1e-4,
+    ) -> None:
+        self._pb, self._client, self._body = pb, client, body
+        self.chain = chain
+        self.n_dof = n2 = chain.n_dof
+        self.joint_ids = list(range(n2))
+        self._zeros = [0.0] * n2
+        self.h = h = physics_timestep
+        self.K = chain.stiffness.copy()
+        self.D = damping_time * self.K
+        self._A_diag = h * self.D + h * h * self.K
+        self._D_plus_hK = self.D + h * self.K
+        self._gravity_in_base = gravity_in_base
+        self._q: np.ndarray | None = None
+        self._qd: np.ndarray | None = None
+        self.friction_coefficient = friction_coefficient
+        self.slip_length = slip_length
+        #: Slip state s (C,) of every cable (+1 pulled, −1 released, between: stick).
+        self.slip = np.zeros(chain.pinhole_local.shape[0])
+        self._last_lengths: np.ndarray | None = None
+        self._entry = np.ascontiguousarray(chain.base_rotation[:, 2])
+
+    def set_stiffness(self, stiffness: np.ndarray, damping_time: float) -> None:
+        """New joint stiffness K (2n,) N·m/rad and damping time β (s), D = β·K (randomised
+        parameters; the pybullet body is unchanged)."""
+        h = self.h
+        self.K = stiffness.copy()
+        self.D = damping_time * self.K
+        self._A_diag = h * self.D + h * h * self.K
+        self._D_plus_hK = self.D + h * self.K
+
+    def set_gravity_in_base(self, gravity_in_base: tuple[float, float, float] | None) -> None:
+        """See the constructor's ``gravity_in_base`` (gravity switched on or off)."""
+        self._gravity_in_base = gravity_in_base
+
+    # -- friction --------------------------------------------------------------------------------
+    def reset_friction(self) -> None:
+        """Neutral slip state (s = 0) and no sliding history: after a reset to rest."""
+        self.slip = np.zeros_like(self.slip)
+        self._last_lengths = None
+
+    def segment_tensions(self, q: np.ndarray, tensions: np.ndarray) -> np.ndarray:
+        """Tensions (n_disks, C) N of every cable's segment k (row k: from disk k to k + 1)
+        at joint angles ``q`` for actuator ``tensions`` (C,) N and the current slip state."""
+        _, pins = self.chain.stations_and_pinholes(q)
+        wraps = friction.wrap_angles(pins.transpose(1, 0, 2), self._entry)  # (C, n_disks)
+        return friction.tension_profile(tensions, wraps, self.friction_coefficient, self.slip).T
+
+    def _slide(self, lengths: np.ndarray) -> None:
+        """Advance the slip state by the sliding since the last call (lengths (C,) m)."""
+        if self._last_lengths is not None:
+            self.slip = friction.update_slip(
+                self.slip, self._last_lengths - lengths, self.slip_length
+            )
+        self._last_lengths = lengths
+
+    # -- state -----------------------------------------------------------------------------------
+    def state(self) -> tuple[np.ndarray, np.ndarray]:
+        """Joint angles q (2n,) rad and rates q̇ (2n,) rad/s from pybullet (cached until a change)."""
+        if self._q is None:
+            js = self._pb.getJointStates(self._body, self.joint_ids, physicsClientId=self._client)
+            n = self.n_dof
+            self._q = np.fromiter((s[0] for s in js), np.float64, n)
+            self._qd = np.fromiter((s[1] for s in js), np.float64, n)
+        assert self._qd is not None
+        return self._q, self._qd
+
+    def set_state(self, q: np.ndarray, qd: np.ndarray) -> None:
+        """Set q (2n,) rad and q̇ (2n,) rad/s in pybullet."""
+        self._pb.resetJointStatesMultiDof(
+            self._body,
+            self.joint_ids,
+            [[float(v)] for v in q],
+            targetVelocities=[[float(v)] for v in qd],
+            physicsClientId=self._client,
+        )
+        self.invalidate()
+
+    def invalidate(self) -> None:
+        """Drop the cached state (after any change of the pybullet state)."""
+        self._q = self._qd = None
+
+    # -- loads -----------------------------------------------------------------------------------
+    def bias(self, q_list: list, qd_list: list) -> np.ndarray:
+        """b(q, q̇) = C(q, q̇)·q̇ + g(q): the joint torques (N·m) for zero acceleration.
+
+        pybullet's ``calculateInverseDynamics`` works in the base frame and applies the world
+        gravity vector there as if the base were upright (pybullet 3.2.7). For a turned base we
+        therefore set gravity to its base-frame components R0ᵀ·g around the call (a test checks
+        the result against the chain model's gravity loads).
+        """
+        pb, cid = self._pb, self._client
+        if self._gravity_in_base is None:
+            return np.array(
+                pb.calculateInverseDynamics(
+                    self._body, q_list, qd_list, self._zeros, physicsClientId=cid
+                )
+            )
+        pb.setGravity(*self._gravity_in_base, physicsClientId=cid)
+        try:
+            return np.array(
+                pb.calculateInverseDynamics(
+                    self._body, q_list, qd_list, self._zeros, physicsClientId=cid
+                )
+            )
+        finally:
+            pb.setGravity(0.0, 0.0, -STANDARD_GRAVITY, physicsClientId=cid)
+
+    def gravity_bias(self, q: np.ndarray) -> np.ndarray:
+        """b(q, 0): the joint torques that hold the chain still against gravity (N·m)."""
+        return self.bias(q.tolist(), self._zeros)
+
+    def mass_matrix(self, q: np.ndarray) -> np.ndarray:
+        """Joint-space mass matrix M(q) (2n, 2n) from pybullet."""
+        return np.asarray(
+            self._pb.calculateMassMatrix(self._body, q.tolist(), physicsClientId=self._client)
+        )
+
+    # -- stepping --------------------------------------------------------------------------------
+    def advance(
+        self, tensions: np.ndarray, n_steps: int, on_step: Callable[[], None]
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Hold ``tensions`` (C,) N for ``n_steps`` physics steps; the final (q, q̇).
+
+        Each step: read q, q̇; τ_cable(q); M(q) and b(q, q̇) from pybullet; solve the
+        backward-Euler system for q̇⁺; send τ = τ_cable − K(q + h q̇⁺) − D q̇⁺; step.
+        ``on_step`` is called after every step (the backend drops its cached geometry and
+        advances its clock). The caller checks the result with :meth:`finite_and_bounded`.
+        """
+        pb, cid, body, ids = self._pb, self._client, self._body, self.joint_ids
+        h, n2 = self.h, self.n_dof
+        K, D, D_plus_hK = self.K, self.D, self._D_plus_hK
+        torque_mode = pb.TORQUE_CONTROL
+        cable_loads = self.chain.cable_loads
+        rough = self.friction_coefficient > 0.0
+        for _ in range(n_steps):
+            q, qd = self.state()
+            ql = q.tolist()
+            if rough:
+                tau_c, lengths = cable_loads(q, self.segment_tensions(q, tensions))
+                self._slide(lengths)
+            else:
+                tau_c, _ = cable_loads(q, tensions)
+            # M(q) comes as 2n tuples of 2n floats: fromiter over the flattened rows is the
+            # cheapest conversion
+            rows = pb.calculateMassMatrix(body, ql, physicsClientId=cid)
+            mass = np.fromiter(itertools.chain.from_iterable(rows), np.float64, n2 * n2).reshape(
+                n2, n2
+            )
+            bias = self.bias(ql, qd.tolist())
+            mass.reshape(-1)[:: n2 + 1] += self._A_diag  # the diagonal (a view): M + hD + h²K
+            qd_new = qd + np.linalg.solve(mass, h * (tau_c - bias - K * q - D_plus_hK * qd))
+            torque = tau_c - K * (q + h * qd_new) - D * qd_new
+            # TORQUE_CONTROL torques accumulate until the next step: exactly one call per step
+            pb.setJointMotorControlArray(
+                body, ids, torque_mode, forces=torque.tolist(), physicsClientId=cid
+            )
+            pb.stepSimulation(physicsClientId=cid)
+            self.invalidate()
+            on_step()
+        return self.state()
+
+    @staticmethod
+    def finite_and_bounded(q: np.ndarray, qd: np.ndarray) -> bool:
+        """Whether every joint angle is within ``MAX_JOINT_ANGLE`` and rate within
+        ``MAX_JOINT_RATE`` (NaN fails every comparison, so non-finite states fail too)."""
+        return bool(np.max(np.abs(q)) <= MAX_JOINT_ANGLE and np.max(np.abs(qd)) <= MAX_JOINT_RATE)

@@ -1,0 +1,112 @@
+"""Oracles for the Track and Pose tasks: inverse kinematics on the CCKA/PCC model every step.
+
+* :class:`TrackingIKController` (Track): IK on where the target will be after this step,
+  ``target + target_velocity·dt`` (a one-step feed-forward read from the observation), so on the
+  analytic backend the error left is the path's curvature over one step (µm), not the 1 mm a
+  lagging controller would keep at the default speed.
+* :class:`PoseIKController` (Pose): pose IK (``cdcr_gym.model.ik.solve_pose_ik``) on the goal
+  position and tip direction, cached per goal (the LM solve costs milliseconds).
+
+Both are :class:`~cdcr_gym.controllers.ik.AnalyticIKController` s with another goal: they command
+the IK tensions (or cable lengths) from the current state in the env's action mode, closed loop on
+the model only (open loop on another backend).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from cdcr_gym import validation
+from cdcr_gym.controllers.ik import AnalyticIKController
+from cdcr_gym.envs.observation import ObservationSpec
+from cdcr_gym.model.ik import solve_pose_ik
+from cdcr_gym.model.params import RobotParams
+
+__all__ = ["TrackingIKController", "PoseIKController"]
+
+
+class TrackingIKController(AnalyticIKController):
+    """IK on the target one step ahead, for the Track task's flat observation.
+
+    Args:
+        params: the robot the IK assumes.
+        spec: the env's observation layout; the controller reads ``target``,
+            ``target_velocity``, ``tensions`` and ``cable_lengths``.
+        action_mode: the env's action mode.
+        tension_step: the env's ``tension_step`` (fraction of max_tension per step).
+        length_step: the env's ``length_step`` (m per step).
+        timestep: the time (s) the target moves per step (``Track.step_time``), > 0.
+    """
+
+    def __init__(
+        self,
+        params: RobotParams,
+        spec: ObservationSpec,
+        action_mode: str = "tension_delta",
+        tension_step: float = 0.05,
+        length_step: float = 0.002,
+        timestep: float = 0.02,
+    ) -> None:
+        super().__init__(params, spec, action_mode, tension_step, length_step)
+        self.timestep = validation.positive(timestep, "timestep")
+
+    @classmethod
+    def from_env(cls, env: Any) -> TrackingIKController:
+        """A controller matched to a Track ``env`` (single or batched, possibly wrapped)."""
+        env = env.unwrapped
+        return cls(
+            env.params,
+            env.observation_spec,
+            env.action_mode,
+            env.tension_step,
+            env.length_step,
+            env.task.step_time(env.core.backend),
+        )
+
+    def _unpack(self, obs: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        spec = self.spec
+        target = spec.decode(obs, "target") + self.timestep * spec.decode(obs, "target_velocity")
+        tensions = spec.decode(obs, "tensions") * self.params.max_tension
+        lengths = spec.decode(obs, "cable_lengths") * self._length_span + self._run_lengths
+        return target, tensions, lengths
+
+
+class PoseIKController(AnalyticIKController):
+    """Pose IK (position and tip direction) as a policy for the Pose task (flat or Dict).
+
+    The goal is read from ``goal`` and ``goal_direction`` (flat) or ``desired_goal`` (Dict: the
+    position then the direction); solutions are cached per goal.
+    """
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+
+    def targets(self, goal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Pose-IK solution for goals (..., 6) (position m, direction): (tensions N, lengths m)."""
+        goal = np.asarray(goal, dtype=np.float64)
+        key = goal.tobytes() + str(goal.shape).encode()
+        hit = self._cache.get(key)
+        if hit is None:
+            solution = solve_pose_ik(goal[..., :3], goal[..., 3:], self.params)
+            hit = solution.tensions, self._model.lengths_from_bending(solution.bending)
+            if len(self._cache) > 4096:
+                self._cache.clear()
+            self._cache[key] = hit
+        return hit
+
+    def _unpack(self, obs: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        spec = self.spec
+        if isinstance(obs, dict):
+            goal = np.asarray(obs["desired_goal"], dtype=np.float64)
+            state = obs["observation"]
+        else:
+            state = obs
+            goal = np.concatenate(
+                [spec.decode(obs, "goal"), spec.decode(obs, "goal_direction")], axis=-1
+            )
+        tensions = spec.decode(state, "tensions") * self.params.max_tension
+        lengths = spec.decode(state, "cable_lengths") * self._length_span + self._run_lengths
+        return goal, tensions, lengths

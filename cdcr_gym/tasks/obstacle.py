@@ -1,0 +1,351 @@
+"""Reaching around obstacles: bring the tip to a goal without touching any sphere on the way."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from cdcr_gym import validation
+from cdcr_gym.backends.base import Backend, Readings
+from cdcr_gym.envs.observation import Field, ObservationSpec
+from cdcr_gym.model.ik import solve_ik
+from cdcr_gym.model.statics import cached_model
+from cdcr_gym.model.workspace import sample_tensions
+from cdcr_gym.tasks.base import (
+    REWARD_TYPES,
+    RobotStateScale,
+    Task,
+    fill_robot_state,
+    robot_state_fields,
+)
+from cdcr_gym.tasks.collision import backend_geometry, clearance, model_geometry
+from cdcr_gym.tasks.reach import ERROR_SCALE
+
+__all__ = ["Obstacle", "ObstacleSceneError"]
+
+#: Attempts to place a blocking sphere before an episode's scene is given up (then an error).
+_ATTEMPTS = 400
+
+
+class ObstacleSceneError(RuntimeError):
+    """No scene satisfying the Obstacle task's rules was found (arguments too demanding)."""
+
+
+class Obstacle(Task):
+    """Reach a goal point with the tip without touching spheres placed in the way.
+
+    **Scene** (drawn at every reset from the env's generator, on the CCKA/PCC model of the
+    robot): a goal shape is drawn like Reach's (``model.workspace.sample_tensions``) and the goal
+    is its tip on the backend (``Backend.equilibrium``). The *direct route* is the straight line
+    in tension space from the start tensions to the IK tensions of the goal
+    (``model.ik.solve_ik``) — exactly what the reach IK controller commands in ``tension_delta``
+    mode. The first sphere blocks it: a shape of the route at a fraction drawn in [0.3, 0.8] is
+    taken, a backbone point in its distal half, and a sphere of radius drawn in
+    ``radius_range`` is centred within half a radius of that point (so the route passes through
+    it). Up to ``max_obstacles − 1`` more spheres (the count is drawn in [``min_obstacles``,
+    ``max_obstacles``]) are centred within a radius of the tips of random shapes. Every sphere
+    keeps at least ``clearance_margin`` from the start shape, the drawn goal shape and the IK
+    goal shape, so the goal has a collision-free configuration and the start is free; a sphere
+    that cannot be placed is redrawn (up to 400 times, then ``ObstacleSceneError``).
+
+    **Collision**: any part of the backbone (a rod of radius d/2) or of a disk (a disc of
+    radius ``params.disk_radius``, base disk included) inside a sphere
+    (``cdcr_gym.tasks.collision``), measured on the backend's own geometry after every step.
+
+    **Observation fields** (flat): ``tip`` (3, m), ``goal`` (3, m), ``error`` = goal − tip
+    (3, m), ``error_tanh`` = tanh(error / 1 cm) (3), ``obstacle_centres`` (3 per sphere, m,
+    sphere by sphere), ``obstacle_radii`` (m), ``obstacle_mask`` (1 for a sphere, 0 for
+    padding: absent spheres have centre 0 and radius 0), ``min_clearance`` (m, clipped to
+    [−ℓ, 2ℓ]), then the robot state (normalised ``tensions`` and ``cable_lengths``). Not
+    goal-conditioned (the reward depends on collisions, not only on the achieved goal).
+    Paper robot, 3 spheres (40 entries):
+
+    | index | observation | min | max | unit |
+    |-------|-------------|-----|-----|------|
+    | 0–2 | tip position x, y, z in R0 | -0.641 | 0.641 | m |
+    | 3–5 | goal position x, y, z in R0 | -0.641 | 0.641 | m |
+    | 6–8 | goal − tip | -1.282 | 1.282 | m |
+    | 9–11 | tanh((goal − tip) / 0.01 m) | -1 | 1 | – |
+    | 12–20 | sphere centres | -1.282 | 1.282 | m |
+    | 21–23 | sphere radii (0: none) | 0 | 0.641 | m |
+    | 24–26 | 1: sphere, 0: padding | 0 | 1 | – |
+    | 27 | smallest robot–sphere clearance | -0.641 | 1.282 | m |
+    | 28–30 | cable tensions / max_tension | 0 | 1 | – |
+    | 31–33 | (cable length − L_i) / (π r_i m_i), L_i: backbone length the cable spans | -1 | 1 | – |
+
+    **Reward**: ``"dense"``: −‖goal − tip‖ (m) − ``collision_penalty`` on every step in
+    collision − ``penetration_weight``·(penetration depth, m: −min_clearance when negative);
+    ``"sparse"``: −1 until success, then 0, minus the same penalties.
+    **Success**: distance <= ``distance_threshold`` and no collision so far in the episode.
+    **info**: ``distance`` (m), ``is_success``, ``goal`` (m), ``collision`` (in collision now),
+    ``collided`` (at any step of the episode so far), ``min_clearance`` (m, unclipped; negative
+    = penetration), ``obstacles`` ((max_obstacles, 4) rows x, y, z, radius m; zero rows pad).
+
+    **Starting state**: the env's (straight by default). **Episode end**: truncation; a
+    collision ends the episode with ``terminate_on_collision=True``; success with the env's
+    ``terminate_on_success``.
+
+    Args:
+        reward_type: ``"dense"`` or ``"sparse"``.
+        distance_threshold: success radius (m), > 0.
+        collision_penalty: reward subtracted on every step in collision (>= 0).
+        penetration_weight: reward subtracted per metre of penetration (1/m·m, >= 0): a
+            graded penalty (grazing costs little, running through a sphere much), 0 = off.
+        terminate_on_collision: end the episode at the first collision.
+        min_obstacles: fewest spheres per episode (>= 1).
+        max_obstacles: most spheres per episode, and the padded count in the observation
+            (>= min_obstacles).
+        radius_range: (low, high) sphere radii (m), 0 < low <= high; None: (0.06, 0.12)·ℓ (ℓ
+            the robot's length: 38–77 mm on the paper robot).
+        clearance_margin: smallest distance (m) between a sphere and the start and goal shapes
+            when a scene is made (>= 0).
+    """
+
+    name = "Obstacle"
+    goal_size = 0
+
+    def __init__(
+        self,
+        reward_type: str = "dense",
+        distance_threshold: float = 0.005,
+        collision_penalty: float = 0.5,
+        penetration_weight: float = 0.0,
+        terminate_on_collision: bool = False,
+        min_obstacles: int = 1,
+        max_obstacles: int = 3,
+        radius_range: tuple[float, float] | None = None,
+        clearance_margin: float = 0.01,
+    ) -> None:
+        self.reward_type = validation.choice(reward_type, "reward_type", REWARD_TYPES)
+        self.distance_threshold = validation.positive(distance_threshold, "distance_threshold")
+        self.collision_penalty = validation.positive(
+            collision_penalty, "collision_penalty", allow_zero=True
+        )
+        self.penetration_weight = validation.positive(
+            penetration_weight, "penetration_weight", allow_zero=True
+        )
+        self.terminate_on_collision = validation.flag(
+            terminate_on_collision, "terminate_on_collision"
+        )
+        self.min_obstacles = validation.integer(min_obstacles, "min_obstacles", 1)
+        self.max_obstacles = validation.integer(max_obstacles, "max_obstacles", self.min_obstacles)
+        if radius_range is not None:
+            pair = validation.real_array(radius_range, "radius_range")
+            if pair.shape != (2,) or not 0.0 < pair[0] <= pair[1]:
+                raise ValueError(
+                    f"radius_range must be (low, high) m with 0 < low <= high, got {radius_range!r}"
+                )
+            radius_range = (float(pair[0]), float(pair[1]))
+        self.radius_range = radius_range
+        self.clearance_margin = validation.positive(
+            clearance_margin, "clearance_margin", allow_zero=True
+        )
+        self._dense = reward_type == "dense"
+
+    def bind(self, params, num_envs: int) -> None:
+        super().bind(params, num_envs)
+        n, k = self.num_envs, self.max_obstacles
+        self.goal = np.zeros((n, 3))
+        self.goal[:, 2] = params.length
+        self.obstacles = np.zeros((n, k, 4))
+        self.min_clearance = np.full(n, np.inf)
+        self.collision = np.zeros(n, dtype=bool)
+        self.collided = np.zeros(n, dtype=bool)
+        ell = params.length
+        self.radii = self.radius_range or (0.06 * ell, 0.12 * ell)
+        self._rod = 0.5 * params.backbone_diameter
+        self._disk = params.disk_radius
+        self._model = cached_model(params)
+        self._scale = RobotStateScale(params)
+        self._spec = self._build_spec()
+        self._slices = self._spec.slices
+
+    def _build_spec(self) -> ObservationSpec:
+        ell, k = self.params.length, self.max_obstacles
+        xyz = ("x", "y", "z")
+        labels = tuple(f"{i}{a}" for i in range(k) for a in xyz)
+        return ObservationSpec(
+            [
+                Field.uniform("tip", 3, -ell, ell, "m", "tip position x, y, z in R0", xyz),
+                Field.uniform("goal", 3, -ell, ell, "m", "goal position x, y, z in R0", xyz),
+                Field.uniform("error", 3, -2 * ell, 2 * ell, "m", "goal − tip", xyz),
+                Field.uniform("error_tanh", 3, -1.0, 1.0, "–", "tanh((goal − tip) / 0.01 m)", xyz),
+                Field.uniform(
+                    "obstacle_centres", 3 * k, -2 * ell, 2 * ell, "m", "sphere centres", labels
+                ),
+                Field.uniform("obstacle_radii", k, 0.0, ell, "m", "sphere radii (0: none)"),
+                Field.uniform("obstacle_mask", k, 0.0, 1.0, "–", "1: sphere, 0: padding"),
+                Field.uniform(
+                    "min_clearance", 1, -ell, 2 * ell, "m", "smallest robot–sphere clearance"
+                ),
+                *robot_state_fields(self.params),
+            ]
+        )
+
+    def observation_spec(self, goal_conditioned: bool) -> ObservationSpec:
+        return self._spec
+
+    # -- scenes ---------------------------------------------------------------------------------
+    def _free(self, bending: np.ndarray, sphere: np.ndarray) -> bool:
+        geometry = model_geometry(self._model, bending)
+        gap = clearance(geometry, sphere[None, :], self._rod, self._disk)
+        return bool(np.all(gap > self.clearance_margin))
+
+    def make_scene(
+        self, rng: np.random.Generator, start_tensions: np.ndarray, backend: Backend
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """A goal (3,) m and spheres (max_obstacles, 4) for one env (see the class docstring)."""
+        model, params = self._model, self.params
+        t_max = params.max_tension
+        start_w = model.bending_from_tensions(start_tensions[None])
+        lo, hi = self.radii
+        for attempt in range(_ATTEMPTS):
+            if attempt % 8 == 0:
+                goal_t = sample_tensions(rng, params, 1)
+                goal = backend.equilibrium(goal_t).tip[0]
+                ik = solve_ik(goal, params).tensions
+                keep = np.concatenate([start_w, model.bending_from_tensions(goal_t)[:1]])
+                keep = np.concatenate([keep, model.bending_from_tensions(ik[None])])
+            lam = rng.uniform(0.3, 0.8)
+            shape = model.bending_from_tensions(
+                np.clip(start_tensions + lam * (ik - start_tensions), 0.0, t_max)[None]
+            )
+            points = model.backbone_points(shape, points_per_section=8)[0]
+            distal = points[len(points) // 2 :]
+            anchor = distal[rng.integers(len(distal))]
+            radius = rng.uniform(lo, hi)
+            offset = rng.normal(size=3)
+            offset *= rng.uniform(0.0, 0.5 * radius) / np.linalg.norm(offset)
+            sphere = np.array([*(anchor + offset), radius])
+            if self._free(keep, sphere):
+                break
+        else:
+            raise ObstacleSceneError(
+                f"no blocking sphere found in {_ATTEMPTS} attempts (radius_range={self.radii}, "
+                f"clearance_margin={self.clearance_margin})"
+            )
+        spheres = np.zeros((self.max_obstacles, 4))
+        spheres[0] = sphere
+        count = int(rng.integers(self.min_obstacles, self.max_obstacles + 1))
+        placed = 1
+        for _ in range(_ATTEMPTS):
+            if placed >= count:
+                break
+            tip = model.tip_from_bending(
+                model.bending_from_tensions(sample_tensions(rng, params, 1))
+            )[0]
+            radius = rng.uniform(lo, hi)
+            offset = rng.normal(size=3)
+            offset *= rng.uniform(0.0, radius) / np.linalg.norm(offset)
+            extra = np.array([*(tip + offset), radius])
+            if self._free(keep, extra):
+                spheres[placed] = extra
+                placed += 1
+        if placed < count:
+            raise ObstacleSceneError(
+                f"could place only {placed} of {count} spheres (min_obstacles="
+                f"{self.min_obstacles}, radius_range={self.radii})"
+            )
+        return goal, spheres
+
+    def reset_goals(
+        self,
+        idx: np.ndarray,
+        rngs: list[np.random.Generator],
+        backend: Backend,
+        goal: np.ndarray | None = None,
+    ) -> None:
+        if goal is not None:
+            raise ValueError(
+                "options['goal'] is not supported by the Obstacle task (goal and spheres are "
+                "drawn together at reset)"
+            )
+        start = backend.read().tensions
+        for i, rng in zip(idx.tolist(), rngs):
+            self.goal[i], self.obstacles[i] = self.make_scene(rng, start[i], backend)
+        self.collided[idx] = False
+        self._check(backend, idx)
+
+    def _check(self, backend: Backend, idx: np.ndarray | None = None) -> None:
+        gap = clearance(backend_geometry(backend), self.obstacles, self._rod, self._disk).min(1)
+        hit = gap < 0.0
+        if idx is None:
+            self.min_clearance, self.collision = gap, hit
+            self.collided |= hit
+        else:
+            self.min_clearance[idx], self.collision[idx] = gap[idx], hit[idx]
+            self.collided[idx] |= hit[idx]
+
+    def advance(self, backend: Backend, readings: Readings) -> None:
+        self._check(backend)
+
+    def terminal(self) -> np.ndarray:
+        if self.terminate_on_collision:
+            return self.collision.copy()
+        return np.zeros(self.num_envs, dtype=bool)
+
+    # -- per step -------------------------------------------------------------------------------
+    def observe(self, readings: Readings, out: np.ndarray, goal_conditioned: bool) -> None:
+        s = self._slices
+        ell = self.params.length
+        error = (self.goal - readings.tip).T
+        out[s["tip"]] = readings.tip.T
+        out[s["goal"]] = self.goal.T
+        out[s["error"]] = error
+        np.tanh(error * (1.0 / ERROR_SCALE), out=out[s["error_tanh"]], casting="unsafe")
+        n, k = self.num_envs, self.max_obstacles
+        out[s["obstacle_centres"]] = self.obstacles[:, :, :3].reshape(n, 3 * k).T
+        out[s["obstacle_radii"]] = self.obstacles[:, :, 3].T
+        out[s["obstacle_mask"]] = (self.obstacles[:, :, 3] > 0.0).T
+        out[s["min_clearance"]] = np.clip(self.min_clearance, -ell, 2 * ell)[None]
+        fill_robot_state(out, s["tensions"], s["cable_lengths"], readings, self._scale)
+
+    def achieved_goal(self, readings: Readings) -> np.ndarray:
+        return readings.tip
+
+    def desired_goal(self) -> np.ndarray:
+        return self.goal
+
+    def evaluate(self, readings: Readings) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
+        distance = np.linalg.norm(self.goal - readings.tip, axis=1)
+        success = (distance <= self.distance_threshold) & ~self.collided
+        if self._dense:
+            reward = -distance
+        else:
+            reward = success - 1.0
+        reward = reward - self.collision_penalty * self.collision
+        if self.penetration_weight:
+            reward = reward - self.penetration_weight * np.maximum(0.0, -self.min_clearance)
+        info = {
+            "distance": distance,
+            "is_success": success,
+            "goal": self.goal.copy(),
+            "collision": self.collision.copy(),
+            "collided": self.collided.copy(),
+            "min_clearance": self.min_clearance.copy(),
+            "obstacles": self.obstacles.copy(),
+        }
+        return reward, success, info
+
+    def compute_reward(
+        self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any = None
+    ) -> np.ndarray:
+        return -np.linalg.norm(
+            np.asarray(achieved_goal, np.float64) - np.asarray(desired_goal, np.float64), axis=-1
+        )
+
+    def info_keys(self) -> tuple[str, ...]:
+        return (
+            "distance",
+            "is_success",
+            "goal",
+            "collision",
+            "collided",
+            "min_clearance",
+            "obstacles",
+        )
+
+    def render_markers(self, index: int = 0) -> dict[str, Any]:
+        spheres = self.obstacles[index]
+        return {"goal": self.goal[index].copy(), "obstacles": spheres[spheres[:, 3] > 0].copy()}

@@ -1,0 +1,158 @@
+"""The Obstacle task (cdcr_gym/{CCKA,Bullet}Obstacle-v0), its collision geometry and oracle."""
+
+from __future__ import annotations
+
+import inspect
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from task_contracts import batched_matches_single, check_env_both, combos, make, rollout
+
+from cdcr_gym.controllers import AnalyticIKController, ObstaclePlanner
+from cdcr_gym.model.ik import solve_ik
+from cdcr_gym.model.statics import cached_model
+from cdcr_gym.params import RobotParams
+from cdcr_gym.tasks.collision import clearance, model_geometry
+from cdcr_gym.tasks.obstacle import Obstacle
+
+COMBOS = combos("Obstacle")
+
+
+@pytest.mark.parametrize("env_id, robot", COMBOS)
+def test_check_env_passes(env_id, robot):
+    env = make(env_id, robot)
+    check_env_both(env)
+    env.close()
+
+
+@pytest.mark.parametrize("env_id, robot", COMBOS)
+def test_same_seed_and_actions_give_identical_trajectories(env_id, robot):
+    kwargs = {"terminate_on_collision": True}
+    a, b = rollout(env_id, robot, **kwargs), rollout(env_id, robot, **kwargs)
+    assert np.array_equal(a, b)
+
+
+def test_batched_env_matches_single_envs():
+    batched_matches_single("cdcr_gym/CCKAObstacle-v0", "paper", terminate_on_collision=True)
+
+
+def test_clearance_of_rod_and_disks_is_exact_on_the_straight_robot():
+    params = RobotParams.preset("paper")
+    model = cached_model(params)
+    geometry = model_geometry(model, np.zeros((1, 1, 2)))
+    rod, disk = 0.5 * params.backbone_diameter, params.disk_radius
+    # beside the backbone between two disks, level with none: the nearest part is a disk rim
+    z_mid = 0.5 * params.disk_spacing
+    sphere = np.array([[0.1, 0.0, z_mid, 0.01]])
+    expected = np.hypot(0.1 - disk, z_mid) - 0.01
+    np.testing.assert_allclose(clearance(geometry, sphere, rod, disk)[0, 0], expected, rtol=1e-12)
+    # above the tip: the rod's round end cap (a capsule), d/2 above the tip disk's face
+    sphere = np.array([[0.0, 0.0, params.length + 0.05, 0.02]])
+    expected = 0.05 - rod - 0.02
+    np.testing.assert_allclose(clearance(geometry, sphere, rod, disk)[0, 0], expected, rtol=1e-12)
+    # padding (radius 0) never collides
+    assert np.isinf(clearance(geometry, np.zeros((1, 4)), rod, disk)[0, 0])
+
+
+@pytest.mark.parametrize("robot", ["paper", "tdcr2"])
+def test_scenes_block_the_direct_route_and_keep_start_and_goal_free(robot):
+    env = gym.make("cdcr_gym/CCKAObstacle-v0", robot=robot, initial_state="random")
+    params = env.unwrapped.params
+    model = cached_model(params)
+    rod, disk = 0.5 * params.backbone_diameter, params.disk_radius
+    for seed in range(6):
+        _, info = env.reset(seed=seed)
+        spheres = info["obstacles"]
+        count = int(np.sum(spheres[:, 3] > 0))
+        assert 1 <= count <= 3
+        assert info["min_clearance"] > 0.01 and not info["collision"]
+        start = info["tensions"]
+        ik = solve_ik(info["goal"], params).tensions
+        lam = np.linspace(0.0, 1.0, 201)[:, None]
+        w = model.bending_from_tensions(start + lam * (ik - start))
+        gap = clearance(model_geometry(model, w), spheres, rod, disk).min(axis=1)
+        assert gap.min() < 0.0  # the direct route hits a sphere
+        assert gap[-1] > 0.01  # the IK goal shape is free
+
+
+def test_reach_ik_collides_and_the_planner_succeeds_on_the_same_episodes():
+    env = gym.make("cdcr_gym/CCKAObstacle-v0")
+    ik = AnalyticIKController.from_env(env)
+    planner = ObstaclePlanner.from_env(env)
+    results = {"ik": [], "planner": []}
+    for seed in range(12):
+        for name, policy in (("ik", ik), ("planner", planner)):
+            obs, info = env.reset(seed=seed)
+            truncated = False
+            while not truncated:
+                obs, _, _, truncated, info = env.step(policy(obs))
+            results[name].append((info["is_success"], info["collided"]))
+    ik_collided = np.mean([c for _, c in results["ik"]])
+    planner_success = np.mean([s for s, _ in results["planner"]])
+    assert ik_collided >= 0.8, ik_collided
+    assert planner_success >= 0.95, planner_success
+    assert not any(c for _, c in results["planner"])
+
+
+def test_collision_penalty_success_and_termination():
+    env = gym.make("cdcr_gym/CCKAObstacle-v0", terminate_on_collision=True, collision_penalty=2.0)
+    ik = AnalyticIKController.from_env(env)
+    obs, info = env.reset(seed=0)
+    for _ in range(100):
+        obs, reward, terminated, truncated, info = env.step(ik(obs))
+        if info["collision"]:
+            break
+    assert info["collision"] and terminated and info["min_clearance"] < 0
+    assert reward == pytest.approx(-info["distance"] - 2.0)
+    assert not info["is_success"] and info["collided"]
+
+
+def test_render_draws_the_obstacles():
+    env = gym.make(
+        "cdcr_gym/CCKAObstacle-v0",
+        render_mode="rgb_array",
+        render_width=96,
+        render_height=96,
+        min_obstacles=3,
+    )
+    env.reset(seed=0)
+    with_spheres = env.render()
+    env.unwrapped.task.obstacles[:] = 0.0
+    without = env.render()
+    assert with_spheres.shape == (96, 96, 3)
+    assert np.sum(np.any(with_spheres != without, axis=-1)) > 50
+
+
+@pytest.mark.parametrize(
+    "kwargs, name",
+    [
+        ({"collision_penalty": -1.0}, "collision_penalty"),
+        ({"penetration_weight": -1.0}, "penetration_weight"),
+        ({"terminate_on_collision": 1}, "terminate_on_collision"),
+        ({"min_obstacles": 0}, "min_obstacles"),
+        ({"min_obstacles": 3, "max_obstacles": 2}, "max_obstacles"),
+        ({"radius_range": (0.05, 0.01)}, "radius_range"),
+        ({"radius_range": (0.0, 0.01)}, "radius_range"),
+        ({"clearance_margin": -0.01}, "clearance_margin"),
+        ({"goal_conditioned": True}, "goal_conditioned"),
+    ],
+)
+def test_bad_arguments_raise_value_error_naming_them(kwargs, name):
+    with pytest.raises(ValueError, match=name):
+        gym.make("cdcr_gym/CCKAObstacle-v0", **kwargs)
+
+
+def test_planner_refuses_other_action_modes():
+    env = gym.make("cdcr_gym/CCKAObstacle-v0", action_mode="tension")
+    with pytest.raises(ValueError, match="action_mode"):
+        ObstaclePlanner.from_env(env)
+
+
+def test_docstring_lists_the_arguments_and_the_observation_table():
+    doc = inspect.getdoc(Obstacle)
+    for name in inspect.signature(Obstacle.__init__).parameters:
+        if name != "self":
+            assert f"{name}:" in doc, name
+    env = gym.make("cdcr_gym/CCKAObstacle-v0")
+    assert env.unwrapped.observation_spec.table() in doc
