@@ -308,7 +308,9 @@ def test_fast_config_trains_one_rollout(tmp_path: Path, name: str) -> None:
     # The recipes evaluate at the end only (periodic evaluation would cost wall time).
     assert config.eval.freq >= config.total_timesteps
     run = tmp_path / "run"
-    result = _run("training.train", f"configs/{name}.yaml", "--total-timesteps", 256, "--run-dir", run)
+    result = _run(
+        "training.train", f"configs/{name}.yaml", "--total-timesteps", 256, "--run-dir", run
+    )
     assert result.returncode == 0, result.stderr[-3000:]
     meta = json.loads((run / "run.json").read_text())
     assert meta["status"] == "complete"
