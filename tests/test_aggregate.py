@@ -12,6 +12,7 @@ import pytest
 from training.aggregate import (
     aggregate,
     iqm,
+    iqm_table,
     load_runs,
     main,
     performance_profile,
@@ -203,3 +204,72 @@ def test_aggregate_cli_errors(tmp_path: Path, capsys) -> None:
     assert "sweep.json" in capsys.readouterr().err
     assert main([str(tmp_path), "--reps", "0"]) == 2
     assert "--reps" in capsys.readouterr().err
+
+
+def _fake_task_run(root: Path, trial_id: str, env: str, task: str, seed: int, rms: float) -> dict:
+    """A Track/Pose/Obstacle run directory: eval.json holds the task summaries per policy."""
+    run = root / "runs" / trial_id
+    run.mkdir(parents=True)
+    (run / "run.json").write_text(
+        json.dumps({"status": "complete", "total_steps": 30_000, "total_wall_time_s": 40.0})
+    )
+
+    def summary(scale: float) -> dict:
+        out = {
+            "task": task,
+            "success_rate": 0.5 * scale,
+            "final_distance_mm": {"median": 3.0 * scale},
+        }
+        if task == "Track":
+            out["tracking_rms_mm"] = {"median": rms * scale}
+        if task == "Obstacle":
+            out["collision_rate"] = 0.25 * scale
+        return out
+
+    conditions = {"straight_h100": {"policy": summary(1.0), "oracle": summary(0.1)}}
+    (run / "eval.json").write_text(json.dumps({"task": task, "conditions": conditions}))
+    return {
+        "trial_id": trial_id,
+        "env_id": f"cdcr_gym/{env}",
+        "algo": "sac",
+        "variant": {},
+        "seed": seed,
+        "status": "complete",
+        "run_dir": str(run),
+    }
+
+
+def test_task_metrics_are_aggregated_per_task(tmp_path: Path) -> None:
+    root = tmp_path / "sweep"
+    records = [
+        _fake_task_run(root, f"t_seed{i}", "CCKATrack-v0", "Track", i, rms)
+        for i, rms in enumerate([2.0, 4.0, 9.0, 1.0])
+    ] + [_fake_task_run(root, "o_seed0", "CCKAObstacle-v0", "Obstacle", 0, 0.0)]
+    summary = {"name": "t", "command": "python -m training.sweep s.yaml", "trials": records,
+               "spec": {"target": {}, "set": {}}}  # fmt: skip
+    (root / "sweep.json").write_text(json.dumps(summary))
+    _, runs = load_runs(root)
+    track = [r for r in runs if r.task == "CCKATrack-v0"]
+    assert {r.kind for r in track} == {"Track"}
+    assert track[0].scores["straight_h100"] == {
+        "median_error_mm": 3.0,
+        "success_rate": 0.5,
+        "tracking_rms_mm": 2.0,
+    }
+    assert track[0].baselines["straight_h100"]["oracle"]["tracking_rms_mm"] == pytest.approx(0.2)
+    result = aggregate(runs, reps=500)
+    (g,) = [g for g in result["groups"] if g["task"] == "CCKATrack-v0"]
+    # four runs: the IQM cuts int(0.25 * 4) = 1 per end of [1, 2, 4, 9]: mean of 2 and 4
+    assert g["tracking_rms_mm"]["iqm"] == pytest.approx(3.0)
+    assert "within_1mm" not in g and "collision_rate" not in g
+    (o,) = [g for g in result["groups"] if g["task"] == "CCKAObstacle-v0"]
+    assert o["collision_rate"]["iqm"] == pytest.approx(0.25)
+    (across,) = result["aggregate"]
+    assert across["runs"] == 5 and "within_1mm" not in across
+    assert across["success_rate"]["iqm"] == pytest.approx(0.5)
+    table = "\n".join(iqm_table(result))
+    assert "median tracking RMS" in table and "collision rate" in table
+    assert "*oracle*" in table and "0.2 mm" in table  # the Track oracle's RMS: 0.1 x 2 mm
+    page = tmp_path / "bench.md"
+    assert main([str(root), "--doc", str(page), "--reps", "200"]) == 0
+    assert "no collision during the episode" in page.read_text()

@@ -254,3 +254,17 @@ def test_ray_executor_without_ray_names_the_extra(tmp_path: Path, monkeypatch, c
     assert sweep.main([path, "--out-dir", str(tmp_path / "out")]) == 2
     assert "cdcr-gym[sweep]" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()
+
+
+def test_benchmark_sweep_covers_every_algorithm_and_task() -> None:
+    """configs/sweeps/benchmark.yaml: 4 algorithms x 5 (task, backend) x 3 seeds, one budget."""
+    spec = load_sweep(REPO / "configs" / "sweeps" / "benchmark.yaml")
+    trials = expand(spec)
+    pairs = {(t.algo, t.env_id.split("/")[-1]) for t in trials}
+    algos = {"ppo", "sac", "td3", "tqc"}
+    envs = {"CCKAReach-v0", "CCKATrack-v0", "CCKAPose-v0", "CCKAObstacle-v0", "BulletReach-v0"}
+    assert pairs == {(a, e) for a in algos for e in envs}
+    assert len(trials) == len(pairs) * len(spec.seeds) and len(spec.seeds) >= 3
+    budgets = {t.config["runtime"]["max_wall_time_s"] for t in trials}
+    assert len(budgets) == 1 and budgets.pop() > 0
+    assert spec.resources.max_concurrent == 1

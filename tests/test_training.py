@@ -292,3 +292,28 @@ def test_train_with_the_batched_vec_env(tmp_path: Path) -> None:
     result = _run("training.train", cfg, "--run-dir", tmp_path / "run")
     assert result.returncode == 0, result.stderr[-3000:]
     assert (tmp_path / "run" / "best_model" / "model.zip").exists()
+
+
+# -- the fast recipes (issue 12 item 1) ---------------------------------------------------------
+@pytest.mark.parametrize("name", ["ppo_ccka_fast", "ppo_bullet_fast"])
+def test_fast_config_trains_one_rollout(tmp_path: Path, name: str) -> None:
+    """A fast recipe loads and trains its first rollout (one PPO update) end to end.
+
+    The budget is overridden down to 256 steps; PPO still collects one full rollout of
+    ``n_steps * n_envs`` steps and updates once, so the recipe's vector env, batch size and
+    network all run. Its speed and accuracy are measured by commands (docs/training.md), not here.
+    """
+    config = load_config(REPO / "configs" / f"{name}.yaml")
+    rollout = config.ppo.n_steps * config.env.n_envs
+    # The recipes evaluate at the end only (periodic evaluation would cost wall time).
+    assert config.eval.freq >= config.total_timesteps
+    run = tmp_path / "run"
+    result = _run(
+        "training.train", f"configs/{name}.yaml", "--total-timesteps", 256, "--run-dir", run
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    meta = json.loads((run / "run.json").read_text())
+    assert meta["status"] == "complete"
+    rows = _csv_rows(run / "progress.csv")
+    assert int(rows[-1]["time/total_timesteps"]) == rollout
+    assert (run / "best_model" / "model.zip").exists()

@@ -66,10 +66,21 @@ __all__ = [
 METRICS = {
     # key: (title, unit, lower is better)
     "median_error_mm": ("median final error", "mm", True),
-    "success_rate": ("success ≤ 5 mm", "%", False),
+    "success_rate": ("success", "%", False),
     "within_1mm": ("within 1 mm", "%", False),
+    "tracking_rms_mm": ("median tracking RMS", "mm", True),
+    "final_angle_deg": ("median final angle", "°", True),
+    "within_1mm_1deg": ("within 1 mm and 1°", "%", False),
+    "collision_rate": ("collision rate", "%", True),
 }
 RATE_METRICS = ("success_rate", "within_1mm")
+#: what "success" means per task (the env's ``is_success`` at the last step)
+SUCCESS = {
+    "Reach": "final tip error ≤ 5 mm",
+    "Track": "tip within 5 mm of the moving target at the last step",
+    "Pose": "final tip error ≤ 5 mm and tip direction within 5°",
+    "Obstacle": "final tip error ≤ 5 mm and no collision during the episode",
+}
 
 
 # -- the estimator ------------------------------------------------------------------------------
@@ -179,6 +190,33 @@ class RunResult:
     error: str | None = None
     loadavg: list[float] = field(default_factory=list)  # 1-min load average, start and end
     host: str | None = None  # run.json's host platform
+    #: the task kind of eval.json ("Reach", "Track", "Pose", "Obstacle")
+    kind: str = "Reach"
+    #: condition -> baseline name (e.g. "oracle", "analytic IK") -> {metric: value}, evaluated
+    #: on the same episodes as the run (identical for every run of a task)
+    baselines: dict[str, dict[str, dict[str, float]]] = field(default_factory=dict)
+
+
+def task_scores(summary: dict[str, Any]) -> dict[str, float]:
+    """The scores of one policy's Track/Pose/Obstacle summary (``summarize_task`` in
+    :mod:`training.task_metrics`): medians over the episodes (mm, °) and rates (fractions).
+
+    Every task: ``median_error_mm`` (final tip distance to the goal or target) and
+    ``success_rate``; Track: ``tracking_rms_mm``; Pose: ``final_angle_deg``, ``within_1mm_1deg``;
+    Obstacle: ``collision_rate``.
+    """
+    out = {
+        "median_error_mm": float(summary["final_distance_mm"]["median"]),
+        "success_rate": float(summary["success_rate"]),
+    }
+    if "tracking_rms_mm" in summary:
+        out["tracking_rms_mm"] = float(summary["tracking_rms_mm"]["median"])
+    if "final_angle_deg" in summary:
+        out["final_angle_deg"] = float(summary["final_angle_deg"]["median"])
+        out["within_1mm_1deg"] = float(summary["within_1mm_1deg"])
+    if "collision_rate" in summary:
+        out["collision_rate"] = float(summary["collision_rate"])
+    return out
 
 
 def _label(record: dict[str, Any]) -> str:
@@ -229,12 +267,27 @@ def load_runs(sweep_dir: Path) -> tuple[dict[str, Any], list[RunResult]]:
             run.host = f"{host.get('hostname', '?')}: {host.get('platform', '?')}"
             if (run_dir / "eval.json").is_file():
                 data = json.loads((run_dir / "eval.json").read_text())
+                run.kind = str(data.get("task", "Reach"))
                 for name, c in data["conditions"].items():
+                    if "policy" in c:  # Track, Pose, Obstacle: the task's own metrics
+                        run.scores[name] = task_scores(c["policy"])
+                        run.baselines[name] = {
+                            k: task_scores(v) for k, v in c.items() if k != "policy"
+                        }
+                        continue
                     run.scores[name] = {
                         "median_error_mm": float(c["error_mm"]["median"]),
                         "success_rate": float(c["success_rate"]),
                         "within_1mm": float(c["within_1mm"]),
                     }
+                    if "ik" in c:
+                        run.baselines[name] = {
+                            "analytic IK": {
+                                "median_error_mm": float(c["ik"]["error_mm"]["median"]),
+                                "success_rate": float(c["ik"]["success_rate"]),
+                                "within_1mm": float(c["ik"]["within_1mm"]),
+                            }
+                        }
             if (run_dir / "eval_log.csv").is_file():
                 with open(run_dir / "eval_log.csv", newline="") as f:
                     for row in csv.DictReader(f):
@@ -272,9 +325,14 @@ def aggregate(runs: list[RunResult], reps: int = 50_000, seed: int = 0) -> dict[
                 "seeds": sorted(r.seed for r in have),
             }
             for metric in METRICS:
+                if not all(metric in r.scores[cond] for r in have):
+                    continue
                 values = [r.scores[cond][metric] for r in have]
                 point, low, high = stratified_bootstrap_ci([values], reps=reps, seed=seed)
                 entry[metric] = {"iqm": point, "ci": [low, high], "values": values}
+            baselines = next((r.baselines[cond] for r in have if cond in r.baselines), {})
+            if baselines:
+                entry["baselines"] = baselines
             groups.append(entry)
     across = []
     algos = sorted({r.algo for r in ok})
@@ -295,6 +353,8 @@ def aggregate(runs: list[RunResult], reps: int = 50_000, seed: int = 0) -> dict[
                 "runs": sum(len(v) for v in per_task.values()),
             }
             for metric in RATE_METRICS:
+                if not all(metric in r.scores[cond] for v in per_task.values() for r in v):
+                    continue  # e.g. within 1 mm: Reach only
                 strata = [[r.scores[cond][metric] for r in per_task[t]] for t in sorted(per_task)]
                 point, low, high = stratified_bootstrap_ci(strata, reps=reps, seed=seed)
                 entry[metric] = {"iqm": point, "ci": [low, high]}
@@ -313,43 +373,80 @@ def _fmt_metric(metric: str, value: float) -> str:
     return f"{value:.3g}" if value < 100 else f"{value:.0f}"
 
 
-def _fmt_ci(metric: str, m: dict[str, Any]) -> str:
+def _fmt_ci(metric: str, m: dict[str, Any] | None) -> str:
+    if m is None:
+        return "–"
     low, high = m["ci"]
-    unit = " mm" if METRICS[metric][1] == "mm" else ""
+    unit = {"mm": " mm", "°": "°"}.get(METRICS[metric][1], "")
     if METRICS[metric][1] == "%":
         return f"{100 * m['iqm']:.1f} [{100 * low:.1f}, {100 * high:.1f}] %"
     return f"{_fmt_metric(metric, m['iqm'])} [{_fmt_metric(metric, low)}, {_fmt_metric(metric, high)}]{unit}"
 
 
+def _fmt_value(metric: str, value: float | None) -> str:
+    if value is None:
+        return "–"
+    unit = {"mm": " mm", "°": "°"}.get(METRICS[metric][1], "")
+    return _fmt_metric(metric, value) + ("" if METRICS[metric][1] == "%" else unit)
+
+
+def _group_metrics(groups: list[dict[str, Any]]) -> list[str]:
+    return [m for m in METRICS if any(m in g for g in groups)]
+
+
 def iqm_table(result: dict[str, Any]) -> list[str]:
-    """Markdown: one row per (task, algorithm, condition), IQM [95 % CI] of every metric."""
-    lines = [
-        "| task | algorithm | condition | runs | median final error, IQM [95 % CI] "
-        "| success ≤ 5 mm, IQM [95 % CI] | within 1 mm, IQM [95 % CI] |",
-        "|---|---|---|---|---|---|---|",
-    ]
-    for g in result["groups"]:
-        lines.append(
-            f"| {g['task']} | {g['algo']} | {g['condition']} | {g['runs']} "
-            + "".join(f"| {_fmt_ci(m, g[m])} " for m in METRICS)
-            + "|"
-        )
-    return lines
+    """Markdown: per task, one row per (algorithm, condition) with the IQM [95 % CI] of each of
+    the task's metrics, then the task's baselines (oracle, analytic IK: one value, the same
+    episodes for every run). One table per task, separated by a blank line and a task heading."""
+    lines: list[str] = []
+    tasks = sorted({g["task"] for g in result["groups"]})
+    for task in tasks:
+        groups = [g for g in result["groups"] if g["task"] == task]
+        metrics = _group_metrics(groups)
+        if len(tasks) > 1:
+            lines += [f"**{task}**", ""]
+        lines += [
+            "| algorithm | condition | runs | "
+            + " | ".join(f"{METRICS[m][0]}, IQM [95 % CI]" for m in metrics)
+            + " |",
+            "|---|---|---|" + "---|" * len(metrics),
+        ]
+        for g in groups:
+            lines.append(
+                f"| {g['algo']} | {g['condition']} | {g['runs']} "
+                + "".join(f"| {_fmt_ci(m, g.get(m))} " for m in metrics)
+                + "|"
+            )
+        seen = set()
+        for g in groups:
+            for name, scores in (g.get("baselines") or {}).items():
+                if (name, g["condition"]) in seen:
+                    continue
+                seen.add((name, g["condition"]))
+                lines.append(
+                    f"| *{name}* | {g['condition']} | – "
+                    + "".join(f"| {_fmt_value(m, scores.get(m))} " for m in metrics)
+                    + "|"
+                )
+        lines.append("")
+    return lines[:-1] if lines else lines
 
 
 def aggregate_table(result: dict[str, Any]) -> list[str]:
     """Markdown: the across-task IQM of the rates per algorithm (stratified over tasks)."""
     if not result["aggregate"]:
         return []
+    metrics = [m for m in RATE_METRICS if any(m in a for a in result["aggregate"])]
     lines = [
-        "| algorithm | condition | tasks | runs | success ≤ 5 mm, IQM [95 % CI] "
-        "| within 1 mm, IQM [95 % CI] |",
-        "|---|---|---|---|---|---|",
+        "| algorithm | condition | tasks | runs | "
+        + " | ".join(f"{METRICS[m][0]}, IQM [95 % CI]" for m in metrics)
+        + " |",
+        "|---|---|---|---|" + "---|" * len(metrics),
     ]
     for a in result["aggregate"]:
         lines.append(
             f"| {a['algo']} | {a['condition']} | {', '.join(a['tasks'])} | {a['runs']} "
-            + "".join(f"| {_fmt_ci(m, a[m])} " for m in RATE_METRICS)
+            + "".join(f"| {_fmt_ci(m, a.get(m))} " for m in metrics)
             + "|"
         )
     return lines
@@ -418,10 +515,17 @@ def _tasks_algos(runs: list[RunResult]) -> tuple[list[str], list[str]]:
     return sorted({r.task for r in ok}), sorted({r.algo for r in ok})
 
 
+def _profile_score(scores: dict[str, float]) -> float:
+    """The error of a run in the performance profiles: the median tracking RMS for Track, the
+    median final tip error otherwise (mm)."""
+    return scores.get("tracking_rms_mm", scores["median_error_mm"])
+
+
 def plot_performance_profiles(
     runs: list[RunResult], path: Path, reps: int = 2_000, seed: int = 0
 ) -> Path:
-    """Per task and condition: fraction of runs with median final error ≤ τ (log τ), with bands."""
+    """Per task and condition: fraction of runs with median final error (Track: median tracking
+    RMS) ≤ τ (log τ), with bands."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -429,7 +533,7 @@ def plot_performance_profiles(
 
     tasks, algos = _tasks_algos(runs)
     conds = sorted({c for r in runs for c in r.scores}, key=_condition_order)
-    errors = [r.scores[c]["median_error_mm"] for r in runs for c in r.scores]
+    errors = [_profile_score(r.scores[c]) for r in runs for c in r.scores]
     lo = max(min(errors) / 2, 1e-3) if errors else 0.01
     hi = max(errors) * 2 if errors else 100.0
     levels = np.geomspace(lo, hi, 200)
@@ -442,7 +546,7 @@ def plot_performance_profiles(
         for i, algo in enumerate(algos):
             for j, cond in enumerate(conds):
                 vals = [
-                    r.scores[cond]["median_error_mm"]
+                    _profile_score(r.scores[cond])
                     for r in runs
                     if r.task == task and r.algo == algo and cond in r.scores
                 ]
@@ -467,7 +571,7 @@ def plot_performance_profiles(
         ax.set_title(task)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7, loc="lower right")
-    axes[0][0].set_ylabel("fraction of runs with\nmedian final error ≤ τ")
+    axes[0][0].set_ylabel("fraction of runs with median final\nerror (Track: tracking RMS) ≤ τ")
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
@@ -476,7 +580,8 @@ def plot_performance_profiles(
 
 
 def plot_iqm(result: dict[str, Any], path: Path) -> Path:
-    """Interval estimates: IQM and 95 % CI per (task, algorithm, condition), one panel per metric."""
+    """Interval estimates: IQM and 95 % CI per (task, algorithm, condition), one panel per metric
+    (a group without the metric, e.g. a tracking RMS outside Track, leaves its row empty)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -484,24 +589,28 @@ def plot_iqm(result: dict[str, Any], path: Path) -> Path:
     from matplotlib.ticker import FuncFormatter, NullFormatter
 
     groups = result["groups"]
+    metrics = _group_metrics(groups)
     labels = [f"{g['task']} · {g['algo']} · {g['condition']}" for g in groups]
     fig, axes = plt.subplots(
-        1, len(METRICS), figsize=(4.2 * len(METRICS), 0.5 * len(groups) + 1.4), squeeze=False
+        1, len(metrics), figsize=(4.2 * len(metrics), 0.3 * len(groups) + 1.4), squeeze=False
     )
     y = np.arange(len(groups))
-    for ax, metric in zip(axes[0], METRICS, strict=True):
+    nan = {"iqm": np.nan, "ci": [np.nan, np.nan]}
+    for ax, metric in zip(axes[0], metrics, strict=True):
         title, unit, _ = METRICS[metric]
         scale = 100.0 if unit == "%" else 1.0
-        mid = np.array([g[metric]["iqm"] for g in groups]) * scale
-        low = np.array([g[metric]["ci"][0] for g in groups]) * scale
-        high = np.array([g[metric]["ci"][1] for g in groups]) * scale
-        ax.hlines(y, low, high, lw=6, color="tab:blue", alpha=0.35)
-        ax.plot(mid, y, "|", color="k", ms=14)
+        mid = np.array([g.get(metric, nan)["iqm"] for g in groups]) * scale
+        low = np.array([g.get(metric, nan)["ci"][0] for g in groups]) * scale
+        high = np.array([g.get(metric, nan)["ci"][1] for g in groups]) * scale
+        ok = np.isfinite(mid)
+        ax.hlines(y[ok], low[ok], high[ok], lw=6, color="tab:blue", alpha=0.35)
+        ax.plot(mid[ok], y[ok], "|", color="k", ms=14)
         ax.set_yticks(y, labels if ax is axes[0][0] else [""] * len(y), fontsize=8)
         ax.set_xlabel(f"IQM {title} ({unit})")
+        low, high = low[ok], high[ok]
         if unit == "%":
             ax.set_xlim(-2, 102)
-        elif len(mid) and np.all(low > 0) and high.max() > 5 * low.min():
+        elif len(low) and np.all(low > 0) and high.max() > 5 * low.min():
             ax.set_xscale("log")
             ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
             ax.xaxis.set_minor_formatter(NullFormatter())
@@ -545,10 +654,11 @@ def plot_curves(runs: list[RunResult], path: Path) -> Path:
                 first = False
         ax.set_yscale("log")
         ax.set_xlabel("training wall time (s)")
-        ax.set_ylabel("eval median final error (mm)")
+        ax.set_ylabel("eval median error (mm)" if task == tasks[0] else "")
         ax.set_title(task)
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=8)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
@@ -598,6 +708,8 @@ def write_doc(
     n_ok = sum(r.status == "complete" for r in runs)
     concurrency = summary.get("executor", "ray")
     cpus = spec.get("resources", {}).get("cpus_per_trial", 1)
+    max_conc = spec.get("resources", {}).get("max_concurrent")
+    kinds = {r.kind for r in runs if r.scores}
     data = {
         "sweep_file": sweep_file,
         "sweep_command": sweep_cmd,
@@ -638,8 +750,13 @@ def write_doc(
         if budget
         else "* **Budget**: the configs' own `total_timesteps` (no wall-clock budget set).",
         f"* **Runs**: each (task, algorithm) with seeds {sorted({r.seed for r in runs})}, as Ray "
-        f"Tune trials ({concurrency} executor, {cpus:g} CPU per trial, so as many concurrent "
-        f"trials as cores), each an ordinary `training.train` run directory.",
+        f"Tune trials ({concurrency} executor, {cpus:g} CPU per trial, "
+        + (
+            f"at most {max_conc} concurrent trial{'s' if max_conc > 1 else ''})"
+            if max_conc
+            else "so as many concurrent trials as cores)"
+        )
+        + ", each an ordinary `training.train` run directory.",
         f"* **Machine**: {_machine(summary, runs)}. The machine was shared with other jobs while "
         f"the sweep ran, so the wall-clock budget bought fewer env steps than on an idle machine; "
         f"the steps each run reached are in the tables.",
@@ -647,7 +764,20 @@ def write_doc(
         "fixed goals (reset seeds from `evaluate.seed`, the same for every run) from each "
         "starting state (`straight_h100`: straight start, 100 steps; `random_h100`: a random "
         "starting shape). Per run: the median final tip error, and the fractions of goals "
-        "within 5 mm and 1 mm.",
+        "within 5 mm and 1 mm"
+        + (
+            "; for Track, Pose and Obstacle the task's own metrics (`training.task_metrics`): "
+            "the median over the episodes of the tracking RMS (Track, after the settling "
+            "window), of the final tip direction error (Pose), the fraction of episodes with a "
+            "collision (Obstacle), beside the task's oracle on the same episodes (and, for "
+            "Obstacle, the plain reach IK that ignores the obstacles). **Success** is the env's "
+            "`is_success` at the last step: "
+            + "; ".join(f"{k}: {v}" for k, v in SUCCESS.items() if k in kinds)
+            + ". The *median final error* is the final tip distance to the goal (Track: to "
+            "the moving target)."
+            if kinds - {"Reach"}
+            else "."
+        ),
         f"* **Estimator**: interquartile mean across runs with a 95 % stratified-bootstrap "
         f"percentile interval ({reps:,} resamples; rliable's method, implemented in "
         f"`training/aggregate.py`). With 3 runs per group the IQM cuts no run (`int(0.25·3) = 0`): "
@@ -671,7 +801,8 @@ def write_doc(
         lines += [
             "## Across tasks",
             "",
-            "IQM of the rates over every task's runs, the bootstrap stratified by task.",
+            "IQM of the rates over every task's runs, the bootstrap stratified by task "
+            "(success as each task defines it, see Protocol).",
             "",
             *agg,
             "",
@@ -679,8 +810,8 @@ def write_doc(
     lines += [
         "## Performance profiles",
         "",
-        "Fraction of runs whose median final error is at most τ, with 95 % bootstrap bands "
-        "(grey lines: 1 mm and 5 mm).",
+        "Fraction of runs whose median final error (Track: median tracking RMS) is at most "
+        "τ, with 95 % bootstrap bands (grey lines: 1 mm and 5 mm).",
         "",
         f"![performance profiles]({rel}/performance_profiles.png)",
         "",
