@@ -40,7 +40,9 @@ def _small(tmp_path: Path, name: str) -> Path:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", ["ppo_ccka_track", "ppo_ccka_pose", "ppo_ccka_obstacle"])
+@pytest.mark.parametrize(
+    "name", ["ppo_ccka_track", "ppo_ccka_pose", "ppo_ccka_obstacle", "ppo_bullet_track"]
+)
 def test_task_config_trains_and_evaluates_beside_its_oracle(tmp_path: Path, name: str) -> None:
     run = tmp_path / "run"
     result = _run(
@@ -55,7 +57,7 @@ def test_task_config_trains_and_evaluates_beside_its_oracle(tmp_path: Path, name
     assert set(data["conditions"]) == {"straight_h20"}
     assert "policy" in data and "oracle" in data
     task = data["task"]
-    if task == "Track":
+    if task == "Track" and "CCKA" in data["env_id"]:  # on bullet the oracle runs open loop
         assert data["oracle"]["tracking_rms_mm"]["max"] < 1.0
         assert (run / "eval" / "straight_h20_paths.png").stat().st_size > 0
     if task == "Obstacle":

@@ -19,7 +19,7 @@ from cdcr_gym.tasks.base import (
     fill_robot_state,
     robot_state_fields,
 )
-from cdcr_gym.tasks.collision import backend_geometry, clearance, model_geometry
+from cdcr_gym.tasks.collision import RobotGeometry, backend_geometry, clearance, model_geometry
 from cdcr_gym.tasks.reach import ERROR_SCALE
 
 __all__ = ["Obstacle", "ObstacleSceneError"]
@@ -187,8 +187,8 @@ class Obstacle(Task):
         return self._spec
 
     # -- scenes ---------------------------------------------------------------------------------
-    def _free(self, bending: np.ndarray, sphere: np.ndarray) -> bool:
-        geometry = model_geometry(self._model, bending)
+    def _free(self, geometry: RobotGeometry, sphere: np.ndarray) -> bool:
+        """Whether ``sphere`` (4,) keeps more than ``clearance_margin`` from every shape."""
         gap = clearance(geometry, sphere[None, :], self._rod, self._disk)
         return bool(np.all(gap > self.clearance_margin))
 
@@ -207,6 +207,7 @@ class Obstacle(Task):
                 ik = solve_ik(goal, params).tensions
                 keep = np.concatenate([start_w, model.bending_from_tensions(goal_t)[:1]])
                 keep = np.concatenate([keep, model.bending_from_tensions(ik[None])])
+                keep_geometry = model_geometry(model, keep)  # once per goal, not per sphere
             lam = rng.uniform(0.3, 0.8)
             shape = model.bending_from_tensions(
                 np.clip(start_tensions + lam * (ik - start_tensions), 0.0, t_max)[None]
@@ -218,7 +219,7 @@ class Obstacle(Task):
             offset = rng.normal(size=3)
             offset *= rng.uniform(0.0, 0.5 * radius) / np.linalg.norm(offset)
             sphere = np.array([*(anchor + offset), radius])
-            if self._free(keep, sphere):
+            if self._free(keep_geometry, sphere):
                 break
         else:
             raise ObstacleSceneError(
@@ -239,7 +240,7 @@ class Obstacle(Task):
             offset = rng.normal(size=3)
             offset *= rng.uniform(0.0, radius) / np.linalg.norm(offset)
             extra = np.array([*(tip + offset), radius])
-            if self._free(keep, extra):
+            if self._free(keep_geometry, extra):
                 spheres[placed] = extra
                 placed += 1
         if placed < count:
