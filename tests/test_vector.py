@@ -303,6 +303,42 @@ def test_sb3_adapter_matches_dummy_vec_env():
     assert batched.env_is_wrapped(gym.Wrapper) == [False] * n
 
 
+def test_sb3_adapter_takes_shared_per_env_keys_and_rejects_varying_ones():
+    """A key equal in every per_env_kwargs entry (randomize, imperfections) applies to all
+    envs, as in a DummyVecEnv of single envs with those kwargs; a key that differs is an error."""
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from training.sb3_vec import BatchedCCKAVecEnv
+
+    n, states = 4, ["straight", "random"]
+    shared = {
+        "randomize": {"youngs_modulus": [26e9, 40e9], "cable_radius": [0.0275, 0.0305]},
+        "imperfections": {"tip_noise": 0.001, "tension_response": 0.44, "actuator_noise": 0.5},
+    }
+    per_env = [{"initial_state": s, **shared} for s in states]
+    batched = BatchedCCKAVecEnv(n, seed=3, per_env_kwargs=per_env)
+    dummy = DummyVecEnv(
+        [(lambda s=states[i % 2]: gym.make(ENV_ID, initial_state=s, **shared)) for i in range(n)]
+    )
+    dummy.seed(3)
+    np.testing.assert_allclose(batched.reset(), dummy.reset(), atol=1e-6)
+    e_values = {info["randomized/youngs_modulus"] for info in batched.reset_infos}
+    assert len(e_values) == n and all(26e9 <= e <= 40e9 for e in e_values)
+    rng = np.random.default_rng(1)
+    for _ in range(30):
+        actions = rng.uniform(-1, 1, (n, 3)).astype(np.float32)
+        obs_b, rew_b, _, infos_b = batched.step(actions)
+        obs_d, rew_d, _, infos_d = dummy.step(actions)
+        np.testing.assert_allclose(obs_b, obs_d, atol=1e-6)
+        np.testing.assert_allclose(rew_b, rew_d, atol=1e-6)
+        for ib, id_ in zip(infos_b, infos_d):
+            np.testing.assert_allclose(ib["tip"], id_["tip"], atol=1e-12)
+    with pytest.raises(ValueError, match=r"per_env_kwargs.*varying \['tension_step'\]"):
+        BatchedCCKAVecEnv(2, per_env_kwargs=[{"tension_step": 0.1}, {"tension_step": 0.2}])
+    with pytest.raises(ValueError, match=r"varying \['imperfections'\]"):
+        BatchedCCKAVecEnv(2, per_env_kwargs=[{"imperfections": {"tip_noise": 0.001}}, {}])
+
+
 def test_sb3_ppo_learns_with_the_adapter_and_her_relabels():
     from stable_baselines3 import PPO, SAC, HerReplayBuffer
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize

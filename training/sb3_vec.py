@@ -41,7 +41,9 @@ class BatchedCCKAVecEnv(VecEnv):
         seed: seeds env i with ``seed + i`` at the first reset (as ``make_vec_env(seed=...)``);
             ``None`` for random seeds.
         per_env_kwargs: per-env overrides, env i taking ``per_env_kwargs[i % len]`` (as
-            ``training.train`` does for single envs); only ``initial_state`` may vary per env.
+            ``training.train`` does for single envs); only ``initial_state`` may vary per env;
+            any other key must have the same value in every entry and then applies to all envs
+            (e.g. ``randomize`` / ``imperfections`` kept out of the evaluation's ``env.kwargs``).
         **env_kwargs: ``gymnasium.make("cdcr_gym/CCKAReach-v0", ...)`` keyword arguments
             (``action_mode``, ``reward_type``, ``params``, ``goal_conditioned``, ...), and
             ``max_episode_steps`` (default: the registered 100).
@@ -56,12 +58,20 @@ class BatchedCCKAVecEnv(VecEnv):
     ) -> None:
         env_kwargs.setdefault("max_episode_steps", MAX_EPISODE_STEPS)
         if per_env_kwargs:
-            keys = set().union(*per_env_kwargs)
-            if keys - {"initial_state"}:
+            per_env_kwargs = [dict(kw) for kw in per_env_kwargs]
+            keys = set().union(*per_env_kwargs) - {"initial_state"}
+            varying = sorted(
+                k
+                for k in keys
+                if any(k not in kw or kw[k] != per_env_kwargs[0][k] for kw in per_env_kwargs)
+            )
+            if varying:
                 raise ValueError(
                     f"per_env_kwargs: only 'initial_state' can vary per env in the batched env, "
-                    f"got {sorted(keys)}"
+                    f"got varying {varying}"
                 )
+            for key in keys:  # the same in every entry: a setting of all envs
+                env_kwargs[key] = per_env_kwargs[0][key]
             default = env_kwargs.get("initial_state", "straight")
             env_kwargs["initial_state"] = [
                 per_env_kwargs[i % len(per_env_kwargs)].get("initial_state", default)
