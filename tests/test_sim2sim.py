@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from training import sim2sim
@@ -73,3 +74,17 @@ def test_cli_writes_json_and_figure_and_rejects_bad_input(tmp_path, capsys):
         sim2sim.summarize_evals([good], target_success=1.5)
     with pytest.raises(ValueError, match="paths"):
         sim2sim.summarize_evals([])
+
+
+def test_transfer_probe_cotension_and_step_response():
+    """CCKA ignores equal tension on all cables; bullet with gravity bends more with it."""
+    from training import transfer_probe
+
+    rows = transfer_probe.cotension_table(base_tensions=(0.0, 40.0), deltas=(10,))
+    (_, _, ccka0, bullet0), (_, _, ccka40, bullet40) = rows
+    assert ccka0 == pytest.approx(ccka40, rel=1e-9)
+    assert bullet40 > bullet0 > ccka0
+    remaining, model, final_mm = transfer_probe.step_response(steps=30)
+    assert final_mm > 1.0
+    assert remaining[0] > 0.8 and abs(remaining[-1]) < 0.05  # starts slow, settles
+    assert model[0] == pytest.approx(1.44 * np.exp(-0.44))
