@@ -499,7 +499,7 @@ def main(argv: list[str] | None = None) -> int:
     except ConfigError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    command = " ".join(shlex.quote(a) for a in [sys.executable, "-m", "training.evaluate", *argv])
+    command = " ".join(shlex.quote(a) for a in ["python", "-m", "training.evaluate", *argv])
     result = evaluate(
         run_dir,
         config,

@@ -656,7 +656,7 @@ def run_sweep(
         records.append(record)
     summary = {
         "name": spec.name,
-        "command": shlex.join([sys.executable, "-m", "training.sweep", *(argv or [])]),
+        "command": shlex.join(["python", "-m", "training.sweep", *(argv or [])]),
         "executor": executor,
         "address": address,
         "time": _dt.datetime.now().astimezone().isoformat(timespec="seconds"),

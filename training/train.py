@@ -1082,7 +1082,7 @@ def train(
     run = RunDir(run_dir)
     torch.set_num_threads(config.runtime.torch_threads)
     device = _resolve_device(config.runtime.device)
-    command = " ".join(shlex.quote(a) for a in [sys.executable, "-m", "training.train", *argv])
+    command = " ".join(shlex.quote(a) for a in ["python", "-m", "training.train", *argv])
     state: dict[str, Any] = {
         "algo": config.algo,
         "total": config.total_timesteps,
