@@ -271,5 +271,7 @@ def test_task_metrics_are_aggregated_per_task(tmp_path: Path) -> None:
     assert "median tracking RMS" in table and "collision rate" in table
     assert "*oracle*" in table and "0.2 mm" in table  # the Track oracle's RMS: 0.1 x 2 mm
     page = tmp_path / "bench.md"
-    assert main([str(root), "--doc", str(page), "--reps", "200"]) == 0
-    assert "no collision during the episode" in page.read_text()
+    assert main([str(root), "--doc", str(page), "--reps", "200", "--note", "Budget: why."]) == 0
+    text = page.read_text()
+    assert "no collision during the episode" in text
+    assert text.index("Budget: why.") < text.index("## Protocol")

@@ -688,8 +688,10 @@ def write_doc(
     result: dict[str, Any],
     argv: list[str],
     reps: int,
+    note: str | None = None,
 ) -> None:
-    """The benchmark page, its figures and its data (see the module docstring)."""
+    """The benchmark page, its figures and its data (see the module docstring); ``note``: a
+    paragraph placed under the page's introduction (e.g. why the budget is what it is)."""
     fig_dir = page.parent / "figures" / page.stem
     fig_dir.mkdir(parents=True, exist_ok=True)
     rel = f"figures/{page.stem}"
@@ -739,6 +741,7 @@ def write_doc(
         f"(sweep run finished {summary.get('time', '?')}; {n_ok}/{len(runs)} trials complete). "
         f"The data behind the tables: [`{rel}/results.json`]({rel}/results.json).",
         "",
+        *([note, ""] if note else []),
         "## Protocol",
         "",
         f"* **Budget**: every run trains for the same wall-clock budget, "
@@ -860,6 +863,9 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--reps", type=int, default=50_000, help="bootstrap resamples (50 000)")
     parser.add_argument("--seed", type=int, default=0, help="bootstrap RNG seed")
+    parser.add_argument(
+        "--note", default=None, help="a paragraph for the page, under its introduction"
+    )
     args = parser.parse_args(argv)
     if args.reps <= 0:
         print(f"error: --reps must be a positive integer, got {args.reps}", file=sys.stderr)
@@ -874,7 +880,7 @@ def main(argv: list[str] | None = None) -> int:
     print("\n".join([*iqm_table(result), "", *target_table(runs, target)]))
     (args.sweep_dir / "aggregate.json").write_text(json.dumps(result, indent=1) + "\n")
     if args.doc is not None:
-        write_doc(args.doc, args.sweep_dir, summary, runs, result, argv, args.reps)
+        write_doc(args.doc, args.sweep_dir, summary, runs, result, argv, args.reps, args.note)
         print(f"wrote {args.doc}")
     return 0
 
