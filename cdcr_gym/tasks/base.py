@@ -89,6 +89,13 @@ def fill_robot_state(
     )
 
 
+def goal_distance(achieved_goal: np.ndarray, desired_goal: np.ndarray) -> np.ndarray:
+    """Euclidean distance (m) between goal vectors (..., 3), in float64 (shape (...))."""
+    return np.linalg.norm(
+        np.asarray(achieved_goal, np.float64) - np.asarray(desired_goal, np.float64), axis=-1
+    )
+
+
 def robot_state_values(readings: Readings, scale: RobotStateScale) -> dict[str, list[float]]:
     """The ``tensions`` and ``cable_lengths`` fields of env 0 as Python floats (the arithmetic of
     :func:`fill_robot_state`, for tasks' one-env fast paths)."""

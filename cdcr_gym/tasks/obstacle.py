@@ -17,6 +17,7 @@ from cdcr_gym.tasks.base import (
     RobotStateScale,
     Task,
     fill_robot_state,
+    goal_distance,
     robot_state_fields,
 )
 from cdcr_gym.tasks.collision import RobotGeometry, backend_geometry, clearance, model_geometry
@@ -332,9 +333,7 @@ class Obstacle(Task):
     def compute_reward(
         self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any = None
     ) -> np.ndarray:
-        return -np.linalg.norm(
-            np.asarray(achieved_goal, np.float64) - np.asarray(desired_goal, np.float64), axis=-1
-        )
+        return -goal_distance(achieved_goal, desired_goal)
 
     def info_keys(self) -> tuple[str, ...]:
         return (

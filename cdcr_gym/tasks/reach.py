@@ -18,6 +18,7 @@ from cdcr_gym.tasks.base import (
     RobotStateScale,
     Task,
     fill_robot_state,
+    goal_distance,
     robot_state_fields,
     robot_state_values,
 )
@@ -170,9 +171,7 @@ class Reach(Task):
     def compute_reward(
         self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any = None
     ) -> np.ndarray:
-        distance = np.linalg.norm(
-            np.asarray(achieved_goal, np.float64) - np.asarray(desired_goal, np.float64), axis=-1
-        )
+        distance = goal_distance(achieved_goal, desired_goal)
         return self._reward(distance)
 
     def info_keys(self) -> tuple[str, ...]:

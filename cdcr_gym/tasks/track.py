@@ -10,7 +10,13 @@ from cdcr_gym import validation
 from cdcr_gym.backends.base import Backend, Readings
 from cdcr_gym.envs.observation import Field, ObservationSpec
 from cdcr_gym.model.workspace import sample_tensions
-from cdcr_gym.tasks.base import RobotStateScale, Task, fill_robot_state, robot_state_fields
+from cdcr_gym.tasks.base import (
+    RobotStateScale,
+    Task,
+    fill_robot_state,
+    goal_distance,
+    robot_state_fields,
+)
 from cdcr_gym.tasks.reach import ERROR_SCALE
 
 __all__ = ["Track", "NOMINAL_TIMESTEP", "TargetPaths"]
@@ -288,9 +294,7 @@ class Track(Task):
     def compute_reward(
         self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any = None
     ) -> np.ndarray:
-        return -np.linalg.norm(
-            np.asarray(achieved_goal, np.float64) - np.asarray(desired_goal, np.float64), axis=-1
-        )
+        return -goal_distance(achieved_goal, desired_goal)
 
     def info_keys(self) -> tuple[str, ...]:
         return (
