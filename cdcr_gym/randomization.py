@@ -317,6 +317,11 @@ class Imperfections:
         """Whether anything is imperfect (a zero σ or a zero delay counts as off)."""
         return self.senses or self.actuates or self.delay > 0
 
+    @property
+    def acts(self) -> bool:
+        """Whether the commands reach the robot changed (delayed, or by the actuators)."""
+        return self.actuates or self.delay > 0
+
     # -- reset ----------------------------------------------------------------------------------
     def draw_biases(self, idx: np.ndarray, rngs: Sequence[np.random.Generator]) -> None:
         """Draw the per-episode biases of envs ``idx`` (one generator each)."""

@@ -18,6 +18,7 @@ __all__ = [
     "per_cable",
     "action_array",
     "clipped_action",
+    "clipped_action_values",
     "positive",
     "choice",
     "flag",
@@ -87,9 +88,21 @@ def action_array(action: Any, shape: tuple[int, ...]) -> np.ndarray:
 def clipped_action(action: Any, shape: tuple[int, ...]) -> np.ndarray:
     """:func:`action_array` clipped to [−1, 1] (a fresh float64 array of ``shape``).
 
-    A small float array (one env's action) is checked and clipped in Python floats: at a few
-    numbers each numpy call costs more than the arithmetic. Same values as
-    ``np.clip(action_array(action, shape), -1, 1)``.
+    Raises:
+        ValueError: naming ``action``.
+    """
+    arr = action_array(action, shape)
+    np.maximum(arr, -1.0, out=arr)
+    np.minimum(arr, 1.0, out=arr)
+    return arr
+
+
+def clipped_action_values(action: Any, shape: tuple[int, ...]) -> list[float]:
+    """One env's action, checked and clipped to [−1, 1], as a flat list of Python floats: the
+    values of ``clipped_action(action, shape)``.
+
+    A small float array (the common case) is handled in Python floats: at a few numbers each
+    numpy call costs more than the arithmetic.
 
     Raises:
         ValueError: naming ``action``.
@@ -104,12 +117,8 @@ def clipped_action(action: Any, shape: tuple[int, ...]) -> np.ndarray:
         for x in values:
             if not math.isfinite(x):
                 raise ValueError(f"action must be finite, got {action!r}")
-        clipped = np.array([-1.0 if x < -1.0 else 1.0 if x > 1.0 else x for x in values])
-        return clipped if len(shape) == 1 else clipped.reshape(shape)
-    arr = action_array(action, shape)
-    np.maximum(arr, -1.0, out=arr)
-    np.minimum(arr, 1.0, out=arr)
-    return arr
+        return [-1.0 if x < -1.0 else 1.0 if x > 1.0 else x for x in values]
+    return clipped_action(action, shape).ravel().tolist()
 
 
 def positive(

@@ -294,20 +294,25 @@ def test_observations_stay_in_the_space_over_long_random_runs():
 
 
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
-@pytest.mark.parametrize("shape", [(3,), (6,), (2, 3)])
-def test_clipped_action_equals_numpy_clip_of_the_float64_action(dtype, shape):
-    """The single env's Python-float action path (validation.clipped_action) against numpy."""
+@pytest.mark.parametrize("shape", [(3,), (6,), (2, 3), (20,)])
+def test_clipped_action_values_equal_numpy_clip_of_the_float64_action(dtype, shape):
+    """The single env's Python-float action path (validation.clipped_action_values) and the
+    array path (validation.clipped_action) against numpy."""
     from cdcr_gym import validation
 
     rng = np.random.default_rng(3)
     for _ in range(50):
         action = rng.uniform(-3.0, 3.0, shape).astype(dtype)
-        got = validation.clipped_action(action, shape)
         want = np.clip(action.astype(np.float64), -1.0, 1.0)
+        got = validation.clipped_action(action, shape)
         assert got.dtype == np.float64 and got.shape == shape
         np.testing.assert_array_equal(got, want)
+        values = validation.clipped_action_values(action, shape)
+        assert all(type(v) is float for v in values)
+        np.testing.assert_array_equal(np.array(values), want.ravel())
     for bad in (np.nan, np.inf, -np.inf):
         action = np.zeros(shape, dtype)
         action.flat[-1] = bad
-        with pytest.raises(ValueError, match="action must be finite"):
-            validation.clipped_action(action, shape)
+        for check in (validation.clipped_action, validation.clipped_action_values):
+            with pytest.raises(ValueError, match="action must be finite"):
+                check(action, shape)

@@ -414,28 +414,36 @@ def test_bench_table_and_checks_format():
         bench.main(["--out", "bench.txt"])
 
 
+@pytest.mark.parametrize("action_mode", ["tension_delta", "tension"])
 @pytest.mark.parametrize("robot", ["paper", "tdcr2"])
-def test_single_env_fast_path_equals_batched_rows(robot):
-    """The one-env Python-float paths (model and Reach task) give the batched env's numbers."""
-    single = gym.make("cdcr_gym/CCKAReach-v0", robot=robot, action_mode="tension_delta")
+def test_single_env_fast_path_equals_batched_rows(robot, action_mode):
+    """The single env's one-env lane (Python floats through actuation, model and the Reach task:
+    EnvCore.step_one/observe_one) gives the batched env's numbers and info entries."""
+    single = gym.make("cdcr_gym/CCKAReach-v0", robot=robot, action_mode=action_mode)
     vec = gym.make_vec(
         "cdcr_gym/CCKAReach-v0",
         num_envs=2,
         vectorization_mode="vector_entry_point",
         robot=robot,
-        action_mode="tension_delta",
+        action_mode=action_mode,
     )
     o1, _ = single.reset(seed=3)
     ov, _ = vec.reset(seed=[3, 4])
     np.testing.assert_array_equal(o1, ov[0])
     rng = np.random.default_rng(0)
     for _ in range(20):
-        a = rng.uniform(-1, 1, single.action_space.shape).astype(np.float32)
+        a = rng.uniform(-1.2, 1.2, single.action_space.shape).astype(np.float32)
         o1, r1, _, _, i1 = single.step(a)
         ov, rv, _, _, iv = vec.step(np.stack([a, a]))
+        assert o1.dtype == np.float32 and o1.shape == single.observation_space.shape
         np.testing.assert_allclose(o1, ov[0], rtol=0.0, atol=1e-6)
-        assert abs(r1 - rv[0]) <= 1e-15
-        np.testing.assert_allclose(i1["tip"], iv["tip"][0], rtol=0.0, atol=1e-15)
+        assert type(r1) is float and abs(r1 - rv[0]) <= 1e-15
+        assert set(i1) == {k for k in iv if not k.startswith("_")}
+        assert type(i1["distance"]) is float and type(i1["is_success"]) is bool
+        for key, value in i1.items():
+            np.testing.assert_allclose(value, iv[key][0], rtol=0.0, atol=1e-15, err_msg=key)
+            if key not in ("distance", "is_success"):
+                assert value.shape == iv[key][0].shape, key
 
 
 def test_bench_env_share_check_is_an_upper_bound():

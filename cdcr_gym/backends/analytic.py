@@ -103,6 +103,16 @@ class AnalyticBackend(Backend):
     def apply_tensions(self, tensions: np.ndarray) -> None:
         self._set(tensions)
 
+    def apply_tensions_one(self, tensions: list[float]) -> None:
+        if self.num_robots != 1 or self.bending_scale is not None:
+            self.apply_tensions(np.array([tensions]))
+            return
+        m = self.model
+        comp = m.bending_values_one(tensions)
+        self._comp = np.array(comp)[:, None]
+        row = np.array(m.forward_values_one(comp))[None]
+        self._readings = Readings(row[:, 0:3], row[:, 3:6], row[:, 6:], np.array([tensions]))
+
     def apply_cable_lengths(self, lengths: np.ndarray) -> None:
         m = self.model
         w = m.bending_from_lengths(lengths)

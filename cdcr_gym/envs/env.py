@@ -191,29 +191,18 @@ class CDCREnv(gym.Env):
         self.core.reset(
             _ONE, [self.np_random], options.get("initial_tensions"), options.get("goal")
         )
-        obs, _, _, info = self._outputs()
+        obs, _, _, info = self.core.observe_one()
         if self.render_mode == "human":
             self.render()
         return obs, info
 
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
-        self.core.step(validation.clipped_action(action, self._action_shape)[None])
-        obs, reward, success, info = self._outputs()
+        self.core.step_one(validation.clipped_action_values(action, self._action_shape))
+        obs, reward, success, info = self.core.observe_one()
         terminated = bool((self.terminate_on_success and success) or self.task.terminal()[0])
         if self.render_mode == "human":
             self.render()
         return obs, reward, terminated, False, info
-
-    def _outputs(self) -> tuple[Any, float, bool, dict[str, Any]]:
-        """Row 0 of the core's batched outputs: obs, reward, success, info."""
-        obs, reward, success, info = self.core.observe()
-        if self.goal_conditioned:
-            obs = {key: value[0] for key, value in obs.items()}
-        else:
-            obs = obs[0]
-        for key, value in info.items():
-            info[key] = value.item() if value.shape == (1,) else value[0]
-        return obs, float(reward[0]), bool(success[0]), info
 
     def render(self) -> np.ndarray | None:
         if self.render_mode is None:

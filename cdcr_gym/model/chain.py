@@ -105,6 +105,7 @@ class PCCModel:
         self.straight_lengths = through.astype(np.float64) @ self.section_lengths
         self.lengths_to_bending = self._sequential_least_squares()
         self._bending_to_lengths_columns = self.bending_to_lengths.T.tolist()
+        self._tension_to_bending_rows = self.tension_to_bending.T.tolist()
         self._straight_list = self.straight_lengths.tolist()
         self._section_length_list = self.section_lengths.tolist()
         self._tiled: dict[int, np.ndarray] = {}
@@ -345,16 +346,23 @@ class PCCModel:
         rows = np.array(self.forward_values_one(comp))[:, None]
         return rows[0:3], rows[3:6], rows[6:]
 
-    def forward_values_one(self, comp: np.ndarray) -> list[float]:
+    def bending_values_one(self, tensions: list[float]) -> list[float]:
+        """:meth:`bending_rows_from_tensions` of one robot in Python floats: the bending
+        components (wx_0, wy_0, wx_1, …) (2S,) rad from tensions (C,) N (finite, validated by
+        the caller), as a list."""
+        return [sum(map(mul, row, tensions)) for row in self._tension_to_bending_rows]
+
+    def forward_values_one(self, comp: np.ndarray | list[float]) -> list[float]:
         """Tip (3) m, tip direction (3) and cable lengths (C) m, as one list of Python floats,
-        of one robot's bending component rows ``comp`` (2S, 1) (finite: the caller validates).
+        of one robot's bending components ``comp``: rows (2S, 1), or the (2S,) values as a list
+        (finite: the caller validates).
 
         The same formulas in the same order as :meth:`_profile_rows`, :meth:`_tip_into` and
         :meth:`_direction_into` (for any S): at M = 1 each numpy call costs ~1 µs of overhead
         for one number, which made the single env several times slower than the batched one
         per robot. Results agree with the rows kernel to rounding (tests/test_model_chain.py).
         """
-        vals = comp[:, 0].tolist()
+        vals = comp[:, 0].tolist() if isinstance(comp, np.ndarray) else comp
         ell = self._section_length_list
         prof = []
         for j in range(self.n_sections):

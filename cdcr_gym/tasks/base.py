@@ -26,6 +26,7 @@ __all__ = [
     "robot_state_fields",
     "fill_robot_state",
     "robot_state_values",
+    "one_env_info",
     "REWARD_TYPES",
 ]
 
@@ -96,6 +97,12 @@ def goal_distance(achieved_goal: np.ndarray, desired_goal: np.ndarray) -> np.nda
     )
 
 
+def one_env_info(info: dict[str, np.ndarray]) -> dict[str, Any]:
+    """Env 0's entries of a batched ``info`` (N = 1): a Python scalar for an (1,) entry, else
+    the env's row (a view)."""
+    return {key: value.item() if value.shape == (1,) else value[0] for key, value in info.items()}
+
+
 def robot_state_values(readings: Readings, scale: RobotStateScale) -> dict[str, list[float]]:
     """The ``tensions`` and ``cable_lengths`` fields of env 0 as Python floats (the arithmetic of
     :func:`fill_robot_state`, for tasks' one-env fast paths)."""
@@ -164,6 +171,22 @@ class Task(abc.ABC):
     @abc.abstractmethod
     def evaluate(self, readings: Readings) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
         """(reward (N,), success (N,) bool, task info entries of (N, ...) arrays)."""
+
+    def observe_one(self, readings: Readings) -> np.ndarray:
+        """The flat observation (spec size,) float32 of a task bound to one env (the single
+        env's hot path). Default: :meth:`observe` into a one-column buffer; a task may override
+        it with the same arithmetic in Python floats."""
+        out = np.empty((self.observation_spec(False).size, 1), dtype=np.float32)
+        self.observe(readings, out, False)
+        return out[:, 0]
+
+    def evaluate_one(self, readings: Readings) -> tuple[float, bool, dict[str, Any]]:
+        """(reward, success, info) of a task bound to one env: :meth:`evaluate`'s entries for
+        env 0 (a Python float or bool for a per-env scalar, else the env's array). Default:
+        :meth:`evaluate` and its row 0; a task may override it with the same arithmetic in
+        Python floats."""
+        reward, success, info = self.evaluate(readings)
+        return float(reward[0]), bool(success[0]), one_env_info(info)
 
     @abc.abstractmethod
     def compute_reward(

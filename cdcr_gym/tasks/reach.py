@@ -113,9 +113,6 @@ class Reach(Task):
 
     # -- per step -------------------------------------------------------------------------------
     def observe(self, readings: Readings, out: np.ndarray, goal_conditioned: bool) -> None:
-        if self.num_envs == 1 and not goal_conditioned:
-            self._observe_one(readings, out)
-            return
         s = self._slices[goal_conditioned]
         tip = readings.tip
         out[s["tip"]] = tip.T
@@ -126,7 +123,7 @@ class Reach(Task):
             np.tanh(error * (1.0 / ERROR_SCALE), out=out[s["error_tanh"]], casting="unsafe")
         fill_robot_state(out, s["tensions"], s["cable_lengths"], readings, self._scale)
 
-    def _observe_one(self, readings: Readings, out: np.ndarray) -> None:
+    def observe_one(self, readings: Readings) -> np.ndarray:
         """:meth:`observe` of the flat layout for one env, in Python floats (same arithmetic;
         at N = 1 a numpy call per field costs more than the numbers)."""
         tip = readings.tip.ravel().tolist()
@@ -138,7 +135,10 @@ class Reach(Task):
         values["goal"] = goal
         values["error"] = error
         values["error_tanh"] = [tanh(e * _INV_ERROR_SCALE) for e in error]
-        out[:, 0] = list(chain.from_iterable(map(values.__getitem__, self._field_order)))
+        return np.array(
+            list(chain.from_iterable(map(values.__getitem__, self._field_order))),
+            dtype=np.float32,
+        )
 
     def achieved_goal(self, readings: Readings) -> np.ndarray:
         return readings.tip
@@ -152,21 +152,21 @@ class Reach(Task):
         return -((distance > self.distance_threshold) * 1.0)
 
     def evaluate(self, readings: Readings) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
-        if self.num_envs == 1:  # same arithmetic in Python floats (cheaper for one env)
-            t0, t1, t2 = readings.tip.ravel().tolist()
-            g0, g1, g2 = self.goal.ravel().tolist()
-            e0, e1, e2 = g0 - t0, g1 - t1, g2 - t2
-            d = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
-            distance = np.array([d])
-            success = np.array([d <= self.distance_threshold])
-            reward = np.array([-d if self._dense else -float(d > self.distance_threshold)])
-            info = {"distance": distance, "is_success": success, "goal": self.goal.copy()}
-            return reward, success, info
         e = self.goal - readings.tip
         distance = np.sqrt(e[:, 0] * e[:, 0] + e[:, 1] * e[:, 1] + e[:, 2] * e[:, 2])
         success = distance <= self.distance_threshold
         info = {"distance": distance, "is_success": success, "goal": self.goal.copy(order="K")}
         return self._reward(distance), success, info
+
+    def evaluate_one(self, readings: Readings) -> tuple[float, bool, dict[str, Any]]:
+        """:meth:`evaluate` for one env, in Python floats (same arithmetic)."""
+        t0, t1, t2 = readings.tip.ravel().tolist()
+        g0, g1, g2 = self.goal.ravel().tolist()
+        e0, e1, e2 = g0 - t0, g1 - t1, g2 - t2
+        d = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+        success = d <= self.distance_threshold
+        reward = -d if self._dense else -float(d > self.distance_threshold)
+        return reward, success, {"distance": d, "is_success": success, "goal": self.goal[0].copy()}
 
     def compute_reward(
         self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any = None
