@@ -296,12 +296,12 @@ class EnvCore:
         one-env path (``Task.observe_one``/``Task.evaluate_one``); otherwise row 0 of
         :meth:`observe`."""
         if self.num_envs != 1 or self.goal_conditioned or self.imperfections is not None:
-            obs, reward, success, info = self.observe()
+            obs, rewards, successes, batched = self.observe()
             if self.goal_conditioned:
                 obs = {key: value[0] for key, value in obs.items()}
             else:
                 obs = obs[0]
-            return obs, float(reward[0]), bool(success[0]), one_env_info(info)
+            return obs, float(rewards[0]), bool(successes[0]), one_env_info(batched)
         r = self._readings
         task = self.task
         flat = task.observe_one(r)
