@@ -267,4 +267,5 @@ def test_benchmark_sweep_covers_every_algorithm_and_task() -> None:
     assert len(trials) == len(pairs) * len(spec.seeds) and len(spec.seeds) >= 3
     budgets = {t.config["runtime"]["max_wall_time_s"] for t in trials}
     assert len(budgets) == 1 and budgets.pop() > 0
-    assert spec.resources.max_concurrent == 1
+    # One trial per core of the 2-core machine the published numbers came from.
+    assert spec.resources.max_concurrent * spec.resources.cpus_per_trial <= 2
