@@ -6,8 +6,9 @@
 
 ``cdcr_gym`` is imported from ``PYTHONPATH`` (so the same loop times any checkout, including ones
 older than ``training.bench``). Prints the batched CCKA reach env at 16 384 envs (M env-steps/s,
-median of 5 × 60 steps) and the single env through ``gym.make`` beside ``Pendulum-v1`` (env-steps/s,
-median of 5 × 20 000 steps, resets included). Alternate the checkouts a few times: the machine is
+median of 5 × 60 steps, each step's result kept until the next as in ``training.bench``) and the
+single env through ``gym.make`` beside ``Pendulum-v1`` (env-steps/s, median of 5 × 20 000 steps,
+resets included). Alternate the checkouts a few times: the machine is
 shared, so only numbers taken close together compare. ``--against CHECKOUT`` does the
 alternating itself and prints the medians and the per-round ratios:
 
@@ -38,14 +39,19 @@ def batched_rate(num_envs: int = 16384, steps: int = 60, repeats: int = 5) -> fl
     env.reset(seed=0)
     rng = np.random.default_rng(0)
     actions = [rng.uniform(-1, 1, env.action_space.shape).astype(np.float32) for _ in range(8)]
+    out = None
     for i in range(10):  # warm-up
-        env.step(actions[i % 8])
+        out = env.step(actions[i % 8])
     rates = []
     for _ in range(repeats):
         start = time.perf_counter()
         for i in range(steps):
-            env.step(actions[i % 8])
+            # Each result is kept until the next step, as a training loop (and training.bench)
+            # keeps it: results dropped at once are freed and the next step's ~3 MB of outputs
+            # are page-faulted in again (docs/throughput.md, "Notes").
+            out = env.step(actions[i % 8])
         rates.append(num_envs * steps / (time.perf_counter() - start))
+    del out
     env.close()
     return float(np.median(rates))
 
