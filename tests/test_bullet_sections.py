@@ -226,7 +226,7 @@ def test_span_buckling_load_is_where_the_straight_chain_loses_stability():
 
 def test_three_disks_at_80_newton_are_rejected_as_buckling(make):
     """The issue's reproduction: n_disks=3 diverged holding 80/80/80 N after ≈ 1.7 s."""
-    with pytest.raises(ValueError, match=r"params: section 0 \(n_disks=3.*buckles"):
+    with pytest.raises(ValueError, match=r"params\.sections\[0\] \(n_disks=3.*buckles"):
         make(RobotParams(n_disks=3))
     with pytest.raises(ValueError, match="buckles"):
         gym.make("cdcr_gym/BulletReach-v0", params=RobotParams(n_disks=3))

@@ -250,7 +250,7 @@ class RobotParams:
         for j, limit in enumerate(limits):
             if limit > math.pi * (1.0 + 1e-12):
                 raise ValueError(
-                    f"{owner}: section {j + 1} can bend to θ = {math.degrees(limit):.1f}° > 180° "
+                    f"{owner}.sections[{j}] can bend to θ = {math.degrees(limit):.1f}° > 180° "
                     f"with tensions in [0, max_tension={self.max_tension!r}] N "
                     f"(youngs_modulus={self.youngs_modulus!r} Pa, backbone_diameter="
                     f"{self.backbone_diameter!r} m); the constant-curvature model and the "

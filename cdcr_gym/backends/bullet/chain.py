@@ -186,7 +186,7 @@ def check_span_buckling(params: RobotParams, links_per_span: int = 1) -> None:
             n_min = math.floor(s.n_disks * math.sqrt(pull / crit)) + 1  # crit ∝ n_disks²
             euler = math.pi**2 * params.bending_stiffness / s.disk_spacing**2
             raise ValueError(
-                f"params: section {j} (n_disks={s.n_disks}, span {s.disk_spacing * 1e3:.1f} mm) "
+                f"params.sections[{j}] (n_disks={s.n_disks}, span {s.disk_spacing * 1e3:.1f} mm) "
                 f"buckles between its disks: its cables at max_tension={params.max_tension:g} N "
                 f"compress each span with {pull:.0f} N, at or above the critical load of one "
                 f"span, {crit:.0f} N with links_per_span={links_per_span} (the straight span is "
