@@ -680,6 +680,26 @@ def _machine(summary: dict[str, Any], runs: list[RunResult]) -> str:
     return f"{', '.join(hosts) or '?'}, {', '.join(map(str, sorted(cpus)))} CPU cores; {load}"
 
 
+def _sharing(summary: dict[str, Any], runs: list[RunResult], max_conc: int | None) -> str:
+    """Whether the recorded load says other jobs shared the machine with the sweep's trials:
+    a median 1-minute load above the trials running at once (``max_conc``, else the cores) + 0.5."""
+    loads = [x for r in runs for x in r.loadavg]
+    cpus = [t["cpu_count"] for t in summary["trials"] if t.get("cpu_count")]
+    own = max_conc or (max(cpus) if cpus else None)
+    if not loads or own is None:
+        return "Whether other jobs shared the machine is unknown (no load recorded)."
+    if float(np.median(loads)) <= own + 0.5:
+        return (
+            f"That load is the sweep's own {own} concurrent trial{'s' if own > 1 else ''}; "
+            "the steps each run reached are in the tables."
+        )
+    return (
+        "The machine was shared with other jobs while the sweep ran, so the wall-clock budget "
+        "bought fewer env steps than on an idle machine; the steps each run reached are in the "
+        "tables."
+    )
+
+
 def write_doc(
     page: Path,
     sweep_dir: Path,
@@ -760,9 +780,7 @@ def write_doc(
             else "so as many concurrent trials as cores)"
         )
         + ", each an ordinary `training.train` run directory.",
-        f"* **Machine**: {_machine(summary, runs)}. The machine was shared with other jobs while "
-        f"the sweep ran, so the wall-clock budget bought fewer env steps than on an idle machine; "
-        f"the steps each run reached are in the tables.",
+        f"* **Machine**: {_machine(summary, runs)}. " + _sharing(summary, runs, max_conc),
         "* **Scores**: after training, `python -m training.evaluate RUN_DIR --model best` on "
         "fixed goals (reset seeds from `evaluate.seed`, the same for every run) from each "
         "starting state (`straight_h100`: straight start, 100 steps; `random_h100`: a random "
