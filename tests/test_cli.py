@@ -127,3 +127,26 @@ def test_an_optional_dependency_missing_at_run_time_names_its_extra(monkeypatch,
     monkeypatch.setitem(sys.modules, "training.bench", types.SimpleNamespace(main=broken))
     with pytest.raises(ModuleNotFoundError):  # a real bug is not disguised as a missing extra
         cli.main(["bench"])
+
+
+def test_configs_listing_into_a_closed_pipe_is_not_an_error() -> None:
+    """`cdcr-gym configs | head -1` (or `| grep -q`): the reader closes the pipe early; the
+    listing ends quietly with status 0 instead of a BrokenPipeError traceback."""
+    import subprocess
+    import sys
+
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-c",
+            "import sys; from training.cli import main; sys.exit(main(['configs']))",
+        ],
+        cwd=REPO,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    assert proc.stdout is not None
+    proc.stdout.close()  # the reader is gone before anything is written
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0, err.decode()
+    assert b"BrokenPipeError" not in err and b"Traceback" not in err

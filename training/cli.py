@@ -19,6 +19,7 @@ looked up among the packaged configs by name, with or without ``.yaml``: the che
 from __future__ import annotations
 
 import importlib
+import os
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -206,9 +207,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         if root is None:
             print("no packaged configs found", file=sys.stderr)
             return 2
-        print(f"# {root}")
-        for name in available_configs():
-            print(name)
+        try:
+            print(f"# {root}")
+            for name in available_configs():
+                print(name)
+            sys.stdout.flush()
+        except BrokenPipeError:  # the reader stopped early (`cdcr-gym configs | head -1`)
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no error at exit
         return 0
     if command not in COMMANDS:
         print(f"cdcr-gym: unknown command {command!r}\n\n{_usage()}", file=sys.stderr)
