@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import importlib
 import inspect
+from os import PathLike
+from pathlib import Path
 from typing import Any
 
 from cdcr_gym import validation
@@ -67,9 +69,13 @@ def keyword_names(callable_: Any) -> tuple[str, ...]:
 
 
 def resolve_params(robot: Any = None, params: Any = None, default: str = "paper") -> RobotParams:
-    """The robot: ``params`` (a RobotParams) or a preset name ``robot``; else preset ``default``."""
+    """The robot: ``params`` (a RobotParams, or the path of a YAML file such as
+    ``cdcr-gym calibrate``'s ``params.yaml``, read by ``RobotParams.from_yaml``) or a preset name
+    ``robot``; else preset ``default``."""
     if robot is not None and params is not None:
         raise ValueError("give either robot (a preset name) or params (a RobotParams), not both")
+    if isinstance(params, (str, PathLike)):
+        return RobotParams.from_yaml(Path(params))
     if params is not None:
         if not isinstance(params, RobotParams):
             raise ValueError(f"params must be a cdcr_gym.params.RobotParams, got {params!r}")
