@@ -35,6 +35,7 @@ import math
 import re
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -69,13 +70,14 @@ class Measurements:
         from_masses: whether the file gave hanging masses (kg) rather than tensions.
     """
 
+    # arrays after construction; direction, sigma and lines may be given as None (defaults)
     tensions: np.ndarray
     tip: np.ndarray
-    direction: np.ndarray
-    sigma: np.ndarray
+    direction: Any
+    sigma: Any
     tip_direction: np.ndarray | None = None
     sigma_dir: np.ndarray | None = None
-    lines: np.ndarray | None = None
+    lines: Any = None
     labels: tuple[str, ...] = ()
     source: str = "<memory>"
     from_masses: bool = False
@@ -190,9 +192,7 @@ def read_csv(path: str | Path) -> Measurements:
     if not path.is_file():
         raise ValueError(f"measurement file {str(path)!r} does not exist")
     with path.open(newline="") as fh:
-        numbered = [
-            (i, line) for i, line in enumerate(fh.read().splitlines(), start=1)
-        ]
+        numbered = [(i, line) for i, line in enumerate(fh.read().splitlines(), start=1)]
     rows = [(i, line) for i, line in numbered if line.strip() and not line.lstrip().startswith("#")]
     if not rows:
         raise ValueError(f"{name}: no header and no data rows")
@@ -226,9 +226,7 @@ def read_csv(path: str | Path) -> Measurements:
     for line_no, cells in data_rows:
         where = f"{name} line {line_no}"
         if len(cells) != len(header):
-            raise ValueError(
-                f"{where}: {len(cells)} values for {len(header)} columns {header}"
-            )
+            raise ValueError(f"{where}: {len(cells)} values for {len(header)} columns {header}")
         cell = {c: cells[index[c]].strip() for c in header}
         tensions.append([scale * _number(cell[c], where, c) for c in cable_cols])
         tips.append([_number(cell[c], where, c) for c in ("x", "y", "z")])
@@ -238,7 +236,11 @@ def read_csv(path: str | Path) -> Measurements:
                 f"{where}, column 'direction': must be 'up', 'down' or empty, got {cell['direction']!r}"
             )
         dirs.append(_DIRECTIONS[word])
-        sig.append(_number(cell["sigma"], where, "sigma", positive=True) if "sigma" in cell else DEFAULT_SIGMA)
+        sig.append(
+            _number(cell["sigma"], where, "sigma", positive=True)
+            if "sigma" in cell
+            else DEFAULT_SIGMA
+        )
         if all(has_dir):
             t = [_number(cell[c], where, c) for c in ("tx", "ty", "tz")]
             norm = math.sqrt(sum(v * v for v in t))
@@ -272,7 +274,9 @@ def read_csv(path: str | Path) -> Measurements:
     )
 
 
-def check_directions(tensions: np.ndarray, direction: np.ndarray, lines: np.ndarray, name: str) -> None:
+def check_directions(
+    tensions: np.ndarray, direction: np.ndarray, lines: np.ndarray, name: str
+) -> None:
     """ValueError naming the line if a row's ``direction`` contradicts the change of the summed
     tension from the previous row (a rise is loading, ``up``; a fall unloading, ``down``)."""
     total = tensions.sum(axis=1)

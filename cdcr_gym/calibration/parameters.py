@@ -165,8 +165,13 @@ def parameter_specs(
             lowest = params.youngs_modulus * limit * r_gain / math.pi * 1.001
             specs.append(
                 ParameterSpec(
-                    n, "Pa", 1.0, params.youngs_modulus, max(0.1 * params.youngs_modulus, lowest),
-                    10.0 * params.youngs_modulus, log=True,
+                    n,
+                    "Pa",
+                    1.0,
+                    params.youngs_modulus,
+                    max(0.1 * params.youngs_modulus, lowest),
+                    10.0 * params.youngs_modulus,
+                    log=True,
                 )
             )
         elif n == "cable_radius":
@@ -180,9 +185,7 @@ def parameter_specs(
         elif n == "tip_payload":
             specs.append(ParameterSpec(n, "kg", 0.01, 0.0, 0.0, np.inf))
         elif n in ("base_tilt_x", "base_tilt_y"):
-            specs.append(
-                ParameterSpec(n, "rad", math.radians(1.0), 0.0, -math.pi / 6, math.pi / 6)
-            )
+            specs.append(ParameterSpec(n, "rad", math.radians(1.0), 0.0, -math.pi / 6, math.pi / 6))
         else:  # pragma: no cover - resolve_names guards
             raise ValueError(f"unknown parameter {n!r}")
     return specs

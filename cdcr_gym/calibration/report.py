@@ -67,7 +67,9 @@ def write_params_yaml(result: CalibrationResult, path: str | Path, command: str 
         "points": len(result.data),
         "backend": result.backend,
         "fitted": {n: result.values[n] for n in result.names},
-        "ci95": {n: (result.ci95[n] if math.isfinite(result.ci95[n]) else None) for n in result.names},
+        "ci95": {
+            n: (result.ci95[n] if math.isfinite(result.ci95[n]) else None) for n in result.names
+        },
         "start": {n: result.start[n] for n in result.names},
         "median_tip_error_before_m": float(np.median(e0)),
         "median_tip_error_after_m": float(np.median(e1)),
@@ -217,8 +219,15 @@ def plot_residuals(result: CalibrationResult, path: str | Path, title: str = "")
     e0, e1 = result.errors_before * 1e3, result.errors_after * 1e3
     ax1.semilogy(idx, np.maximum(e0, 1e-4), "x-", color="tab:red", ms=4, lw=0.8, label="start")
     ax1.semilogy(idx, np.maximum(e1, 1e-4), "+-", color="tab:blue", ms=6, lw=0.8, label="fitted")
-    ax1.plot(idx[~up], np.maximum(e1[~up], 1e-4), "s", mfc="none", color="tab:blue", ms=6,
-             label="unloading rows")
+    ax1.plot(
+        idx[~up],
+        np.maximum(e1[~up], 1e-4),
+        "s",
+        mfc="none",
+        color="tab:blue",
+        ms=6,
+        label="unloading rows",
+    )
     ax1.set_xlabel("measurement (in order)")
     ax1.set_ylabel("tip error (mm)")
     ax1.grid(alpha=0.3, which="both")

@@ -149,7 +149,9 @@ class BackendReplay:
             backend.reset(previous[None])
             for target in self.data.tensions:
                 for k in range(1, self.ramp_steps + 1):
-                    backend.apply_tensions((previous + (target - previous) * (k / self.ramp_steps))[None])
+                    backend.apply_tensions(
+                        (previous + (target - previous) * (k / self.ramp_steps))[None]
+                    )
                 before = backend.read().tip[0]
                 for _ in range(self.settle_steps):
                     before = backend.read().tip[0]

@@ -79,7 +79,7 @@ def params_from_dict(data: Any, where: str = "params") -> RobotParams:
     unknown = sorted(set(data) - allowed)
     if unknown:
         raise ValueError(f"{where}: unknown key(s) {unknown}; accepted: {sorted(allowed)}")
-    kwargs = {k: v for k, v in data.items() if k not in ("preset", "sections")}
+    kwargs = {k: _number(v) for k, v in data.items() if k not in ("preset", "sections")}
     if "sections" in data:
         raw = data["sections"]
         if not isinstance(raw, list) or not raw:
@@ -93,7 +93,7 @@ def params_from_dict(data: Any, where: str = "params") -> RobotParams:
                 raise ValueError(
                     f"{where}.sections[{j}]: unknown key(s) {bad}; accepted: {list(_SECTION_KEYS)}"
                 )
-            section = dict(s)
+            section = {k: _number(v) for k, v in s.items()}
             if "cable_angles" in section and isinstance(section["cable_angles"], list):
                 section["cable_angles"] = tuple(section["cable_angles"])
             sections.append(SectionParams(**section))
@@ -104,6 +104,19 @@ def params_from_dict(data: Any, where: str = "params") -> RobotParams:
             raise ValueError(f"{where}.preset must be one of {sorted(PRESETS)}, got {name!r}")
         return RobotParams.preset(name, **kwargs)
     return RobotParams(**kwargs)
+
+
+def _number(value: Any) -> Any:
+    """A string that reads as a float becomes one: YAML 1.1 (PyYAML) reads ``3.0e10`` or
+    ``1e-3`` (no dot, or no exponent sign) as strings."""
+    if isinstance(value, str):
+        try:
+            return float(value)
+        except ValueError:
+            return value
+    if isinstance(value, list):
+        return [_number(v) for v in value]
+    return value
 
 
 def _scalar(value: Any) -> str:
