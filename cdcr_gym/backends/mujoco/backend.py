@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import copy
 import math
-import os
 from collections.abc import Sequence
 from typing import Any
 
@@ -39,6 +38,8 @@ from cdcr_gym.model.params import STANDARD_GRAVITY, RobotParams
 
 __all__ = ["MuJoCoBackend", "SimulationDivergedError", "INTEGRATORS"]
 
+#: MuJoCo's warning of a non-finite acceleration (it then resets the data silently).
+_BADQACC = 5  # mujoco.mjtWarning.mjWARN_BADQACC (a test checks the value)
 #: MuJoCo integrators accepted by ``integrator``.
 INTEGRATORS = ("Euler", "implicitfast", "implicit", "RK4")
 
@@ -69,8 +70,10 @@ class MuJoCoBackend(Backend):
             ``"disk"`` (straight from pinhole to pinhole: bullet's model).
         control_timestep: simulated time (s) of one :meth:`apply_tensions` (default 0.02 s).
         physics_timestep: MuJoCo's timestep h (s), must divide ``control_timestep`` (default
-            0.01 s). Stable because the damping D = β·K is stiffness-proportional and MuJoCo
-            integrates it implicitly (stable for h below ≈ 2β).
+            0.02 s: one physics step per control step). Stable because the damping D = β·K is
+            stiffness-proportional and MuJoCo's Euler integrator treats it implicitly: long
+            random-tension runs stay stable up to h = 0.1 s at ζ = 0.7 and 0.04 s at ζ = 0.3
+            (``docs/mujoco_backend.md``). h changes the transient, never the settled state.
         base_orientation: unit quaternion (x, y, z, w) of R0 in the world (default upright).
         tip_payload: point mass (kg, >= 0) at the tip disk centre (default 0.0).
         damping_ratio: damping ratio ζ > 0 of the first bending mode (default 0.7): D = β·K,
@@ -81,8 +84,10 @@ class MuJoCoBackend(Backend):
             set before every physics step.
         friction_slip_length: slip length x_s (m, > 0; default 1e-4) of the slip law.
         integrator: MuJoCo integrator (default ``"Euler"``: semi-implicit, damping implicit).
-        threads: worker threads of ``mujoco.rollout`` when N > 1 (default None: one per core,
-            at most N).
+        threads: ``None`` (default): the N robots are stepped one after the other in the
+            calling thread, one MuJoCo call sequence per robot and control step; an integer k:
+            by ``mujoco.rollout`` in k persistent threads that release the GIL (worth it when
+            cores are free; measured in ``docs/mujoco_backend.md``).
 
     Raises:
         ValueError: naming the argument and the value, for any invalid argument.
@@ -101,7 +106,7 @@ class MuJoCoBackend(Backend):
         joint: str = "ball",
         routing: str = "corrected",
         control_timestep: float = 0.02,
-        physics_timestep: float = 0.01,
+        physics_timestep: float = 0.02,
         base_orientation: Sequence[float] = (0.0, 0.0, 0.0, 1.0),
         tip_payload: float = 0.0,
         damping_ratio: float = 0.7,
@@ -144,6 +149,7 @@ class MuJoCoBackend(Backend):
             friction_slip_length, "friction_slip_length"
         )
         self.integrator = validation.choice(integrator, "integrator", INTEGRATORS)
+        self._splittable = self.integrator != "RK4"
         if threads is not None:
             threads = validation.integer(threads, "threads", 1)
         self.threads = threads
@@ -230,6 +236,9 @@ class MuJoCoBackend(Backend):
         self._has_segments = bool(self._segment_order)
         self._rollout = None
         self._tensions = np.zeros((self.num_robots, c))
+        self._tip = np.zeros((self.num_robots, 3))
+        self._direction = np.zeros((self.num_robots, 3))
+        self._lengths = np.zeros((self.num_robots, c))
         self._nstate = mj.mj_stateSize(model, mj.mjtState.mjSTATE_FULLPHYSICS)
 
     def _own_model(self, i: int) -> Any:
@@ -257,6 +266,14 @@ class MuJoCoBackend(Backend):
                 f"got {tensions!r}"
             )
         return np.array(t)
+
+    def _fast_tensions(self, tensions: Any) -> np.ndarray:
+        """:meth:`_check_tensions` of (N, C) tensions, cheap for a float array (every step)."""
+        if type(tensions) is np.ndarray and tensions.shape == self._tensions.shape:
+            t = tensions.astype(np.float64)  # a copy
+            if t.min() >= 0.0 and t.max() <= self.params.max_tension:  # NaN fails
+                return t
+        return self._check_tensions(tensions, self.num_robots)
 
     # -- statics --------------------------------------------------------------------------------
     def _solve_static(
@@ -339,24 +356,44 @@ class MuJoCoBackend(Backend):
                 turns faster than 1000 rad/s, or MuJoCo reports a bad acceleration.
         """
         self._check_open()
-        t = self._check_tensions(tensions, self.num_robots)
+        t = self._fast_tensions(tensions)
         self._tensions = t
         n_pull = self._n_pull
         rough = bool(np.any(self._mu > 0.0))
         if rough:
             self._step_with_friction(t)
-        elif self.num_robots == 1:
-            data = self._datas[0]
-            data.ctrl[:n_pull] = t[0]
-            self._mj.mj_step(self._models[0], data, self.n_substeps)
+        elif self.threads is None:
+            advance = self._advance
+            for i, data in enumerate(self._datas):
+                data.ctrl[:n_pull] = t[i]
+                advance(self._models[i], data, self.n_substeps)
         else:
             for data, row in zip(self._datas, t):
                 data.ctrl[:n_pull] = row
             self._rollout_step()
         self.time += self.control_timestep
-        for i in range(self.num_robots):
-            self._check_state(i)
-            self._sense(i)
+        if not rough:
+            for i in range(self.num_robots):
+                self._check_state(i)
+                self._sense(i)
+        else:
+            for i in range(self.num_robots):
+                self._check_state(i)
+
+    def _advance(self, model: Any, data: Any, n_steps: int) -> None:
+        """``n_steps`` MuJoCo steps of one robot, leaving ``data`` with the position and
+        velocity stages (``mj_step1``) of the new state computed: what the readings and the next
+        step's ``mj_step2`` use, so that no stage is computed twice. (``mj_step`` computes them
+        for the state it starts from; ``mj_step1`` + ``mj_step2`` = ``mj_step``.) RK4 cannot be
+        split: full steps, then ``mj_step1``."""
+        mj = self._mj
+        if self._splittable:
+            mj.mj_step2(model, data)
+            if n_steps > 1:
+                mj.mj_step(model, data, n_steps - 1)
+        else:
+            mj.mj_step(model, data, n_steps)
+        mj.mj_step1(model, data)
 
     def _rollout_step(self) -> None:
         """All N robots for ``n_substeps`` steps in one ``mujoco.rollout`` call (threads that
@@ -365,9 +402,7 @@ class MuJoCoBackend(Backend):
         from mujoco import rollout
 
         if self._rollout is None:
-            nthread = self.threads
-            if nthread is None:
-                nthread = min(self.num_robots, os.cpu_count() or 1)
+            nthread = min(self.num_robots, self.threads or 1)
             self._rollout = rollout.Rollout(nthread=nthread)
             self._thread_datas = [mj.MjData(self.model) for _ in range(nthread)]
             self._state_buf = np.empty((self.num_robots, self._nstate))
@@ -401,12 +436,12 @@ class MuJoCoBackend(Backend):
         final = self._out_buf[:, -1]
         for i, data in enumerate(self._datas):
             mj.mj_setState(self._models[i], data, final[i], spec)
+            mj.mj_step1(self._models[i], data)
 
     # -- friction -------------------------------------------------------------------------------
     def _step_with_friction(self, t: np.ndarray) -> None:
         """Physics step by physics step: the capstan segment tensions at the current wrap
         angles and slip, then one MuJoCo step (the loads explicit, as on bullet)."""
-        mj = self._mj
         if not self._has_segments:
             raise RuntimeError("internal: friction without segment tendons")
         n_pull = self._n_pull
@@ -414,7 +449,7 @@ class MuJoCoBackend(Backend):
             for i, (model, data) in enumerate(zip(self._models, self._datas)):
                 data.ctrl[:n_pull] = t[i]
                 if self._mu[i] > 0.0:
-                    lengths = data.ten_length[self._cable_ids].copy()
+                    lengths = self._lengths[i].copy()
                     if self._prev_lengths[i] is not None:
                         self.slip[i] = friction.update_slip(
                             self.slip[i], self._prev_lengths[i] - lengths, self.friction_slip_length
@@ -424,10 +459,8 @@ class MuJoCoBackend(Backend):
                     data.ctrl[n_pull:] = [seg[k, c] - t[i, c] for k, c in self._segment_order]
                 else:
                     data.ctrl[n_pull:] = 0.0
-                mj.mj_step(model, data)
-                mj.mj_kinematics(model, data)
-                mj.mj_comPos(model, data)
-                mj.mj_tendon(model, data)
+                self._advance(model, data, 1)
+                self._sense(i)
 
     def _segment_tensions(self, i: int, t: np.ndarray) -> np.ndarray:
         """Capstan tensions (n_disks, C) N of robot i's cable segments (row k: disk k → k+1)
@@ -448,35 +481,34 @@ class MuJoCoBackend(Backend):
 
     # -- reading --------------------------------------------------------------------------------
     def _sense(self, i: int) -> None:
-        """Positions of sites and tendon lengths of robot i's current state (after a step,
-        MuJoCo's are those of the step's start)."""
-        mj = self._mj
-        model, data = self._models[i], self._datas[i]
-        mj.mj_kinematics(model, data)
-        mj.mj_comPos(model, data)
-        mj.mj_tendon(model, data)
+        """Robot i's tip, tip direction and cable lengths (tendon lengths) from its data, which
+        holds the position stage of its current state (:meth:`_advance`)."""
+        data = self._datas[i]
+        tid = self._tip_id
+        self._tip[i] = data.site_xpos[tid]
+        self._direction[i] = data.site_xmat[tid, 2::3]
+        self._lengths[i] = data.ten_length[self._cable_ids]
 
     def _check_state(self, i: int) -> None:
         data = self._datas[i]
-        bad = data.warning[self._mj.mjtWarning.mjWARN_BADQACC].number > 0
-        qvel = data.qvel
-        rate = np.max(np.abs(qvel))
-        angle = self._max_joint_angle(data)
-        if bad or not (rate <= MAX_JOINT_RATE and angle <= MAX_JOINT_ANGLE):
+        rate = np.abs(data.qvel).max()
+        if (
+            data.warning[_BADQACC].number > 0
+            or not rate <= MAX_JOINT_RATE
+            or not self._max_joint_angle(data) <= MAX_JOINT_ANGLE
+        ):
             raise self._diverged(
                 "the simulation diverged", data, self._tensions[i], float(self.time[i])
             )
 
     def _max_joint_angle(self, data: Any) -> float:
+        """Largest joint angle (rad): the ball joints' rotation angles, the hinges' angles
+        (inf for a non-finite state)."""
         q = data.qpos
         if self.joint == "ball":
-            w = np.abs(q[0::4])
-            return (
-                float(2.0 * np.arccos(np.minimum(w, 1.0)).max())
-                if np.all(np.isfinite(q))
-                else math.inf
-            )
-        return float(np.max(np.abs(q)))
+            w = float(np.abs(q[0::4]).min())
+            return 2.0 * math.acos(min(w, 1.0)) if math.isfinite(w) else math.inf
+        return float(np.abs(q).max())
 
     def _diverged(
         self, message: str, data: Any, tensions: np.ndarray, time: float
@@ -495,17 +527,14 @@ class MuJoCoBackend(Backend):
 
     def read(self) -> Readings:
         self._check_open()
-        n = self.num_robots
-        tip = np.empty((n, 3))
-        direction = np.empty((n, 3))
-        lengths = np.empty((n, self.params.n_cables))
-        tid, cid = self._tip_id, self._cable_ids
-        for i, data in enumerate(self._datas):
-            tip[i] = data.site_xpos[tid]
-            direction[i] = data.site_xmat[tid].reshape(3, 3)[:, 2]
-            lengths[i] = data.ten_length[cid]
         anchors = self.anchor_tensions if self._report_anchors else None
-        return Readings(tip, direction, lengths, self._tensions.copy(), anchors)
+        return Readings(
+            self._tip.copy(),
+            self._direction.copy(),
+            self._lengths.copy(),
+            self._tensions.copy(),
+            anchors,
+        )
 
     def equilibrium(self, tensions: np.ndarray) -> Readings:
         """Static equilibria under ``tensions`` (M, C) N of the nominal robot (robot 0's model),
@@ -520,7 +549,7 @@ class MuJoCoBackend(Backend):
             if not self._solve_static(model, data, t):
                 raise self._diverged("no static equilibrium found", data, t, 0.0)
             tip[j] = data.site_xpos[self._tip_id]
-            direction[j] = data.site_xmat[self._tip_id].reshape(3, 3)[:, 2]
+            direction[j] = data.site_xmat[self._tip_id, 2::3]
             lengths[j] = data.ten_length[self._cable_ids]
         return Readings(tip, direction, lengths, t_all.copy())
 

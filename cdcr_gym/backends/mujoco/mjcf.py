@@ -98,6 +98,7 @@ class MJCFModel:
         disk_links: 1-based link index of every spacer disk (n_disks,).
         pinhole_sites: [disk k (0 = base)][cable i] site name of cable i's pinhole position on
             disk k (on every disk; the cable passes those up to its anchor).
+        cable_paths: the site names of every cable's tendon, base to anchor.
         segment_tendons: [span k][cable i] tendon name (None where cable i does not cross span
             k, or when the model has no segment tendons).
         obstacles: number of obstacle sphere geoms.
@@ -110,6 +111,7 @@ class MJCFModel:
     station_sites: tuple[str, ...]
     disk_links: tuple[int, ...]
     pinhole_sites: tuple[tuple[str, ...], ...]
+    cable_paths: tuple[tuple[str, ...], ...]
     segment_tendons: tuple[tuple[str | None, ...], ...]
     obstacles: int
 
@@ -357,6 +359,7 @@ def build_mjcf(
         station_sites=tuple(station_sites),
         disk_links=tuple(disk_links),
         pinhole_sites=tuple(tuple(row) for row in pinhole_sites),
+        cable_paths=tuple(tuple(path) for path in paths),
         segment_tendons=tuple(tuple(row) for row in segments),
         obstacles=obstacles,
     )
