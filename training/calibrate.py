@@ -33,12 +33,13 @@ import numpy as np
 __all__ = ["main", "build_parser", "synthetic_study", "DEFAULT_BACKEND_ARGS"]
 
 #: Backend arguments a calibration uses unless overridden with ``--backend-arg``.
-#: ``friction_slip_length`` 2 mm: with the backend's default 0.1 mm the unloading branch of a
-#: 0–80 N sweep does not settle at the 10 ms physics step (the slip state of the loaded cable
-#: flips between ±1 every step, ≈ 1 mm of tip chatter); 2 mm lets the stick phase settle.
+#: ``friction_slip_length`` 2 mm: with the backends' default 0.1 mm the unloading branch of a
+#: 0–80 N sweep with μ = 0.15 never settles (the slip state of the loaded cable flips between ±1
+#: every step: ≈ 1 mm (bullet, 10 ms steps) and 3 mm (MuJoCo, 20 ms) of tip motion per control
+#: step, indefinitely); with 2 mm the stick phase after a reversal settles.
 DEFAULT_BACKEND_ARGS: dict[str, dict[str, Any]] = {
     "bullet": {"gravity": True, "friction_slip_length": 2e-3},
-    "mujoco": {"gravity": True},
+    "mujoco": {"gravity": True, "friction_slip_length": 2e-3},
     "analytic": {},
 }
 
@@ -138,7 +139,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--settle-steps", type=int, default=50, help="physics replay: settle steps per row"
     )
-    p.add_argument("--max-evals", type=int, default=None, help="limit on model evaluations")
+    p.add_argument("--max-evals", type=int, default=None, help="limit on least_squares steps (nfev)")
     p.add_argument("--quiet", action="store_true", help="no per-evaluation progress")
     p.add_argument(
         "--synthetic-study",
@@ -147,9 +148,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--study-backend",
-        default="bullet",
+        default="mujoco",
         choices=("bullet", "mujoco"),
-        help="physics backend that generates and fits the study's data (default: bullet)",
+        help="physics backend that generates and fits the study's data (default: mujoco)",
     )
     return p
 
@@ -274,7 +275,7 @@ def generate(
 
 
 def synthetic_study(
-    out: Path, backend: str = "bullet", *, command: str = "", verbose: bool = True
+    out: Path, backend: str = "mujoco", *, command: str = "", verbose: bool = True
 ) -> dict[str, Any]:
     """The validation study (module docstring); writes ``study.json``, ``study.png``, the CSVs
     and a report per fit into ``out``; returns the summary."""

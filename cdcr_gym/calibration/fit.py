@@ -69,7 +69,8 @@ class CalibrationResult:
         before / after: predictions with the start and the fitted values.
         residual_sigma: s, the residual standard deviation in units of the rows' σ.
         identifiable: False if JᵀJ was (near) singular.
-        nfev, seconds, message, success: from the optimiser.
+        nfev: model runs (the Jacobian's finite differences included); seconds, message,
+            success: from the optimiser.
         unsettled: the largest tip motion (m) in the last control step of any row (physics).
     """
 
@@ -157,7 +158,8 @@ def calibrate(
         start: start values (SI) of fitted parameters; default the robot's, then
             ``backend_kwargs``'s, then :data:`DEFAULT_START` (0 for offsets and tilt).
         ramp_steps, settle_steps: the physics replay's control steps per row.
-        max_nfev: limit on model evaluations (default: scipy's, 100·p).
+        max_nfev: limit on least_squares' steps (its nfev: evaluations outside the
+            finite-difference Jacobian; default scipy's, 100·p).
         progress: called with a line of text after every evaluation (e.g. ``print``).
 
     Returns:
@@ -265,7 +267,7 @@ def calibrate(
         after=after,
         residual_sigma=math.sqrt(s2),
         identifiable=identifiable,
-        nfev=int(result.nfev),
+        nfev=count[0] + 2,  # every model run, finite differences and before/after included
         seconds=seconds,
         message=str(result.message),
         success=bool(result.success),
