@@ -139,7 +139,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--settle-steps", type=int, default=50, help="physics replay: settle steps per row"
     )
-    p.add_argument("--max-evals", type=int, default=None, help="limit on least_squares steps (nfev)")
+    p.add_argument(
+        "--max-evals", type=int, default=None, help="limit on least_squares steps (nfev)"
+    )
     p.add_argument("--quiet", action="store_true", help="no per-evaluation progress")
     p.add_argument(
         "--synthetic-study",
