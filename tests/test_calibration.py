@@ -76,16 +76,18 @@ def test_stiffness_and_radius_are_not_identifiable_from_tips_alone():
     assert np.median(res.errors_after) < 1e-4
 
 
-def test_physics_backend_fit_on_a_few_points():
-    """Smoke test: 5 rows loaded up and down on cable 1, E and μ recovered on pybullet."""
+@pytest.mark.parametrize("backend", ["bullet", "mujoco"])
+def test_physics_backend_fit_on_a_few_points(backend):
+    """Smoke test: 5 rows loaded up and down on cable 1, E and μ recovered on a physics
+    backend replayed in order."""
     tensions = np.array([[0.0, 0, 0], [40, 0, 0], [78, 0, 0], [40, 0, 0], [0, 0, 0]])
     template = Measurements(tensions, np.zeros((5, 3)), [1, 1, 1, -1, -1], None)
     kw = {"gravity": True, "friction_slip_length": 2e-3}
     truth = {"youngs_modulus": 30e9, "friction_coefficient": 0.15}
-    tip = BackendReplay(template, RobotParams(), "bullet", kw, 5, 25)(truth).tip
+    tip = BackendReplay(template, RobotParams(), backend, kw, 5, 25)(truth).tip
     data = Measurements(tensions, tip, template.direction, np.full(5, 2e-5))
     res = calibrate(
-        data, RobotParams(), "E,mu", "bullet", kw, ramp_steps=5, settle_steps=25, max_nfev=12
+        data, RobotParams(), "E,mu", backend, kw, ramp_steps=5, settle_steps=25, max_nfev=12
     )
     assert res.values["youngs_modulus"] == pytest.approx(30e9, rel=0.02)
     assert res.values["friction_coefficient"] == pytest.approx(0.15, abs=0.03)

@@ -191,7 +191,8 @@ def report_markdown(result: CalibrationResult, command: str = "", figure: str = 
 
 
 def plot_residuals(result: CalibrationResult, path: str | Path, title: str = "") -> None:
-    """Before/after figure: tips in the bending plane (left) and per-point errors (right)."""
+    """Before/after figure: the tip's distance from the axis against the load, rows in order
+    (left: loading and unloading branches), and the per-point errors (right)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -204,15 +205,15 @@ def plot_residuals(result: CalibrationResult, path: str | Path, title: str = "")
     def radial(p: np.ndarray) -> np.ndarray:
         return np.hypot(p[:, 0], p[:, 1]) * 1e3
 
+    load = d.tensions.sum(axis=1)
     for pts, style, label in (
         (d.tip, dict(color="k", marker="o", ms=5, ls="none", mfc="none"), "measured"),
-        (result.before.tip, dict(color="tab:red", marker="x", ms=4, ls="none"), "start values"),
-        (result.after.tip, dict(color="tab:blue", marker="+", ms=6, ls="none"), "fitted"),
+        (result.before.tip, dict(color="tab:red", marker="x", ms=4, lw=0.6), "start values"),
+        (result.after.tip, dict(color="tab:blue", marker="+", ms=6, lw=0.6), "fitted"),
     ):
-        ax0.plot(radial(pts), pts[:, 2] * 1e3, label=label, **style)  # type: ignore[arg-type]
-    ax0.set_xlabel("tip distance from the axis √(x²+y²) (mm)")
-    ax0.set_ylabel("tip z (mm)")
-    ax0.set_aspect("equal", adjustable="datalim")
+        ax0.plot(load, radial(pts), label=label, **style)  # type: ignore[arg-type]
+    ax0.set_xlabel("total cable tension (N), rows in order")
+    ax0.set_ylabel("tip distance from the axis √(x²+y²) (mm)")
     ax0.grid(alpha=0.3)
     ax0.legend()
     idx = np.arange(len(d))
