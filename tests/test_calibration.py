@@ -66,6 +66,20 @@ def test_analytic_round_trip_recovers_the_parameters():
     )
 
 
+def test_tip_tangents_are_fitted_too(tmp_path):
+    tensions = _sweep_tensions()
+    template = Measurements(tensions, np.zeros((len(tensions), 3)), None, None)
+    pred = AnalyticReplay(template, RobotParams())({"youngs_modulus": 30e9})
+    data = Measurements(tensions, pred.tip, None, 1e-3, pred.tip_direction, 1e-3)
+    write_csv(tmp_path / "t.csv", data)
+    again = read_csv(tmp_path / "t.csv")
+    assert again.tip_direction is not None
+    res = calibrate(again, RobotParams(), "E", start={"youngs_modulus": 40e9})
+    assert res.values["youngs_modulus"] == pytest.approx(30e9, rel=1e-6)
+    with pytest.raises(ValueError, match=r"start values given for \['tip_payload'\]"):
+        calibrate(again, RobotParams(), "E", start={"tip_payload": 0.01})
+
+
 def test_stiffness_and_radius_are_not_identifiable_from_tips_alone():
     data = _analytic_data({"youngs_modulus": 30e9}, sigma=1e-5)
     res = calibrate(data, RobotParams(), "E,r")

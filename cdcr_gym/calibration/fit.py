@@ -177,6 +177,9 @@ def calibrate(
             f"too few points: {len(data)} measurement(s) for {len(names)} parameter(s) "
             f"{names}; need at least {len(names) + 1}"
         )
+    stray = sorted(set(start or {}) - set(names))
+    if stray:
+        raise ValueError(f"start values given for {stray}, which are not fitted (fitted: {names})")
     fixed = dict(backend_kwargs or {})
     start_values: dict[str, float] = {}
     for n in names:
