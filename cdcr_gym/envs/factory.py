@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import importlib
 import inspect
+from os import PathLike
+from pathlib import Path
 from typing import Any
 
 from cdcr_gym import validation
@@ -35,6 +37,7 @@ __all__ = [
 BACKENDS = {
     "CCKA": "cdcr_gym.backends.analytic:AnalyticBackend",
     "Bullet": "cdcr_gym.backends.bullet:BulletBackend",
+    "MuJoCo": "cdcr_gym.backends.mujoco:MuJoCoBackend",
 }
 #: Task name (id infix) → class, as "module:attribute".
 TASKS = {
@@ -46,7 +49,11 @@ TASKS = {
 #: The robot preset of a (backend, task) when neither ``robot`` nor ``params`` is given (else
 #: "paper"). Pose defaults to the two-section robot (a one-section tip direction is fixed by its
 #: position) on every backend that models several sections.
-DEFAULT_ROBOTS = {("CCKA", "Pose"): "tdcr2", ("Bullet", "Pose"): "tdcr2"}
+DEFAULT_ROBOTS = {
+    ("CCKA", "Pose"): "tdcr2",
+    ("Bullet", "Pose"): "tdcr2",
+    ("MuJoCo", "Pose"): "tdcr2",
+}
 
 
 def _load(table: dict[str, str], name: Any, what: str) -> Any:
@@ -67,9 +74,13 @@ def keyword_names(callable_: Any) -> tuple[str, ...]:
 
 
 def resolve_params(robot: Any = None, params: Any = None, default: str = "paper") -> RobotParams:
-    """The robot: ``params`` (a RobotParams) or a preset name ``robot``; else preset ``default``."""
+    """The robot: ``params`` (a RobotParams, or the path of a YAML file such as
+    ``cdcr-gym calibrate``'s ``params.yaml``, read by ``RobotParams.from_yaml``) or a preset name
+    ``robot``; else preset ``default``."""
     if robot is not None and params is not None:
         raise ValueError("give either robot (a preset name) or params (a RobotParams), not both")
+    if isinstance(params, (str, PathLike)):
+        return RobotParams.from_yaml(Path(params))
     if params is not None:
         if not isinstance(params, RobotParams):
             raise ValueError(f"params must be a cdcr_gym.params.RobotParams, got {params!r}")

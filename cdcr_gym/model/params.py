@@ -267,6 +267,28 @@ class RobotParams:
             raise ValueError(f"robot must be one of {sorted(PRESETS)}, got {name!r}")
         return replace(PRESETS[name], **overrides) if overrides else PRESETS[name]
 
+    # -- YAML (cdcr_gym.model.params_yaml) -----------------------------------------------------
+    def to_yaml(self, path: Any = None) -> str:
+        """This robot as YAML text (SI units, exact floats); also written to ``path`` if given.
+
+        ``RobotParams.from_yaml(p.to_yaml()) == p``. Format: :mod:`cdcr_gym.model.params_yaml`.
+        """
+        from cdcr_gym.model.params_yaml import to_yaml
+
+        return to_yaml(self, path)
+
+    @classmethod
+    def from_yaml(cls, source: Any) -> RobotParams:
+        """The robot of a YAML file (a path) or text (:meth:`to_yaml`, or a file written by
+        ``cdcr-gym calibrate``, whose robot sits under ``robot:``). Needs PyYAML.
+
+        Raises:
+            ValueError: naming the key, for unknown keys or invalid values.
+        """
+        from cdcr_gym.model.params_yaml import from_yaml
+
+        return from_yaml(source)
+
     # -- derived quantities --------------------------------------------------------------------
     @property
     def n_sections(self) -> int:
