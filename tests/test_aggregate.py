@@ -293,3 +293,34 @@ def test_the_page_says_the_machine_was_shared_only_when_the_load_exceeds_the_tri
     # no max_concurrent: as many trials as cores
     assert "own 2 concurrent trials" in _sharing(summary, runs(2.2, 2.4), None)
     assert "unknown" in _sharing(summary, runs(), 2)  # load not recorded
+
+
+PINNED_GROUPS = [
+    ("BulletReach-v0", "random", "median_error_mm", 2.0, 2.0, 2.0),
+    ("BulletReach-v0", "random", "success_rate", 1.0, 1.0, 1.0),
+    ("BulletReach-v0", "straight", "median_error_mm", 1.0, 1.0, 1.0),
+    ("BulletReach-v0", "straight", "success_rate", 1.0, 1.0, 1.0),
+    ("CCKAReach-v0", "random", "median_error_mm", 7.666666667, 2.108333333, 14.0),
+    ("CCKAReach-v0", "random", "success_rate", 0.333333333, 0.0, 0.841666667),
+    ("CCKAReach-v0", "straight", "median_error_mm", 3.833333333, 1.054166667, 7.0),
+    ("CCKAReach-v0", "straight", "success_rate", 0.666666667, 0.0, 1.0),
+]
+
+
+def test_pinned_aggregate_numbers(sweep_dir: Path) -> None:
+    """IQMs and bootstrap CIs of the fake sweep on a fixed seed, pinned (any restructuring of the
+    aggregation must leave them unchanged)."""
+    _, runs = load_runs(sweep_dir)
+    result = aggregate(runs, reps=500, seed=0)
+    rows = sorted(
+        (
+            g["task"],
+            g["condition"][: g["condition"].index("_")],
+            m,
+            *map(lambda v: round(v, 9), (g[m]["iqm"], *g[m]["ci"])),
+        )
+        for g in result["groups"]
+        for m in ("median_error_mm", "success_rate")
+        if g.get(m)
+    )
+    assert rows == PINNED_GROUPS

@@ -317,3 +317,67 @@ def test_fast_config_trains_one_rollout(tmp_path: Path, name: str) -> None:
     rows = _csv_rows(run / "progress.csv")
     assert int(rows[-1]["time/total_timesteps"]) == rollout
     assert (run / "best_model" / "model.zip").exists()
+
+
+# -- pins: the numbers a restructuring of training/ must leave unchanged ------------------------
+#: sha256 (first 16 hex digits) of every packaged config as resolved (every default filled in)
+CONFIG_DIGESTS = {
+    "ppo_bullet_fast": "425ca3953cbd4d61",
+    "ppo_bullet_friction_reach": "342e59cfcfa3abda",
+    "ppo_bullet_reach": "9593264220302609",
+    "ppo_bullet_track": "b13d45633a0eebf9",
+    "ppo_ccka_dr_reach": "29ea77b5982cf0c6",
+    "ppo_ccka_fast": "99d7030e56fb8fdd",
+    "ppo_ccka_obstacle": "0e0d18eb730402ff",
+    "ppo_ccka_pose": "247c1bc6ab08ef2c",
+    "ppo_ccka_reach": "a7c421cd60c54f36",
+    "ppo_ccka_track": "8eb6a591bbbba874",
+    "sac_bullet_reach": "c15cfa464ef5b6fb",
+    "sac_ccka_obstacle": "a33dd57415df159f",
+    "sac_ccka_pose": "0397922d895ec273",
+    "sac_ccka_reach": "c07184d8bd3601ef",
+    "sac_ccka_track": "89a0d8255bef4170",
+    "td3_bullet_reach": "389e0b7404094fc3",
+    "td3_ccka_obstacle": "f7fcc4d871aa56c8",
+    "td3_ccka_pose": "02461dcfb670dd06",
+    "td3_ccka_reach": "f1b25efbdbc2b672",
+    "td3_ccka_track": "d51b7a8c87c4e976",
+    "tqc_bullet_reach": "b8b4b2082cb2d4eb",
+    "tqc_ccka_obstacle": "2a62b2cd0336af24",
+    "tqc_ccka_pose": "9262955216f039b0",
+    "tqc_ccka_reach": "ce60ff6cc40c6484",
+    "tqc_ccka_track": "65d31bc7002529f1",
+    "tqc_her_ccka_goalreach": "6b44b99c99165e10",
+}
+
+
+def test_pinned_config_resolution() -> None:
+    import hashlib
+
+    from training.config import config_to_dict
+
+    digests = {}
+    for path in CONFIGS:
+        data = json.dumps(config_to_dict(load_config(path)), sort_keys=True, default=str)
+        digests[path.stem] = hashlib.sha256(data.encode()).hexdigest()[:16]
+    assert digests == CONFIG_DIGESTS
+
+
+#: eval_log.csv of the tiny run below (seed 3, 256 steps): (timesteps, mean_error_mm, mean_reward)
+PINNED_EVAL_LOG = [(128, 228.553791, -22.681192), (256, 229.84247, -22.750727)]
+
+
+def test_pinned_tiny_training_run(tmp_path: Path) -> None:
+    """A tiny PPO run on a fixed seed: its periodic evaluations, to the last printed digit."""
+    run = tmp_path / "run"
+    result = _run("training.train", _tiny_config(tmp_path), "--run-dir", run, timeout=120)
+    assert result.returncode == 0, result.stderr[-3000:]
+    rows = [
+        (
+            int(r["timesteps"]),
+            round(float(r["mean_error_mm"]), 6),
+            round(float(r["mean_reward"]), 6),
+        )
+        for r in _csv_rows(run / "eval_log.csv")
+    ]
+    assert rows == PINNED_EVAL_LOG
