@@ -28,16 +28,28 @@ __all__ = ["main", "configs_dir", "resolve_config", "COMMANDS"]
 
 #: subcommand -> (module, one-line description, the extra it needs)
 COMMANDS: dict[str, tuple[str, str, str]] = {
-    "train": ("training.train", "train an agent (PPO, SAC, TD3, TQC) from a YAML config", "train"),
-    "evaluate": ("training.evaluate", "evaluate a run against the analytic-IK oracle", "train"),
+    "train": (
+        "training.run.train",
+        "train an agent (PPO, SAC, TD3, TQC) from a YAML config",
+        "train",
+    ),
+    "evaluate": (
+        "training.evaluate.agent",
+        "evaluate a run against the analytic-IK oracle",
+        "train",
+    ),
     "reproduce": (
-        "training.reproduce",
+        "training.studies.reproduce",
         "the paper's CCKA-vs-physics study (figures, report)",
         "train",
     ),
-    "bench": ("training.bench", "throughput of the envs and of PPO training", "train"),
-    "sweep": ("training.sweep", "hyperparameter sweep (Ray Tune)", "sweep"),
-    "demo": ("training.ik_demo", "the analytic-IK controller on a few goals (no training)", ""),
+    "bench": ("training.studies.bench", "throughput of the envs and of PPO training", "train"),
+    "sweep": ("training.sweep.tune", "hyperparameter sweep (Ray Tune)", "sweep"),
+    "demo": (
+        "training.evaluate.ik_demo",
+        "the analytic-IK controller on a few goals (no training)",
+        "",
+    ),
 }
 
 

@@ -1,8 +1,0 @@
-"""``python -m training.reproduce``: run the study (see :mod:`training.reproduce.study`)."""
-
-import sys
-
-from training.reproduce.study import main
-
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
