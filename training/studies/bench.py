@@ -232,23 +232,24 @@ def _ppo(config_path: Path, vec_env: str, steps: int, repeats: int) -> dict[str,
     import torch
     from stable_baselines3 import PPO
 
-    from training.run import train as T
+    from training.run.algorithms import ppo_kwargs, wrap_normalize
     from training.run.config import load_config
+    from training.run.envs import build_vec_env
 
     config = load_config(config_path)
     config = dataclasses.replace(config, env=dataclasses.replace(config.env, vec_env=vec_env))
     torch.set_num_threads(config.runtime.torch_threads)
 
     def make_model() -> tuple[Any, Any]:
-        env_timer = _env_timer(T.build_vec_env(config, config.seed))
-        venv = T._wrap_normalize(config, env_timer, None)
+        env_timer = _env_timer(build_vec_env(config, config.seed))
+        venv = wrap_normalize(config, env_timer, None)
         model = PPO(
             "MlpPolicy",
             venv,
             seed=config.seed,
             device=config.runtime.device,
             verbose=0,
-            **T._ppo_kwargs(config),
+            **ppo_kwargs(config),
         )
         return model, env_timer
 
