@@ -39,18 +39,33 @@ evaluation meeting every threshold, or "not reached" within the budget.
 from __future__ import annotations
 
 import argparse
-import csv
 import json
-import math
 import shlex
 import sys
 from collections import defaultdict
-from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from training.sweep.figures import plot_curves, plot_iqm, plot_performance_profiles
+from training.sweep.scores import (
+    METRICS,
+    RATE_METRICS,
+    SUCCESS,
+    RunResult,
+    aggregate,
+    condition_order,
+    group_metrics,
+    load_runs,
+)
+from training.sweep.statistics import (
+    iqm,
+    performance_profile,
+    stratified_bootstrap,
+    stratified_bootstrap_ci,
+)
 
 __all__ = [
     "iqm",
@@ -62,308 +77,6 @@ __all__ = [
     "aggregate",
     "main",
 ]
-
-METRICS = {
-    # key: (title, unit, lower is better)
-    "median_error_mm": ("median final error", "mm", True),
-    "success_rate": ("success", "%", False),
-    "within_1mm": ("within 1 mm", "%", False),
-    "tracking_rms_mm": ("median tracking RMS", "mm", True),
-    "final_angle_deg": ("median final angle", "°", True),
-    "within_1mm_1deg": ("within 1 mm and 1°", "%", False),
-    "collision_rate": ("collision rate", "%", True),
-}
-RATE_METRICS = ("success_rate", "within_1mm")
-#: what "success" means per task (the env's ``is_success`` at the last step)
-SUCCESS = {
-    "Reach": "final tip error ≤ 5 mm",
-    "Track": "tip within 5 mm of the moving target at the last step",
-    "Pose": "final tip error ≤ 5 mm and tip direction within 5°",
-    "Obstacle": "final tip error ≤ 5 mm and no collision during the episode",
-}
-
-
-# -- the estimator ------------------------------------------------------------------------------
-def iqm(scores: np.ndarray | Sequence[float], axis: int = -1) -> np.ndarray | float:
-    """Interquartile mean along ``axis``: the mean after cutting ``int(0.25 n)`` values per end.
-
-    Identical to ``scipy.stats.trim_mean(scores, 0.25, axis)`` (rliable's IQM). ``scores``: any
-    shape with n ≥ 1 values along ``axis``. Returns a float for 1-D input, else an array with
-    ``axis`` removed.
-    """
-    x = np.sort(np.asarray(scores, dtype=float), axis=axis)
-    n = x.shape[axis]
-    if n == 0:
-        raise ValueError("scores must hold at least one value along axis, got an empty array")
-    k = int(0.25 * n)
-    out = np.take(x, np.arange(k, n - k), axis=axis).mean(axis=axis)
-    return float(out) if np.ndim(out) == 0 else out
-
-
-def stratified_bootstrap(
-    groups: Sequence[np.ndarray | Sequence[float]],
-    statistic: Callable[[np.ndarray], np.ndarray],
-    reps: int = 50_000,
-    seed: int = 0,
-) -> np.ndarray:
-    """``reps`` bootstrap replicates of ``statistic`` over the pooled, stratified resamples.
-
-    ``groups``: one 1-D array of run scores per stratum (task). Each replicate draws, with
-    replacement, ``len(g)`` runs from every group ``g`` independently, pools them (shape
-    ``(reps, sum len(g))``) and applies ``statistic`` along the last axis. Returns shape
-    ``(reps, ...)``. Deterministic for a given ``seed`` (``numpy.random.default_rng``).
-    """
-    if reps <= 0:
-        raise ValueError(f"reps must be a positive integer, got {reps!r}")
-    arrays = [np.asarray(g, dtype=float).ravel() for g in groups]
-    if not arrays or any(a.size == 0 for a in arrays):
-        raise ValueError("groups must be a non-empty list of non-empty score arrays")
-    rng = np.random.default_rng(seed)
-    pooled = np.concatenate([a[rng.integers(0, a.size, size=(reps, a.size))] for a in arrays], 1)
-    return np.asarray(statistic(pooled))
-
-
-def stratified_bootstrap_ci(
-    groups: Sequence[np.ndarray | Sequence[float]],
-    statistic: Callable[..., Any] = iqm,
-    reps: int = 50_000,
-    confidence: float = 0.95,
-    seed: int = 0,
-) -> tuple[float, float, float]:
-    """Point estimate and percentile confidence interval of ``statistic`` over pooled groups.
-
-    Returns ``(point, low, high)``: ``statistic`` of all runs pooled, and the ``(1 ± confidence)
-    / 2`` quantiles of its stratified-bootstrap distribution (:func:`stratified_bootstrap`).
-    """
-    if not 0.0 < confidence < 1.0:
-        raise ValueError(f"confidence must be in (0, 1), got {confidence!r}")
-    point = float(statistic(np.concatenate([np.asarray(g, dtype=float).ravel() for g in groups])))
-    boot = stratified_bootstrap(groups, lambda x: statistic(x, axis=-1), reps, seed)
-    alpha = (1.0 - confidence) / 2.0
-    low, high = np.quantile(boot, [alpha, 1.0 - alpha])
-    return point, float(low), float(high)
-
-
-def performance_profile(
-    groups: Sequence[np.ndarray | Sequence[float]],
-    levels: np.ndarray,
-    reps: int = 2_000,
-    confidence: float = 0.95,
-    seed: int = 0,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Fraction of runs with a score ≤ each level, with a stratified-bootstrap band.
-
-    ``groups``: run scores (errors: lower is better) per stratum; ``levels``: shape ``(L,)``.
-    Returns ``(fraction, low, high)``, each of shape ``(L,)``.
-    """
-    levels = np.asarray(levels, dtype=float)
-
-    def frac(x: np.ndarray, axis: int = -1) -> np.ndarray:
-        return (np.moveaxis(x, axis, -1)[..., None] <= levels).mean(axis=-2)
-
-    pooled = np.concatenate([np.asarray(g, dtype=float).ravel() for g in groups])
-    boot = stratified_bootstrap(groups, frac, reps, seed)
-    alpha = (1.0 - confidence) / 2.0
-    low, high = np.quantile(boot, [alpha, 1.0 - alpha], axis=0)
-    return frac(pooled), low, high
-
-
-# -- the runs of a sweep ------------------------------------------------------------------------
-@dataclass
-class RunResult:
-    """One trial of a sweep, as read back from its records and run directory."""
-
-    trial_id: str
-    task: str  # env id without the namespace, e.g. "CCKAReach-v0"
-    algo: str  # the config's algo (and the sweep variant, if any)
-    seed: int
-    status: str
-    steps: int | None = None
-    train_wall_time_s: float | None = None
-    stopped_by: str | None = None
-    #: condition -> {metric: value}; rates as fractions, errors in mm
-    scores: dict[str, dict[str, float]] = field(default_factory=dict)
-    #: the first periodic evaluation meeting the target: {"steps", "wall_time_s"}; None if none
-    to_target: dict[str, float] | None = None
-    #: periodic evaluations: rows of eval_log.csv (steps, wall_time_s, median_error_mm, ...)
-    curve: list[dict[str, float]] = field(default_factory=list)
-    error: str | None = None
-    loadavg: list[float] = field(default_factory=list)  # 1-min load average, start and end
-    host: str | None = None  # run.json's host platform
-    #: the task kind of eval.json ("Reach", "Track", "Pose", "Obstacle")
-    kind: str = "Reach"
-    #: condition -> baseline name (e.g. "oracle", "analytic IK") -> {metric: value}, evaluated
-    #: on the same episodes as the run (identical for every run of a task)
-    baselines: dict[str, dict[str, dict[str, float]]] = field(default_factory=dict)
-
-
-def task_scores(summary: dict[str, Any]) -> dict[str, float]:
-    """The scores of one policy's Track/Pose/Obstacle summary (``summarize_task`` in
-    :mod:`training.task_metrics`): medians over the episodes (mm, °) and rates (fractions).
-
-    Every task: ``median_error_mm`` (final tip distance to the goal or target) and
-    ``success_rate``; Track: ``tracking_rms_mm``; Pose: ``final_angle_deg``, ``within_1mm_1deg``;
-    Obstacle: ``collision_rate``.
-    """
-    out = {
-        "median_error_mm": float(summary["final_distance_mm"]["median"]),
-        "success_rate": float(summary["success_rate"]),
-    }
-    if "tracking_rms_mm" in summary:
-        out["tracking_rms_mm"] = float(summary["tracking_rms_mm"]["median"])
-    if "final_angle_deg" in summary:
-        out["final_angle_deg"] = float(summary["final_angle_deg"]["median"])
-        out["within_1mm_1deg"] = float(summary["within_1mm_1deg"])
-    if "collision_rate" in summary:
-        out["collision_rate"] = float(summary["collision_rate"])
-    return out
-
-
-def _label(record: dict[str, Any]) -> str:
-    variant = record.get("variant") or {}
-    algo = str(record.get("algo", "ppo")).upper()
-    if variant:
-        algo += " " + ", ".join(f"{k.split('.')[-1]}={v}" for k, v in variant.items())
-    return algo
-
-
-def _meets(row: dict[str, float], target: dict[str, float]) -> bool:
-    from training.sweep.tune import TARGET_KEYS
-
-    for key, threshold in target.items():
-        value = row.get(key)
-        if value is None or not math.isfinite(value):
-            return False
-        if (value < threshold) if TARGET_KEYS[key] else (value > threshold):
-            return False
-    return True
-
-
-def load_runs(sweep_dir: Path) -> tuple[dict[str, Any], list[RunResult]]:
-    """``sweep.json`` and one :class:`RunResult` per trial (failed trials included)."""
-    summary_path = sweep_dir / "sweep.json"
-    if not summary_path.is_file():
-        raise ValueError(f"SWEEP_OUT {str(sweep_dir)!r} has no sweep.json (run the sweep first)")
-    summary = json.loads(summary_path.read_text())
-    target = summary.get("spec", {}).get("target") or {}
-    runs = []
-    for record in summary["trials"]:
-        run = RunResult(
-            trial_id=record["trial_id"],
-            task=str(record.get("env_id", "?")).split("/")[-1],
-            algo=_label(record),
-            seed=int(record.get("seed", -1)),
-            status=record.get("status", "?"),
-            error=record.get("error"),
-            loadavg=[x[0] for x in (record.get("loadavg_start"), record.get("loadavg_end")) if x],
-        )
-        run_dir = Path(record.get("run_dir", ""))
-        if run.status == "complete" and (run_dir / "run.json").is_file():
-            meta = json.loads((run_dir / "run.json").read_text())
-            run.steps = meta.get("total_steps")
-            run.train_wall_time_s = meta.get("total_wall_time_s")
-            run.stopped_by = meta.get("stopped_by")
-            host = meta.get("host") or {}
-            run.host = f"{host.get('hostname', '?')}: {host.get('platform', '?')}"
-            if (run_dir / "eval.json").is_file():
-                data = json.loads((run_dir / "eval.json").read_text())
-                run.kind = str(data.get("task", "Reach"))
-                for name, c in data["conditions"].items():
-                    if "policy" in c:  # Track, Pose, Obstacle: the task's own metrics
-                        run.scores[name] = task_scores(c["policy"])
-                        run.baselines[name] = {
-                            k: task_scores(v) for k, v in c.items() if k != "policy"
-                        }
-                        continue
-                    run.scores[name] = {
-                        "median_error_mm": float(c["error_mm"]["median"]),
-                        "success_rate": float(c["success_rate"]),
-                        "within_1mm": float(c["within_1mm"]),
-                    }
-                    if "ik" in c:
-                        run.baselines[name] = {
-                            "analytic IK": {
-                                "median_error_mm": float(c["ik"]["error_mm"]["median"]),
-                                "success_rate": float(c["ik"]["success_rate"]),
-                                "within_1mm": float(c["ik"]["within_1mm"]),
-                            }
-                        }
-            if (run_dir / "eval_log.csv").is_file():
-                with open(run_dir / "eval_log.csv", newline="") as f:
-                    for row in csv.DictReader(f):
-                        values = {k: float(v) for k, v in row.items() if v not in (None, "")}
-                        run.curve.append(values)
-                        if run.to_target is None and target and _meets(values, target):
-                            run.to_target = {
-                                "steps": values["timesteps"],
-                                "wall_time_s": values["wall_time_s"],
-                            }
-        runs.append(run)
-    return summary, runs
-
-
-def aggregate(runs: list[RunResult], reps: int = 50_000, seed: int = 0) -> dict[str, Any]:
-    """IQM ± 95 % CI per (task, algorithm, condition, metric), and the across-task rates.
-
-    Returns ``{"groups": [...], "aggregate": [...]}``; each entry names its task (or tasks),
-    algorithm, condition, runs, and for each metric ``{"iqm", "ci": [low, high]}``.
-    """
-    ok = [r for r in runs if r.status == "complete" and r.scores]
-    by_group: dict[tuple[str, str], list[RunResult]] = defaultdict(list)
-    for r in ok:
-        by_group[(r.task, r.algo)].append(r)
-    groups = []
-    for (task, algo), members in sorted(by_group.items()):
-        conditions = sorted({c for r in members for c in r.scores}, key=_condition_order)
-        for cond in conditions:
-            have = [r for r in members if cond in r.scores]
-            entry: dict[str, Any] = {
-                "task": task,
-                "algo": algo,
-                "condition": cond,
-                "runs": len(have),
-                "seeds": sorted(r.seed for r in have),
-            }
-            for metric in METRICS:
-                if not all(metric in r.scores[cond] for r in have):
-                    continue
-                values = [r.scores[cond][metric] for r in have]
-                point, low, high = stratified_bootstrap_ci([values], reps=reps, seed=seed)
-                entry[metric] = {"iqm": point, "ci": [low, high], "values": values}
-            baselines = next((r.baselines[cond] for r in have if cond in r.baselines), {})
-            if baselines:
-                entry["baselines"] = baselines
-            groups.append(entry)
-    across = []
-    algos = sorted({r.algo for r in ok})
-    for algo in algos:
-        members = [r for r in ok if r.algo == algo]
-        conditions = sorted({c for r in members for c in r.scores}, key=_condition_order)
-        for cond in conditions:
-            per_task: dict[str, list[RunResult]] = defaultdict(list)
-            for r in members:
-                if cond in r.scores:
-                    per_task[r.task].append(r)
-            if len(per_task) < 2:
-                continue
-            entry = {
-                "algo": algo,
-                "condition": cond,
-                "tasks": sorted(per_task),
-                "runs": sum(len(v) for v in per_task.values()),
-            }
-            for metric in RATE_METRICS:
-                if not all(metric in r.scores[cond] for v in per_task.values() for r in v):
-                    continue  # e.g. within 1 mm: Reach only
-                strata = [[r.scores[cond][metric] for r in per_task[t]] for t in sorted(per_task)]
-                point, low, high = stratified_bootstrap_ci(strata, reps=reps, seed=seed)
-                entry[metric] = {"iqm": point, "ci": [low, high]}
-            across.append(entry)
-    return {"groups": groups, "aggregate": across}
-
-
-def _condition_order(name: str) -> tuple[int, str]:
-    return (0 if name.startswith("straight") else 1, name)
 
 
 # -- tables -------------------------------------------------------------------------------------
@@ -390,10 +103,6 @@ def _fmt_value(metric: str, value: float | None) -> str:
     return _fmt_metric(metric, value) + ("" if METRICS[metric][1] == "%" else unit)
 
 
-def _group_metrics(groups: list[dict[str, Any]]) -> list[str]:
-    return [m for m in METRICS if any(m in g for g in groups)]
-
-
 def iqm_table(result: dict[str, Any]) -> list[str]:
     """Markdown: per task, one row per (algorithm, condition) with the IQM [95 % CI] of each of
     the task's metrics, then the task's baselines (oracle, analytic IK: one value, the same
@@ -402,7 +111,7 @@ def iqm_table(result: dict[str, Any]) -> list[str]:
     tasks = sorted({g["task"] for g in result["groups"]})
     for task in tasks:
         groups = [g for g in result["groups"] if g["task"] == task]
-        metrics = _group_metrics(groups)
+        metrics = group_metrics(groups)
         if len(tasks) > 1:
             lines += [f"**{task}**", ""]
         lines += [
@@ -454,7 +163,7 @@ def aggregate_table(result: dict[str, Any]) -> list[str]:
 
 def runs_table(runs: list[RunResult], target: dict[str, float]) -> list[str]:
     """Markdown: one row per run — budget use, target, final scores (or the failure)."""
-    conds = sorted({c for r in runs for c in r.scores}, key=_condition_order)
+    conds = sorted({c for r in runs for c in r.scores}, key=condition_order)
     lines = [
         "| task | algorithm | seed | status | env steps | train wall time | steps to target "
         "| wall time to target | " + " | ".join(f"median error {c}" for c in conds) + " |",
@@ -509,163 +218,6 @@ def target_table(runs: list[RunResult], target: dict[str, float]) -> list[str]:
     return lines
 
 
-# -- figures ------------------------------------------------------------------------------------
-def _tasks_algos(runs: list[RunResult]) -> tuple[list[str], list[str]]:
-    ok = [r for r in runs if r.scores]
-    return sorted({r.task for r in ok}), sorted({r.algo for r in ok})
-
-
-def _profile_score(scores: dict[str, float]) -> float:
-    """The error of a run in the performance profiles: the median tracking RMS for Track, the
-    median final tip error otherwise (mm)."""
-    return scores.get("tracking_rms_mm", scores["median_error_mm"])
-
-
-def plot_performance_profiles(
-    runs: list[RunResult], path: Path, reps: int = 2_000, seed: int = 0
-) -> Path:
-    """Per task and condition: fraction of runs with median final error (Track: median tracking
-    RMS) ≤ τ (log τ), with bands."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    tasks, algos = _tasks_algos(runs)
-    conds = sorted({c for r in runs for c in r.scores}, key=_condition_order)
-    errors = [_profile_score(r.scores[c]) for r in runs for c in r.scores]
-    lo = max(min(errors) / 2, 1e-3) if errors else 0.01
-    hi = max(errors) * 2 if errors else 100.0
-    levels = np.geomspace(lo, hi, 200)
-    fig, axes = plt.subplots(
-        1, max(len(tasks), 1), figsize=(5.0 * max(len(tasks), 1), 3.8), squeeze=False
-    )
-    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    styles = ["-", "--", ":", "-."]
-    for ax, task in zip(axes[0], tasks, strict=False):
-        for i, algo in enumerate(algos):
-            for j, cond in enumerate(conds):
-                vals = [
-                    _profile_score(r.scores[cond])
-                    for r in runs
-                    if r.task == task and r.algo == algo and cond in r.scores
-                ]
-                if not vals:
-                    continue
-                frac, low, high = performance_profile([vals], levels, reps=reps, seed=seed)
-                color = colors[i % len(colors)]
-                ax.step(
-                    levels,
-                    frac,
-                    where="post",
-                    color=color,
-                    linestyle=styles[j % len(styles)],
-                    label=f"{algo}, {cond} ({len(vals)} runs)",
-                )
-                ax.fill_between(levels, low, high, step="post", color=color, alpha=0.12)
-        ax.axvline(5.0, color="0.6", lw=0.8)
-        ax.axvline(1.0, color="0.6", lw=0.8, ls=":")
-        ax.set_xscale("log")
-        ax.set_ylim(-0.02, 1.02)
-        ax.set_xlabel("error level τ (mm)")
-        ax.set_title(task)
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=7, loc="lower right")
-    axes[0][0].set_ylabel("fraction of runs with median final\nerror (Track: tracking RMS) ≤ τ")
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
-
-
-def plot_iqm(result: dict[str, Any], path: Path) -> Path:
-    """Interval estimates: IQM and 95 % CI per (task, algorithm, condition), one panel per metric
-    (a group without the metric, e.g. a tracking RMS outside Track, leaves its row empty)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib.ticker import FuncFormatter, NullFormatter
-
-    groups = result["groups"]
-    metrics = _group_metrics(groups)
-    labels = [f"{g['task']} · {g['algo']} · {g['condition']}" for g in groups]
-    fig, axes = plt.subplots(
-        1, len(metrics), figsize=(4.2 * len(metrics), 0.3 * len(groups) + 1.4), squeeze=False
-    )
-    y = np.arange(len(groups))
-    nan = {"iqm": np.nan, "ci": [np.nan, np.nan]}
-    for ax, metric in zip(axes[0], metrics, strict=True):
-        title, unit, _ = METRICS[metric]
-        scale = 100.0 if unit == "%" else 1.0
-        mid = np.array([g.get(metric, nan)["iqm"] for g in groups]) * scale
-        low = np.array([g.get(metric, nan)["ci"][0] for g in groups]) * scale
-        high = np.array([g.get(metric, nan)["ci"][1] for g in groups]) * scale
-        ok = np.isfinite(mid)
-        ax.hlines(y[ok], low[ok], high[ok], lw=6, color="tab:blue", alpha=0.35)
-        ax.plot(mid[ok], y[ok], "|", color="k", ms=14)
-        ax.set_yticks(y, labels if ax is axes[0][0] else [""] * len(y), fontsize=8)
-        ax.set_xlabel(f"IQM {title} ({unit})")
-        low, high = low[ok], high[ok]
-        if unit == "%":
-            ax.set_xlim(-2, 102)
-        elif len(low) and np.all(low > 0) and high.max() > 5 * low.min():
-            ax.set_xscale("log")
-            ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
-            ax.xaxis.set_minor_formatter(NullFormatter())
-        ax.grid(alpha=0.3, axis="x")
-        ax.invert_yaxis()
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
-
-
-def plot_curves(runs: list[RunResult], path: Path) -> Path:
-    """Periodic-evaluation median error vs training wall time, every run (one panel per task)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    tasks, algos = _tasks_algos(runs)
-    fig, axes = plt.subplots(
-        1, max(len(tasks), 1), figsize=(5.0 * max(len(tasks), 1), 3.6), squeeze=False
-    )
-    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    for ax, task in zip(axes[0], tasks, strict=False):
-        for i, algo in enumerate(algos):
-            first = True
-            for r in runs:
-                if r.task != task or r.algo != algo or not r.curve:
-                    continue
-                t = [row["wall_time_s"] for row in r.curve]
-                e = [row["median_error_mm"] for row in r.curve]
-                ax.plot(
-                    t,
-                    e,
-                    "o-",
-                    ms=3,
-                    color=colors[i % len(colors)],
-                    label=algo if first else None,
-                )
-                first = False
-        ax.set_yscale("log")
-        ax.set_xlabel("training wall time (s)")
-        ax.set_ylabel("eval median error (mm)" if task == tasks[0] else "")
-        ax.set_title(task)
-        ax.grid(alpha=0.3)
-        if ax.get_legend_handles_labels()[0]:
-            ax.legend(fontsize=8)
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
-
-
 # -- the benchmark page -------------------------------------------------------------------------
 def _machine(summary: dict[str, Any], runs: list[RunResult]) -> str:
     loads = [x for r in runs for x in r.loadavg]
@@ -680,7 +232,7 @@ def _machine(summary: dict[str, Any], runs: list[RunResult]) -> str:
     return f"{', '.join(hosts) or '?'}, {', '.join(map(str, sorted(cpus)))} CPU cores; {load}"
 
 
-def _sharing(summary: dict[str, Any], runs: list[RunResult], max_conc: int | None) -> str:
+def machine_sharing(summary: dict[str, Any], runs: list[RunResult], max_conc: int | None) -> str:
     """Whether the recorded load says other jobs shared the machine with the sweep's trials:
     a median 1-minute load above the trials running at once (``max_conc``, else the cores) + 0.5."""
     loads = [x for r in runs for x in r.loadavg]
@@ -780,7 +332,7 @@ def write_doc(
             else "so as many concurrent trials as cores)"
         )
         + ", each an ordinary `training.train` run directory.",
-        f"* **Machine**: {_machine(summary, runs)}. " + _sharing(summary, runs, max_conc),
+        f"* **Machine**: {_machine(summary, runs)}. " + machine_sharing(summary, runs, max_conc),
         "* **Scores**: after training, `python -m training.evaluate RUN_DIR --model best` on "
         "fixed goals (reset seeds from `evaluate.seed`, the same for every run) from each "
         "starting state (`straight_h100`: straight start, 100 steps; `random_h100`: a random "

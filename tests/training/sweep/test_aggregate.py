@@ -280,19 +280,19 @@ def test_task_metrics_are_aggregated_per_task(tmp_path: Path) -> None:
 def test_the_page_says_the_machine_was_shared_only_when_the_load_exceeds_the_trials() -> None:
     """The protocol's machine sentence follows the recorded load: at most the concurrent trials
     (+ 0.5) is the sweep's own load; above it, other jobs shared the machine."""
-    from training.sweep.aggregate import RunResult, _sharing
+    from training.sweep.aggregate import RunResult, machine_sharing
 
     def runs(*loads: float) -> list[RunResult]:
         return [RunResult("t", "CCKAReach-v0", "ppo", 0, "complete", loadavg=list(loads))]
 
     summary = {"trials": [{"cpu_count": 2}]}
-    assert "own 2 concurrent trials" in _sharing(summary, runs(1.9, 2.3), 2)
-    assert "shared with other jobs" in _sharing(summary, runs(3.7, 3.9), 2)
-    assert "own 1 concurrent trial;" in _sharing(summary, runs(1.2, 1.4), 1)
-    assert "shared with other jobs" in _sharing(summary, runs(2.0, 2.1), 1)
+    assert "own 2 concurrent trials" in machine_sharing(summary, runs(1.9, 2.3), 2)
+    assert "shared with other jobs" in machine_sharing(summary, runs(3.7, 3.9), 2)
+    assert "own 1 concurrent trial;" in machine_sharing(summary, runs(1.2, 1.4), 1)
+    assert "shared with other jobs" in machine_sharing(summary, runs(2.0, 2.1), 1)
     # no max_concurrent: as many trials as cores
-    assert "own 2 concurrent trials" in _sharing(summary, runs(2.2, 2.4), None)
-    assert "unknown" in _sharing(summary, runs(), 2)  # load not recorded
+    assert "own 2 concurrent trials" in machine_sharing(summary, runs(2.2, 2.4), None)
+    assert "unknown" in machine_sharing(summary, runs(), 2)  # load not recorded
 
 
 PINNED_GROUPS = [
