@@ -310,11 +310,11 @@ def test_config_validation():
 
 
 def test_the_package_keeps_its_entry_points():
-    from training.studies.reproduce import __main__, plots, report, study
+    from training.studies.reproduce import __main__, cli, plots, report, study
 
-    assert R.main is study.main and R.settle is study.settle
+    assert R.main is cli.main and R.settle is study.settle
     assert callable(plots.make_figures) and callable(report.render)
-    assert __main__.main is study.main
+    assert __main__.main is cli.main
 
 
 # ---------------------------------------------------------------------------------------------

@@ -2,7 +2,7 @@
 
 import sys
 
-from training.studies.reproduce.study import main
+from training.studies.reproduce.cli import main
 
 if __name__ == "__main__":  # pragma: no cover
     sys.exit(main())
