@@ -399,7 +399,7 @@ def _parse_kwarg(text: str) -> tuple[str, Any]:
 
 def _parse_args(argv: list[str]) -> argparse.Namespace:
     parser = argparse.ArgumentParser(
-        prog="python -m training.evaluate",
+        prog="cdcr-gym evaluate",
         description="Evaluate a trained run (best model) against the analytic IK.",
     )
     parser.add_argument("run_dir", type=Path, metavar="RUN_DIR", help="a training run directory")
@@ -499,7 +499,7 @@ def main(argv: list[str] | None = None) -> int:
     except ConfigError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    command = " ".join(shlex.quote(a) for a in ["python", "-m", "training.evaluate", *argv])
+    command = " ".join(shlex.quote(a) for a in ["cdcr-gym", "evaluate", *argv])
     result = evaluate(
         run_dir,
         config,

@@ -21,7 +21,7 @@ from cdcr_gym.controllers import AnalyticIKController
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python -m training.ik_demo", description=__doc__.split("\n")[0]
+        prog="cdcr-gym demo", description=__doc__.split("\n")[0]
     )
     parser.add_argument("--env-id", default="cdcr_gym/CCKAReach-v0")
     parser.add_argument(

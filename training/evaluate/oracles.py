@@ -143,7 +143,7 @@ def _parse_kwarg(text: str) -> tuple[str, Any]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m training.oracles", description=__doc__)
+    parser = argparse.ArgumentParser(prog="cdcr-gym oracles", description=__doc__)
     parser.add_argument("--task", required=True, choices=sorted(TASKS))
     parser.add_argument("--episodes", type=int, default=200)
     parser.add_argument("--backend", default="CCKA", choices=["CCKA", "Bullet"])
@@ -173,7 +173,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.figures:
         plot_paths(result["oracle"]["task"], result["_paths"], args.out / f"{stem}.png")
     result.pop("_paths")
-    result["command"] = "python -m training.oracles " + " ".join(
+    result["command"] = "cdcr-gym oracles " + " ".join(
         argv if argv is not None else sys.argv[1:]
     )
     args.out.mkdir(parents=True, exist_ok=True)

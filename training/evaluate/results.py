@@ -62,7 +62,7 @@ def rows(run_dir: Path, eval_name: str = "eval", conditions: list[str] | None = 
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m training.results", description=__doc__)
+    parser = argparse.ArgumentParser(prog="cdcr-gym results", description=__doc__)
     parser.add_argument("runs", nargs="+", metavar="RUN_DIR[:EVAL_NAME]")
     parser.add_argument(
         "--conditions", default=None, help="comma-separated condition names to show (default: all)"

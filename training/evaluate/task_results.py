@@ -108,7 +108,7 @@ def markdown_table(records: list[dict[str, Any]]) -> str:
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = argparse.ArgumentParser(
-        prog="python -m training.task_results", description=__doc__.split("\n")[0]
+        prog="cdcr-gym task-results", description=__doc__.split("\n")[0]
     )
     parser.add_argument("runs", nargs="+", type=Path, metavar="RUN")
     parser.add_argument("--out", type=Path, required=True, help="output JSON file")
@@ -119,7 +119,7 @@ def main(argv: list[str] | None = None) -> int:
     except ResultsError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    command = " ".join(shlex.quote(a) for a in ["python", "-m", "training.task_results", *argv])
+    command = " ".join(shlex.quote(a) for a in ["cdcr-gym", "task-results", *argv])
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps({"command": command, "runs": records}, indent=1) + "\n")
     if args.figures is not None:

@@ -52,7 +52,7 @@ def convert(zoo_run: Path, run_dir: Path, config: Path) -> Path:
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python -m training.from_zoo",
+        prog="cdcr-gym from-zoo",
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )

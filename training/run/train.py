@@ -124,7 +124,7 @@ def train(
     run = RunDir(run_dir)
     torch.set_num_threads(config.runtime.torch_threads)
     device = resolve_device(config.runtime.device)
-    command = " ".join(shlex.quote(a) for a in ["python", "-m", "training.train", *argv])
+    command = " ".join(shlex.quote(a) for a in ["cdcr-gym", "train", *argv])
     state: dict[str, Any] = {
         "algo": config.algo,
         "total": config.total_timesteps,
@@ -314,7 +314,7 @@ def _train(
         )
         print(
             f"interrupted at step {model.num_timesteps}; continue {where} with: "
-            f"python -m training.train {shlex.quote(str(run.config))} --run-dir "
+            f"cdcr-gym train {shlex.quote(str(run.config))} --run-dir "
             f"{shlex.quote(str(run.root))} --resume",
             file=sys.stderr,
         )
@@ -353,7 +353,7 @@ def _close_quietly(venv: Any) -> None:
 # -- CLI ----------------------------------------------------------------------------------------
 def _parse_args(argv: list[str]) -> argparse.Namespace:
     parser = argparse.ArgumentParser(
-        prog="python -m training.train",
+        prog="cdcr-gym train",
         description="Train an agent (PPO, SAC, TD3, TQC) on a cdcr_gym env from a YAML config.",
     )
     parser.add_argument("config", help="experiment YAML, e.g. configs/ppo_ccka_reach.yaml")

@@ -95,7 +95,7 @@ def bullet_resets(n: int) -> None:
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(prog="python -m training.bench_realism", description=__doc__)
+    parser = argparse.ArgumentParser(prog="cdcr-gym bench-realism", description=__doc__)
     parser.add_argument("--num-envs", type=int, default=256)
     parser.add_argument("--steps", type=int, default=200)
     parser.add_argument("--repeats", type=int, default=7)

@@ -121,7 +121,7 @@ def plot(result: dict[str, Any], path: Path) -> None:
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(prog="python -m training.hysteresis", description=__doc__)
+    parser = argparse.ArgumentParser(prog="cdcr-gym hysteresis", description=__doc__)
     parser.add_argument("--out", type=Path, default=Path("docs/figures/sim2real"))
     parser.add_argument("--ramp-steps", type=int, default=25)
     parser.add_argument("--settle-steps", type=int, default=50)

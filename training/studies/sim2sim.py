@@ -157,7 +157,7 @@ def _figure(summary: dict[str, Any], path: Path, title: str) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m training.sim2sim", description=__doc__)
+    parser = argparse.ArgumentParser(prog="cdcr-gym sim2sim", description=__doc__)
     parser.add_argument("evals", nargs="+", help="training.evaluate JSON files")
     parser.add_argument("--out", required=True, help="output stem: writes OUT.json and OUT.png")
     parser.add_argument("--target-median-mm", type=float, default=3.0)

@@ -34,7 +34,7 @@ def remaining(env_id: str, tension: float, steps: int, **kwargs) -> np.ndarray:
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(prog="python -m training.step_response", description=__doc__)
+    parser = argparse.ArgumentParser(prog="cdcr-gym step-response", description=__doc__)
     parser.add_argument("--tension", type=float, default=40.0)
     parser.add_argument("--omega", type=float, default=0.44)
     parser.add_argument("--steps", type=int, default=30)

@@ -126,7 +126,7 @@ def trace(run_dir: str | Path, friction: float = 0.0, steps: int = 150) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m training.transfer_probe", description=__doc__)
+    parser = argparse.ArgumentParser(prog="cdcr-gym transfer-probe", description=__doc__)
     parser.add_argument("--trace", default=None, help="a run directory: trace its policy")
     parser.add_argument("--friction", type=float, default=0.0, help="bullet μ for --trace")
     args = parser.parse_args(argv)

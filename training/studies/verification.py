@@ -425,7 +425,9 @@ def _sections_report() -> None:  # pragma: no cover - prints the n-section table
 
 
 def main(argv: list[str] | None = None) -> None:  # pragma: no cover
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(
+        prog="cdcr-gym verification", description=__doc__.splitlines()[0]
+    )
     parser.add_argument("--bench", action="store_true", help="also measure the speed")
     parser.add_argument("--bench-only", action="store_true", help="only measure the speed")
     parser.add_argument("--steps", type=int, default=5000, help="steps per speed measurement")

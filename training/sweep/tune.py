@@ -663,7 +663,7 @@ def run_sweep(
         records.append(record)
     summary = {
         "name": spec.name,
-        "command": shlex.join(["python", "-m", "training.sweep", *(argv or [])]),
+        "command": shlex.join(["cdcr-gym", "sweep", *(argv or [])]),
         "executor": executor,
         "address": address,
         "time": _dt.datetime.now().astimezone().isoformat(timespec="seconds"),
@@ -697,7 +697,7 @@ def _report(summary: dict[str, Any]) -> int:
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = argparse.ArgumentParser(
-        prog="python -m training.sweep",
+        prog="cdcr-gym sweep",
         description="Run a grid of experiments (configs × overrides × seeds) as Ray Tune trials.",
     )
     parser.add_argument("sweep", help="sweep file, e.g. configs/sweeps/benchmark.yaml")

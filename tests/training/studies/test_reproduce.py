@@ -271,7 +271,7 @@ def test_pipeline_end_to_end_on_the_analytic_backend(tmp_path):
         "Where CCKA stops holding",
         "| case |",
         "fig11_error_gravity_off.png",
-        "python -m training.reproduce",
+        "cdcr-gym reproduce",
     ):
         assert needed in report, needed
     assert "nan" not in report.lower().replace("nonlinear", "")

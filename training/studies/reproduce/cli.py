@@ -101,7 +101,7 @@ def _int_list(name: str) -> Callable[[str], tuple[int, ...]]:
 
 def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(
-        prog="python -m training.reproduce",
+        prog="cdcr-gym reproduce",
         description="Reproduce the paper's CCKA-vs-simulation study (section 4) with the pybullet "
         "backbone, and extend it (gravity, tip payload, model resolution, horizontal base). "
         "Writes PNG figures, CSV data, report.md and run.json into --out.",
@@ -243,7 +243,7 @@ def main(argv: Sequence[str] | None = None, factory: BackendFactory = bullet_fac
         config = config_from_args(args)
     except ValueError as exc:
         ap.error(str(exc))
-    command = "python -m training.reproduce " + " ".join(
+    command = "cdcr-gym reproduce " + " ".join(
         sys.argv[1:] if argv is None else list(argv)
     )
     t0 = time.perf_counter()

@@ -1,4 +1,4 @@
-"""The Markdown report of ``python -m training.reproduce``: numbers computed from the run only.
+"""The Markdown report of ``cdcr-gym reproduce``: numbers computed from the run only.
 
 :func:`findings` condenses a :class:`training.reproduce.StudyResults` into plain numbers (and the
 "where CCKA stops holding" paragraph built from them); :func:`render` writes the report around
@@ -427,11 +427,11 @@ def render(
         "## How to run",
         "",
         "```bash",
-        "python -m training.reproduce                 # full study into runs/reproduce/",
-        "python -m training.reproduce --out DIR       # anywhere else",
-        "python -m training.reproduce --quick         # coarse grid, a smoke run",
-        "python -m training.reproduce --help          # forces, payloads, resolutions, tolerances",
-        "pytest tests/test_reproduce.py               # runs the study on a coarse grid, checks its physics",
+        "cdcr-gym reproduce                      # full study into runs/reproduce/",
+        "cdcr-gym reproduce --out DIR            # anywhere else",
+        "cdcr-gym reproduce --quick              # coarse grid, a smoke run",
+        "cdcr-gym reproduce --help               # forces, payloads, resolutions, tolerances",
+        "pytest tests/training/studies/test_reproduce.py  # runs the study on a coarse grid, checks its physics",
         "```",
         "",
         "The output folder holds the PNG figures, one CSV per sweep, `summary.csv` (the table), "
