@@ -20,9 +20,7 @@ from cdcr_gym.controllers import AnalyticIKController
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
-        prog="cdcr-gym demo", description=__doc__.split("\n")[0]
-    )
+    parser = argparse.ArgumentParser(prog="cdcr-gym demo", description=__doc__.split("\n")[0])
     parser.add_argument("--env-id", default="cdcr_gym/CCKAReach-v0")
     parser.add_argument(
         "--action-mode",

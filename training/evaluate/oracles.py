@@ -173,9 +173,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.figures:
         plot_paths(result["oracle"]["task"], result["_paths"], args.out / f"{stem}.png")
     result.pop("_paths")
-    result["command"] = "cdcr-gym oracles " + " ".join(
-        argv if argv is not None else sys.argv[1:]
-    )
+    result["command"] = "cdcr-gym oracles " + " ".join(argv if argv is not None else sys.argv[1:])
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / f"{stem}.json").write_text(json.dumps(result, indent=2) + "\n")
     print(json.dumps(result, indent=2))

@@ -277,7 +277,8 @@ def write_doc(
         (a for a in shlex.split(summary.get("command", "")) if a.endswith((".yaml", ".yml"))),
         "?",
     )
-    words = shlex.split(summary.get("command", ""))  # cdcr-gym sweep ARGS, or python -m training.sweep
+    # "cdcr-gym sweep ARGS", or "python -m training.sweep ARGS" in older sweeps
+    words = shlex.split(summary.get("command", ""))
     for name in ("training.sweep", "sweep"):
         if name in words:
             words = words[words.index(name) + 1 :]

@@ -243,9 +243,7 @@ def main(argv: Sequence[str] | None = None, factory: BackendFactory = bullet_fac
         config = config_from_args(args)
     except ValueError as exc:
         ap.error(str(exc))
-    command = "cdcr-gym reproduce " + " ".join(
-        sys.argv[1:] if argv is None else list(argv)
-    )
+    command = "cdcr-gym reproduce " + " ".join(sys.argv[1:] if argv is None else list(argv))
     t0 = time.perf_counter()
     try:
         res = run_study(config, factory=factory)
