@@ -694,8 +694,14 @@ def load_yaml(path: str | Path) -> Any:
 def load_config(path: str | Path) -> ExperimentConfig:
     """Read and validate a YAML config file. Raises :class:`ConfigError` naming the bad key."""
     data = load_yaml(path)
+    if data is None:  # a 0-byte file, or only comments: not "every default" (a 1 M-step run)
+        raise ConfigError(
+            f"config file {str(path)!r} is empty (no keys, only comments or nothing): a config "
+            f"states its experiment, e.g. start from configs/ppo_ccka_reach.yaml (or write {{}} "
+            f"for every default)"
+        )
     try:
-        return config_from_dict(data if data is not None else {})
+        return config_from_dict(data)
     except ConfigError as exc:
         raise ConfigError(f"{path}: {exc}") from None
 

@@ -168,3 +168,22 @@ def test_saved_config_holds_only_the_selected_algo(tmp_path: Path) -> None:
     assert raw["algo"] == "td3" and raw["td3"]["policy_delay"] == 3
     assert not {"ppo", "sac", "tqc"} & raw.keys()
     assert load_config(tmp_path / "c.yaml") == config
+
+
+@pytest.mark.parametrize("text", ["", "# only a comment\n\n# and another\n", "---\n"])
+def test_an_empty_config_is_an_error_not_a_default_run(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, text: str
+) -> None:
+    """Issue 23.3: a 0-byte (or comments-only) config once started a 1 M-step default run."""
+    from training.run import train as train_module
+
+    def must_not_train(*args: object, **kwargs: object) -> int:
+        raise AssertionError("an empty config started a training run")
+
+    monkeypatch.setattr(train_module, "train", must_not_train)
+    cfg = tmp_path / "empty.yaml"
+    cfg.write_text(text)
+    with pytest.raises(ConfigError, match="is empty"):
+        load_config(cfg)
+    err = _train_fails(tmp_path, capsys, cfg)
+    assert "empty.yaml" in err and "is empty" in err
