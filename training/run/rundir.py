@@ -1,17 +1,18 @@
-"""The run directory: its paths, the checkpoints' state files, and what a fresh start clears."""
+"""The run directory: its paths, its lock, the checkpoints' state files, and what a fresh start
+clears."""
 
 from __future__ import annotations
 
 import os
 import pickle
 import re
+import socket
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from training.run.config import (
-    ConfigError,
-)
+from training.run.config import ConfigError
 
 #: Files a training session writes into a run directory (removed when a run restarts afresh).
 ARTEFACTS = (
@@ -155,3 +156,94 @@ def refuse_legacy(run: RunDir) -> None:
             f"state_N_steps.pkl), which cannot be resumed exactly and would be discarded; "
             f"train into another --run-dir"
         )
+
+
+#: The lock file of a run directory (holds the pid of the training that has, or last had, it).
+LOCK_NAME = ".train.lock"
+
+
+class RunDirBusy(ConfigError):
+    """Another training holds the run directory's lock (the message names its pid)."""
+
+
+class RunLock:
+    """An exclusive lock on a run directory for the duration of one training session.
+
+    ``RUN/.train.lock`` is locked with ``fcntl.flock`` (the kernel releases it when its process
+    ends, however it ends: a lock left by a killed training is stale and simply taken over) and
+    holds the holder's pid, host and start time for the message of a second training, which
+    raises :class:`RunDirBusy` before it has read, written or deleted anything. Without
+    ``fcntl`` (Windows) the file is created with ``O_EXCL`` and a lock whose pid no longer runs
+    on this host is stale and replaced."""
+
+    def __init__(self, root: str | Path) -> None:
+        self.path = Path(root) / LOCK_NAME
+        self.fd: int | None = None
+
+    def holder(self) -> str:
+        try:
+            return self.path.read_text().strip() or "pid unknown"
+        except OSError:
+            return "pid unknown"
+
+    def busy(self) -> RunDirBusy:
+        return RunDirBusy(
+            f"--run-dir {str(self.path.parent)!r} is in use by another training "
+            f"({self.holder()}); nothing was changed: wait for it to end, or train into "
+            f"another --run-dir"
+        )
+
+    def acquire(self) -> RunLock:
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            import fcntl
+        except ImportError:  # pragma: no cover - Windows
+            fd = self._acquire_exclusive()
+        else:
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError:
+                os.close(fd)
+                raise self.busy() from None
+        stamp = time.strftime("%Y-%m-%dT%H:%M:%S%z")
+        os.ftruncate(fd, 0)
+        os.write(fd, f"pid {os.getpid()} on {socket.gethostname()} since {stamp}\n".encode())
+        self.fd = fd
+        return self
+
+    def _acquire_exclusive(self) -> int:  # pragma: no cover - Windows
+        for _ in range(2):
+            try:
+                return os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o644)
+            except FileExistsError:
+                words = self.holder().split()
+                pid = int(words[1]) if len(words) > 1 and words[1].isdigit() else None
+                if pid is not None and _pid_alive(pid):
+                    raise self.busy() from None
+                self.path.unlink(missing_ok=True)  # stale: its training is gone
+        raise self.busy()
+
+    def release(self) -> None:
+        if self.fd is None:
+            return
+        os.close(self.fd)  # releases the flock; the file stays (a later training reuses it)
+        self.fd = None
+        if os.name == "nt":  # pragma: no cover - the O_EXCL variant
+            self.path.unlink(missing_ok=True)
+
+    def __enter__(self) -> RunLock:
+        return self.acquire()
+
+    def __exit__(self, *exc: object) -> None:
+        self.release()
+
+
+def _pid_alive(pid: int) -> bool:  # pragma: no cover - Windows
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:
+        return True
+    return True

@@ -80,9 +80,11 @@ from training.run.envs import build_vec_env, check_env_config, resolve_device
 from training.run.logs import make_logger, truncate_csv
 from training.run.provenance import git_info, now_iso, versions, write_json
 from training.run.rundir import (
+    LOCK_NAME,
     Checkpoint,
     CheckpointError,
     RunDir,
+    RunLock,
     atomic_write,
     clear_artefacts,
     refuse_legacy,
@@ -152,7 +154,10 @@ def train(
     sigs = (signal.SIGINT, signal.SIGTERM) if in_main else ()
     previous = {sig: signal.signal(sig, on_signal) for sig in sigs}
     try:
-        return _train(config, run, resume, argv, command, device, state)
+        # Before anything is read, written or cleared: a second training into the same
+        # directory stops here (RunDirBusy, exit 2) instead of deleting the running one's files.
+        with RunLock(run.root):
+            return _train(config, run, resume, argv, command, device, state)
     finally:
         for sig, handler in previous.items():
             signal.signal(sig, signal.SIG_IGN if exiting and state["stop_requested"] else handler)
@@ -440,7 +445,9 @@ def _resolve(args: argparse.Namespace) -> tuple[ExperimentConfig, Path]:
     else:
         run_dir = args.run_dir
     check_writable_directory(run_dir, "--run-dir")
-    if run_dir.exists() and (not run_dir.is_dir() or any(run_dir.iterdir())):
+    if run_dir.exists() and (
+        not run_dir.is_dir() or any(p.name != LOCK_NAME for p in run_dir.iterdir())
+    ):
         run = RunDir(run_dir)
         restartable = run_dir.is_dir() and run.config.is_file() and run.latest_checkpoint() is None
         if restartable:

@@ -55,7 +55,7 @@ def test_collects_runs_writes_json_copies_figures_and_prints_the_table(tmp_path,
         data["runs"][0]["conditions"]["straight_h100"]["policy"]["tracking_rms_mm"]["mean"] == 0.5
     )
     assert data["runs"][1]["train_wall_time_s"] == 12.5
-    assert "training.task_results" in data["command"]
+    assert data["command"].startswith("cdcr-gym task-results ")
     assert (figs / "ppo_track_seed0_straight_h100_paths.png").read_bytes() == b"png"
     assert (figs / "ppo_obstacle_seed2_straight_h100_paths.png").exists()
     table = capsys.readouterr().out

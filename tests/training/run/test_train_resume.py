@@ -81,7 +81,7 @@ def _write(tmp_path: Path, data: dict, name: str = "config.yaml") -> Path:
 
 def _train(*args: object, timeout: float = 300) -> subprocess.CompletedProcess:
     return subprocess.run(
-        [sys.executable, "-m", "training.train", *map(str, args)],
+        [sys.executable, "-m", "training.run.train", *map(str, args)],
         cwd=REPO,
         env=ENV,
         capture_output=True,
@@ -314,3 +314,47 @@ def test_a_run_of_the_older_checkpoint_format_is_left_alone(tmp_path: Path) -> N
         result = _train(run / "config.yaml", "--run-dir", run, *extra, timeout=120)
         assert result.returncode == 2 and "older format" in result.stderr
     assert (run / "checkpoints" / "model_128_steps.zip").read_bytes() == b"PK old"
+
+
+@pytest.mark.slow
+def test_a_second_training_into_a_running_run_dir_changes_nothing(tmp_path: Path) -> None:
+    """Issue 23.1: a second ``train`` into the directory of a training still running (before its
+    first checkpoint) once cleared it "afresh", and the first run died. Now the run directory is
+    locked: the second exits 2 naming the first's pid, and the first's files are untouched; once
+    the first is gone (killed: its lock is stale) a new training takes the directory over."""
+    slow = {**PPO_TINY, "total_timesteps": 10**6, "checkpoint": {"freq": 10**6}}
+    run = tmp_path / "run"
+    first = subprocess.Popen(
+        [sys.executable, "-m", "training.run.train", _write(tmp_path, slow), "--run-dir", run],
+        cwd=REPO,
+        env=ENV,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        deadline = time.monotonic() + 120
+        while not (run / "progress.csv").is_file() or not any((run / "tb").glob("*")):
+            assert first.poll() is None, first.stderr.read() if first.stderr else ""
+            assert time.monotonic() < deadline, "the first training did not start"
+            time.sleep(0.2)
+        before = sorted(p.relative_to(run) for p in run.rglob("*"))
+        second = _train(_write(tmp_path, slow, "second.yaml"), "--run-dir", run, "--seed", 4)
+        assert second.returncode == 2, second.stdout[-2000:] + second.stderr[-2000:]
+        assert "is in use by another training" in second.stderr
+        assert f"pid {first.pid}" in second.stderr
+        assert "afresh" not in second.stdout
+        assert first.poll() is None  # the first one trains on
+        after = sorted(p.relative_to(run) for p in run.rglob("*"))
+        assert set(before) <= set(after)
+        assert len((run / "command.txt").read_text().splitlines()) == 1
+    finally:
+        first.kill()
+        first.wait()
+    # the killed run left its lock file behind: stale, taken over by the next training
+    assert (run / ".train.lock").read_text().startswith(f"pid {first.pid} ")
+    third = _train(
+        _write(tmp_path, {**PPO_TINY, "total_timesteps": 128}, "third.yaml"), "--run-dir", run
+    )
+    assert third.returncode == 0, third.stderr[-3000:]
+    assert json.loads((run / "run.json").read_text())["status"] == "complete"
