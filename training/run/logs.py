@@ -71,13 +71,13 @@ def _resumable_csv_format(path: Path) -> Any:
     return ResumableCSV()
 
 
-def make_logger(run: RunDir) -> Any:
+def make_logger(run: RunDir, verbose: bool = False) -> Any:
+    """SB3's logger of a run: ``progress.csv`` (continued on resume) and TensorBoard; with
+    ``verbose`` also SB3's tables on stdout (one per rollout: thousands of lines in a minute)."""
     from stable_baselines3.common.logger import HumanOutputFormat, Logger, TensorBoardOutputFormat
 
     run.tb.mkdir(parents=True, exist_ok=True)
-    formats = [
-        HumanOutputFormat(sys.stdout),
-        _resumable_csv_format(run.progress),
-        TensorBoardOutputFormat(str(run.tb)),
-    ]
+    formats = [_resumable_csv_format(run.progress), TensorBoardOutputFormat(str(run.tb))]
+    if verbose:
+        formats.insert(0, HumanOutputFormat(sys.stdout))
     return Logger(folder=str(run.root), output_formats=formats)

@@ -114,13 +114,15 @@ def train(
     argv: list[str],
     *,
     exiting: bool = False,
+    verbose: bool = False,
 ) -> int:
     """Train into ``run_dir`` (new, or resumed from its last checkpoint). Returns the exit code.
 
     ``config`` must have passed :func:`check_env_config`. ``exiting`` (the command line): the
     process ends after this call, so once a stop was signalled further SIGINT/SIGTERM are ignored
     instead of the previous handlers being restored — a second Ctrl-C while the interpreter
-    shuts down would otherwise kill it by the signal instead of exiting 130."""
+    shuts down would otherwise kill it by the signal instead of exiting 130. ``verbose``: SB3's
+    tables on stdout (default: the progress bar and a compact summary at the end)."""
     import torch
 
     run = RunDir(run_dir)
@@ -157,7 +159,7 @@ def train(
         # Before anything is read, written or cleared: a second training into the same
         # directory stops here (RunDirBusy, exit 2) instead of deleting the running one's files.
         with RunLock(run.root):
-            return _train(config, run, resume, argv, command, device, state)
+            return _train(config, run, resume, argv, command, device, state, verbose)
     finally:
         for sig, handler in previous.items():
             signal.signal(sig, signal.SIG_IGN if exiting and state["stop_requested"] else handler)
@@ -171,6 +173,7 @@ def _train(
     command: str,
     device: str,
     state: dict[str, Any],
+    verbose: bool = False,
 ) -> int:
     restored = load_newest_checkpoint(config, run, device) if resume else None
     ckpt = restored[0] if restored is not None else None
@@ -241,7 +244,7 @@ def _train(
         _, model, venv, base = restored
         print(f"resuming {run.root} from step {model.num_timesteps}")
     state["venv_base"] = base
-    model.set_logger(make_logger(run))
+    model.set_logger(make_logger(run, verbose))
 
     session: dict[str, Any] = {
         "command": command,
@@ -335,11 +338,42 @@ def _train(
         f"done: {model.num_timesteps} steps in {meta['total_wall_time_s']:.0f} s; "
         f"run directory {run.root}"
     )
+    for line in summary_lines(run):
+        print(line)
     _close_quietly(venv)
     if state["stop_requested"]:  # the signal came during the last rollout: complete, but 130
         print(f"interrupted after training completed; {run.root} is complete", file=sys.stderr)
         return EXIT_INTERRUPTED
     return code
+
+
+def summary_lines(run: RunDir) -> list[str]:
+    """A few lines on a finished run: the last and the best periodic evaluation (eval_log.csv)."""
+    import csv
+
+    if not run.eval_log.is_file():
+        return []
+    with open(run.eval_log, newline="") as f:
+        rows = list(csv.DictReader(f))
+    if not rows:
+        return []
+
+    def line(label: str, row: dict[str, str]) -> str:
+        return (
+            f"  {label} (step {row['timesteps']}): success {float(row['success_rate']):.0%}, "
+            f"tip error mean {float(row['mean_error_mm']):.2f} mm, "
+            f"median {float(row['median_error_mm']):.2f} mm, "
+            f"return {float(row['mean_reward']):.2f}"
+        )
+
+    lines = [line("last evaluation", rows[-1])]
+    best = run.best / "info.json"
+    if best.is_file():
+        info = json.loads(best.read_text())
+        row = {k: str(v) for k, v in info.items()}
+        lines.append(line(f"best by {info.get('best_metric', '?')}", row) + f" -> {run.best}")
+    lines.append(f"  evaluate it: cdcr-gym evaluate {shlex.quote(str(run.root))}")
+    return lines
 
 
 def _close_quietly(venv: Any) -> None:
@@ -375,6 +409,12 @@ def _parse_args(argv: list[str]) -> argparse.Namespace:
         help="override total_timesteps (env steps, summed over envs)",
     )
     parser.add_argument("--seed", type=int, default=None, help="override the config's seed")
+    parser.add_argument(
+        "--verbose",
+        action="store_true",
+        help="print stable-baselines3's table of every rollout (default: a progress bar, "
+        "then a short summary; the same numbers are in progress.csv and TensorBoard)",
+    )
     parser.add_argument(
         "--resume",
         action="store_true",
@@ -476,7 +516,7 @@ def main(argv: list[str] | None = None) -> int:
     args = _parse_args(argv)
     try:
         config, run_dir = _resolve(args)
-        return train(config, run_dir, args.resume, argv, exiting=True)
+        return train(config, run_dir, args.resume, argv, exiting=True, verbose=args.verbose)
     except ConfigError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

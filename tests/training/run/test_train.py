@@ -370,7 +370,7 @@ PINNED_EVAL_LOG = [(128, 228.553791, -22.681192), (256, 229.84247, -22.750727)]
 def test_pinned_tiny_training_run(tmp_path: Path) -> None:
     """A tiny PPO run on a fixed seed: its periodic evaluations, to the last printed digit."""
     run = tmp_path / "run"
-    result = _run("training.train", _tiny_config(tmp_path), "--run-dir", run, timeout=120)
+    result = _run("training.run.train", _tiny_config(tmp_path), "--run-dir", run, timeout=120)
     assert result.returncode == 0, result.stderr[-3000:]
     rows = [
         (
@@ -381,3 +381,21 @@ def test_pinned_tiny_training_run(tmp_path: Path) -> None:
         for r in _csv_rows(run / "eval_log.csv")
     ]
     assert rows == PINNED_EVAL_LOG
+
+
+def test_train_prints_a_progress_bar_and_a_summary_and_tables_only_when_verbose(
+    tmp_path: Path,
+) -> None:
+    """Issue 23.12: SB3's table of every rollout (~6 500 lines in a one-minute run) only with
+    ``--verbose``; by default the progress bar and a few lines of summary."""
+    quiet = _run("training.run.train", _tiny_config(tmp_path), "--run-dir", tmp_path / "q")
+    assert quiet.returncode == 0, quiet.stderr[-3000:]
+    assert "rollout/" not in quiet.stdout and "| time/" not in quiet.stdout
+    assert len(quiet.stdout.splitlines()) <= 10, quiet.stdout
+    assert "done: 256 steps" in quiet.stdout and "last evaluation (step 256)" in quiet.stdout
+    assert "cdcr-gym evaluate" in quiet.stdout
+    loud = _run(
+        "training.run.train", _tiny_config(tmp_path), "--run-dir", tmp_path / "v", "--verbose"
+    )
+    assert loud.returncode == 0, loud.stderr[-3000:]
+    assert "rollout/" in loud.stdout and "time/" in loud.stdout
