@@ -388,6 +388,24 @@ def _print_table(result: dict[str, Any]) -> None:
     )
 
 
+def check_spaces(
+    model: Any, obs_space: Any, action_space: Any, env_id: str, overrides: dict
+) -> None:
+    """Raise :class:`ConfigError` unless the env's observation and action spaces are the ones the
+    model was trained on (e.g. ``robot=tdcr2``, six cables, for a policy of the 3-cable robot)."""
+    what = f"--env-id/--env-kwarg ({env_id}" + "".join(f", {k}={v}" for k, v in overrides.items())
+    for name, trained, here in (
+        ("observation", model.observation_space, obs_space),
+        ("action", model.action_space, action_space),
+    ):
+        if trained != here:
+            raise ConfigError(
+                f"{what}): the env's {name} space {here} is not the one the model was trained "
+                f"on, {trained}; a policy only runs on envs with its spaces (same robot: "
+                f"number of cables and sections, same task and observation fields)"
+            )
+
+
 def _parse_kwarg(text: str) -> tuple[str, Any]:
     if "=" not in text:
         raise ConfigError(f"--env-kwarg must look like KEY=VALUE, got {text!r}")
@@ -466,14 +484,15 @@ def main(argv: list[str] | None = None) -> int:
             raise ConfigError(f"--seed must be >= 0, got {args.seed}")
         if args.tag is not None and not re.fullmatch(r"[A-Za-z0-9_.-]+", args.tag):
             raise ConfigError(f"--tag must be a simple file-name part, got {args.tag!r}")
-        import gymnasium as gym
 
         import cdcr_gym  # noqa: F401 - registers the ids
+        from training.evaluate.rollout import check_env_id
 
         env_id = args.env_id or config.env.id
-        if env_id not in gym.registry:
-            known = sorted(k for k in gym.registry if k.startswith("cdcr_gym/"))
-            raise ConfigError(f"--env-id {env_id!r} is not registered; known ids: {known}")
+        try:
+            check_env_id(env_id, "--env-id")
+        except ValueError as exc:
+            raise ConfigError(str(exc)) from None
         overrides = dict(_parse_kwarg(t) for t in args.env_kwarg)
         env_kwargs = {**config.env.kwargs, **overrides}
         tag = args.tag
@@ -482,7 +501,9 @@ def main(argv: list[str] | None = None) -> int:
         try:
             from training.evaluate.rollout import make_env
 
-            make_env(env_id, env_kwargs).close()
+            probe = make_env(env_id, env_kwargs)
+            spaces = (probe.observation_space, probe.action_space)
+            probe.close()
         except (ValueError, TypeError) as exc:
             raise ConfigError(
                 f"--env-id/--env-kwarg: cannot make {env_id!r} with {env_kwargs}: {exc}"
@@ -491,11 +512,12 @@ def main(argv: list[str] | None = None) -> int:
 
         vn_path = model_dir / "vecnormalize.pkl"
         try:  # a truncated model or a corrupt VecNormalize: a clear error, before any output
-            PPOPolicy(
+            policy = PPOPolicy(
                 model_dir / "model.zip", vn_path if vn_path.exists() else None, algo=config.algo
             )
         except ModelFileError as exc:
             raise ConfigError(str(exc)) from None
+        check_spaces(policy.model, *spaces, env_id, overrides)
     except ConfigError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

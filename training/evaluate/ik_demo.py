@@ -17,6 +17,7 @@ import numpy as np
 
 import cdcr_gym  # noqa: F401  (registers the ids)
 from cdcr_gym.controllers import AnalyticIKController
+from training.evaluate.rollout import check_env_id
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -32,9 +33,15 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.episodes < 1:
         parser.error(f"--episodes must be >= 1, got {args.episodes}")
+    if not 0 <= args.seed <= 2**32 - 1 - args.episodes:
+        parser.error(f"--seed must be an integer in [0, 2**32 - 1 - episodes], got {args.seed}")
+    try:
+        check_env_id(args.env_id, "--env-id")
+    except ValueError as exc:
+        parser.error(str(exc))
     try:
         env = gym.make(args.env_id, action_mode=args.action_mode)
-    except (ValueError, gym.error.Error) as exc:
+    except (ValueError, TypeError, gym.error.Error) as exc:
         parser.error(f"--env-id/--action-mode: {exc}")
     controller = AnalyticIKController.from_env(env)
     errors = []

@@ -27,6 +27,8 @@ from cdcr_gym.backends.analytic import AnalyticBackend
 from cdcr_gym.envs.env import ReachEnv
 
 __all__ = [
+    "check_env_id",
+    "cdcr_env_ids",
     "EpisodeSpecs",
     "Rollouts",
     "PPOPolicy",
@@ -120,6 +122,27 @@ def make_env(
     if max_episode_steps is not None:
         kwargs["max_episode_steps"] = max_episode_steps
     return gym.make(env_id, **kwargs)
+
+
+def cdcr_env_ids() -> list[str]:
+    """The registered cdcr_gym ids."""
+    import cdcr_gym  # noqa: F401 - registers the ids
+
+    return sorted(k for k in gym.registry if k.startswith("cdcr_gym/"))
+
+
+def check_env_id(env_id: str, what: str = "--env-id") -> None:
+    """Raise ValueError naming ``what`` unless ``env_id`` is a registered cdcr_gym env (another
+    package's env, e.g. ``CartPole-v1``, has none of the robot's observations, goals or oracle)."""
+    known = cdcr_env_ids()
+    if env_id not in gym.registry:
+        raise ValueError(f"{what} {env_id!r} is not registered; known ids: {known}")
+    entry = gym.registry[env_id].entry_point
+    if not (isinstance(entry, str) and entry.startswith("cdcr_gym.")):
+        raise ValueError(
+            f"{what} {env_id!r} is not a cdcr_gym env (entry point {entry!r}); "
+            f"the cdcr_gym ids are {known}"
+        )
 
 
 class ModelFileError(ValueError):

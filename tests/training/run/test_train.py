@@ -131,6 +131,8 @@ def test_evaluate_cli_validates_arguments(tmp_path: Path) -> None:
     [
         (["--episodes", "0"], "--episodes"),
         (["--env-id", "cdcr_gym/Nope-v0"], "--env-id"),
+        # issue 23.4: another package's env (was an AttributeError)
+        (["--env-id", "CartPole-v1"], "--env-id 'CartPole-v1' is not a cdcr_gym env"),
         (["--env-kwarg", "gravity"], "--env-kwarg"),
         (["--env-kwarg", "action_mode=sideways"], "action_mode"),
         (["--model", "final"], "--model final"),

@@ -225,6 +225,20 @@ def test_cli_rejects_an_out_that_is_a_file(tmp_path, capsys):
         assert "--out" in capsys.readouterr().err
 
 
+@pytest.mark.skipif(not Path("/proc").is_dir(), reason="needs /proc (Linux)")
+def test_an_unwritable_out_is_refused_before_the_study_runs(capsys):
+    """Issue 23.4: ``--out /proc/x`` once ran the whole study, then failed and saved nothing
+    (``os.access`` says yes to root on /proc); the location is now probed first."""
+
+    def must_not_run(*args, **kwargs):
+        raise AssertionError("the study ran before the output location was checked")
+
+    with pytest.raises(SystemExit) as exc:
+        R.main(["--out", "/proc/x", "--quick"], factory=must_not_run)
+    assert exc.value.code == 2
+    assert "--out '/proc/x'" in capsys.readouterr().err
+
+
 def test_pipeline_end_to_end_on_the_analytic_backend(tmp_path):
     """CCKA against itself: zero error everywhere, and every output is complete and consistent."""
     out = tmp_path / "rep"

@@ -189,6 +189,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _check_out(ap: argparse.ArgumentParser, out: Path, what: str) -> None:
+    """A usage error unless ``out`` is (or can be created as) a directory this process can write
+    into, checked before the study runs: the nearest existing ancestor is probed with a
+    temporary file (``os.access`` passes for root on read-only places such as ``/proc``)."""
+    import tempfile
+
     if out.exists() and not out.is_dir():
         ap.error(f"{what} {str(out)!r} exists and is not a directory")
     parent = out
@@ -198,6 +203,11 @@ def _check_out(ap: argparse.ArgumentParser, out: Path, what: str) -> None:
         ap.error(f"{what} {str(out)!r}: {str(parent)!r} is not a directory")
     if not os.access(parent, os.W_OK | os.X_OK):
         ap.error(f"{what} {str(out)!r}: {str(parent)!r} is not writable")
+    try:
+        with tempfile.TemporaryFile(dir=parent):
+            pass
+    except OSError as exc:
+        ap.error(f"{what} {str(out)!r}: cannot write into {str(parent)!r} ({exc.strerror})")
 
 
 def config_from_args(args: argparse.Namespace) -> StudyConfig:
