@@ -49,6 +49,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from training.evaluate.conditions import condition_name
 from training.run.config import ConfigError, ExperimentConfig, check_writable_directory, load_config
 
 __all__ = ["main", "evaluate"]
@@ -133,7 +134,7 @@ def evaluate(
         specs = make_specs(episodes, seed, initial_state, params)
         ik_tensions, ik_lengths = ik.targets(specs.goals)
         for horizon in ev.horizons:
-            name = f"{initial_state}_h{horizon}"
+            name = condition_name(initial_state, horizon)
 
             def env_fn(h: int = horizon) -> Any:
                 return make_env(env_id, env_kwargs, max(h, train_horizon))
@@ -159,7 +160,7 @@ def evaluate(
             conditions[name] = cond
             raw[name] = (specs, pol, ikr)
 
-    headline = f"{ev.initial_states[0]}_h{ev.horizons[0]}"
+    headline = condition_name(ev.initial_states[0], ev.horizons[0])
     head = conditions[headline]
     result: dict[str, Any] = {
         "run_dir": str(run_dir),
@@ -207,7 +208,7 @@ def evaluate(
     longest = max(ev.horizons)
     curves = {}
     for s in ev.initial_states:
-        _, p_, i_ = raw[f"{s}_h{longest}"]
+        _, p_, i_ = raw[condition_name(s, longest)]
         curves[f"PPO ({s})"] = p_.distances
         curves[f"IK ({s})"] = i_.distances
     figures["error_vs_step"] = plots.plot_error_vs_step(
@@ -276,7 +277,7 @@ def _evaluate_task(
         runs = {"policy": run_task_episodes(env_fn, policy, episodes, seed, record=record)}
         for name, baseline in baselines.items():
             runs[name] = run_task_episodes(env_fn, baseline, episodes, seed, record=record)
-        name = f"{initial_state}_h{horizon}"
+        name = condition_name(initial_state, horizon)
         conditions[name] = {key: summarize_task(value) for key, value in runs.items()}
         plot_paths(task, {k: v["paths"] for k, v in runs.items()}, fig_dir / f"{name}_paths.png")
     headline = conditions[next(iter(conditions))]

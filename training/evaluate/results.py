@@ -2,7 +2,7 @@
 
 Usage::
 
-    python -m training.results RUN_DIR[:EVAL_NAME] ... [--conditions straight_h100,random_h100]
+    python -m training.results RUN_DIR[:EVAL_NAME] ... [--conditions straight_100steps,random_100steps]
 
 ``EVAL_NAME`` picks the evaluation file (``eval`` = ``eval.json``, the default;
 ``eval_BulletReach-v0`` = ``eval_BulletReach-v0.json``). One row per run and condition: the
@@ -17,6 +17,8 @@ import json
 import sys
 from pathlib import Path
 from typing import Any
+
+from training.evaluate.conditions import canonical_condition, read_eval
 
 __all__ = ["rows", "main"]
 
@@ -34,12 +36,12 @@ def _fmt(x: float) -> str:
 def rows(run_dir: Path, eval_name: str = "eval", conditions: list[str] | None = None) -> list[str]:
     """Markdown table rows for one run's evaluation file."""
     meta: dict[str, Any] = json.loads((run_dir / "run.json").read_text())
-    data: dict[str, Any] = json.loads((run_dir / f"{eval_name}.json").read_text())
+    data: dict[str, Any] = read_eval(run_dir / f"{eval_name}.json")
     wall = meta.get("total_wall_time_s")
     wall_s = f"{wall / 60:.1f} min" if wall is not None else "?"
     out = []
     for name, c in data["conditions"].items():
-        if conditions and name not in conditions:
+        if conditions and name not in {canonical_condition(c) for c in conditions}:
             continue
         e, ik = c["error_mm"], c["ik"]
         env = data["env_id"].split("/")[-1]

@@ -8,7 +8,7 @@ Each ``RUN`` is a training run directory evaluated by ``python -m training.evalu
 (it holds ``eval.json`` with the task's metrics for the policy beside its oracle's on the same
 episodes, and ``run.json`` with the training steps and wall time). Writes ``--out``: per run
 the task, env id, seed, training steps and wall time (s), the evaluate command, and per
-evaluation condition (``straight_h100``, ...) the summaries of ``training.task_metrics``
+evaluation condition (``straight_100steps``, ...; ``straight_h100`` in older files) the summaries of ``training.task_metrics``
 (``policy``, ``oracle`` and, for Obstacle, ``reach_ik``). With ``--figures DIR`` the path
 figures ``RUN/eval/<condition>_paths.png`` are copied to
 ``DIR/ppo_<task>_seed<S>_<condition>_paths.png``. Prints a markdown table, one row per run and
@@ -26,6 +26,8 @@ import shutil
 import sys
 from pathlib import Path
 from typing import Any
+
+from training.evaluate.conditions import canonical_condition, read_eval
 
 __all__ = ["collect", "headline", "markdown_table", "main"]
 
@@ -46,7 +48,7 @@ def collect(run_dirs: list[Path]) -> list[dict[str, Any]]:
         for path in (ev_path, meta_path):
             if not path.is_file():
                 raise ResultsError(f"RUN {str(run)!r}: {path.name} does not exist")
-        ev = json.loads(ev_path.read_text())
+        ev = read_eval(ev_path)
         if "task" not in ev:
             raise ResultsError(f"RUN {str(run)!r}: eval.json is not a task evaluation (Reach?)")
         meta = json.loads(meta_path.read_text())
@@ -127,6 +129,10 @@ def main(argv: list[str] | None = None) -> int:
         for run, r in zip(args.runs, records, strict=True):
             for name in r["conditions"]:
                 src = run / "eval" / f"{name}_paths.png"
+                old = [p for p in (run / "eval").glob("*_paths.png") if p.stem[:-6] != name]
+                for path in old:  # an evaluation of before the renaming: straight_h100_paths.png
+                    if canonical_condition(path.stem[: -len("_paths")]) == name:
+                        src = path
                 if src.is_file():
                     dst = f"ppo_{r['task'].lower()}_seed{r['seed']}_{name}_paths.png"
                     shutil.copyfile(src, args.figures / dst)

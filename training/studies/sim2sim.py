@@ -25,12 +25,14 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from training.evaluate.conditions import read_eval
+
 __all__ = ["summarize_evals", "table_rows", "main"]
 
 
 def _load(path: Path) -> dict[str, Any]:
     try:
-        data = json.loads(path.read_text())
+        data = read_eval(path)
     except (OSError, json.JSONDecodeError) as exc:
         raise ValueError(f"eval json {str(path)!r} cannot be read: {exc}") from None
     for key in ("run_dir", "env_id", "conditions", "headline_condition"):

@@ -10,7 +10,7 @@ see :mod:`training.sweep`). Prints markdown tables and writes ``SWEEP_OUT/aggreg
 ``<PAGE dir>/figures/<page name>/`` and its data ``<PAGE dir>/figures/<page name>/results.json``.
 
 **Scores.** One scalar per run and evaluation condition (``eval.json``'s ``conditions``, e.g.
-``straight_h100``): the median final tip error (mm), the fraction of goals within 5 mm
+``straight_100steps``; ``straight_h100`` in older files): the median final tip error (mm), the fraction of goals within 5 mm
 (``success_rate``) and within 1 mm. Runs are grouped by (task = env id, algorithm = the config's
 ``algo`` and the sweep variant); the seeds of a group are its runs.
 
@@ -341,7 +341,7 @@ def write_doc(
         f"* **Machine**: {_machine(summary, runs)}. " + machine_sharing(summary, runs, max_conc),
         "* **Scores**: after training, `cdcr-gym evaluate RUN_DIR --model best` on "
         "fixed goals (reset seeds from `evaluate.seed`, the same for every run) from each "
-        "starting state (`straight_h100`: straight start, 100 steps; `random_h100`: a random "
+        "starting state (`straight_100steps`: straight start, 100 steps; `random_100steps`: a random "
         "starting shape). Per run: the median final tip error, and the fractions of goals "
         "within 5 mm and 1 mm"
         + (

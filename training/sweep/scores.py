@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from training.evaluate.conditions import read_eval
 from training.sweep.statistics import stratified_bootstrap_ci
 
 METRICS = {
@@ -134,7 +135,7 @@ def load_runs(sweep_dir: Path) -> tuple[dict[str, Any], list[RunResult]]:
             host = meta.get("host") or {}
             run.host = f"{host.get('hostname', '?')}: {host.get('platform', '?')}"
             if (run_dir / "eval.json").is_file():
-                data = json.loads((run_dir / "eval.json").read_text())
+                data = read_eval(run_dir / "eval.json")
                 run.kind = str(data.get("task", "Reach"))
                 for name, c in data["conditions"].items():
                     if "policy" in c:  # Track, Pose, Obstacle: the task's own metrics

@@ -52,12 +52,14 @@ def test_collects_runs_writes_json_copies_figures_and_prints_the_table(tmp_path,
     data = json.loads(out.read_text())
     assert [r["seed"] for r in data["runs"]] == [0, 2]
     assert (
-        data["runs"][0]["conditions"]["straight_h100"]["policy"]["tracking_rms_mm"]["mean"] == 0.5
+        data["runs"][0]["conditions"]["straight_100steps"]["policy"]["tracking_rms_mm"]["mean"]
+        == 0.5
     )
     assert data["runs"][1]["train_wall_time_s"] == 12.5
     assert data["command"].startswith("cdcr-gym task-results ")
-    assert (figs / "ppo_track_seed0_straight_h100_paths.png").read_bytes() == b"png"
-    assert (figs / "ppo_obstacle_seed2_straight_h100_paths.png").exists()
+    # an evaluation written before the renaming (straight_h100) reads as straight_100steps
+    assert (figs / "ppo_track_seed0_straight_100steps_paths.png").read_bytes() == b"png"
+    assert (figs / "ppo_obstacle_seed2_straight_100steps_paths.png").exists()
     table = capsys.readouterr().out
     assert "tracking RMS mean 0.50 mm (max 1.00)" in table
     assert "collisions 25 % of episodes (0 in successful ones)" in table
@@ -73,3 +75,34 @@ def test_a_run_without_a_task_evaluation_is_an_error(tmp_path, capsys):
     (run / "eval.json").write_text(json.dumps({"conditions": {}}))
     with pytest.raises(task_results.ResultsError, match="not a task evaluation"):
         task_results.collect([run])
+
+
+def test_condition_names_read_for_what_they_are_and_old_keys_still_read(tmp_path: Path) -> None:
+    """Issue 23.11: ``straight_h100`` read like a GPU; the conditions are now
+    ``straight_100steps``, and evaluations of before (docs/figures/**) read under the new names."""
+    from training.evaluate.conditions import canonical_condition, condition_name, read_eval
+
+    assert condition_name("straight", 100) == "straight_100steps"
+    assert canonical_condition("random_h200") == "random_200steps"
+    assert canonical_condition("random_200steps") == "random_200steps"
+    old = tmp_path / "eval.json"
+    old.write_text(
+        json.dumps({"headline_condition": "straight_h100", "conditions": {"straight_h100": {}}})
+    )
+    data = read_eval(old)
+    assert data["headline_condition"] == "straight_100steps"
+    assert list(data["conditions"]) == ["straight_100steps"]
+    # every condition name in the results committed under docs/figures maps to a current one
+    import re
+
+    def names(node: object) -> list[str]:
+        if isinstance(node, dict):
+            found = list(node["conditions"]) if isinstance(node.get("conditions"), dict) else []
+            return found + [n for v in node.values() for n in names(v)]
+        if isinstance(node, list):
+            return [n for v in node for n in names(v)]
+        return []
+
+    docs = Path(__file__).resolve().parents[3] / "docs" / "figures"
+    seen = [n for path in docs.rglob("*.json") for n in names(json.loads(path.read_text()))]
+    assert seen and all(re.fullmatch(r"[a-z]+_\d+steps", canonical_condition(n)) for n in seen)

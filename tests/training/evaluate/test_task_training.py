@@ -54,12 +54,12 @@ def test_task_config_trains_and_evaluates_beside_its_oracle(tmp_path: Path, name
     result = _run("training.evaluate", run, "--episodes", 2)
     assert result.returncode == 0, result.stderr[-3000:]
     data = json.loads((run / "eval.json").read_text())
-    assert set(data["conditions"]) == {"straight_h20"}
+    assert set(data["conditions"]) == {"straight_20steps"}
     assert "policy" in data and "oracle" in data
     task = data["task"]
     if task == "Track" and "CCKA" in data["env_id"]:  # on bullet the oracle runs open loop
         assert data["oracle"]["tracking_rms_mm"]["max"] < 1.0
-        assert (run / "eval" / "straight_h20_paths.png").stat().st_size > 0
+        assert (run / "eval" / "straight_20steps_paths.png").stat().st_size > 0
     if task == "Obstacle":
         assert data["reach_ik"]["collision_rate"] > 0.0
         assert data["oracle"]["collisions_in_successful_episodes"] == 0

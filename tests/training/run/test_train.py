@@ -216,9 +216,10 @@ def test_train_and_evaluate_default_config_smoke(tmp_path: Path) -> None:
     result = _run("training.evaluate", run, "--episodes", 4)
     assert result.returncode == 0, result.stderr[-3000:]
     data = _check_eval_json(
-        run / "eval.json", {"straight_h100", "straight_h200", "random_h100", "random_h200"}
+        run / "eval.json",
+        {"straight_100steps", "straight_200steps", "random_100steps", "random_200steps"},
     )
-    assert "max_error_after_train_horizon_mm" in data["conditions"]["straight_h200"]
+    assert "max_error_after_train_horizon_mm" in data["conditions"]["straight_200steps"]
     for fig in ("error_histogram.png", "workspace_errors.png", "policy_vs_ik.png"):
         assert (run / "eval" / fig).stat().st_size > 0
     assert "success" in result.stdout  # the printed table
@@ -264,7 +265,8 @@ def test_resume_continues_steps_and_logs(tmp_path: Path) -> None:
     result = _run("training.evaluate", run, "--episodes", 2, "--video")
     assert result.returncode == 0, result.stderr[-3000:]
     _check_eval_json(
-        run / "eval.json", {"straight_h100", "straight_h120", "random_h100", "random_h120"}
+        run / "eval.json",
+        {"straight_100steps", "straight_120steps", "random_100steps", "random_120steps"},
     )
     from training.evaluate.video import probe_video
 

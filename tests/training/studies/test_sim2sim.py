@@ -43,7 +43,7 @@ def test_target_is_checked_on_the_headline_condition_of_every_run(tmp_path):
     few = _eval_json(tmp_path / "c.json", "c", median=1.0, success=0.85)
     summary = sim2sim.summarize_evals([good])
     assert summary["all_meet_target"] and summary["runs"][0]["meets_target"]
-    assert summary["runs"][0]["conditions"]["random_h100"]["median_mm"] == pytest.approx(5.8)
+    assert summary["runs"][0]["conditions"]["random_100steps"]["median_mm"] == pytest.approx(5.8)
     summary = sim2sim.summarize_evals([good, slow, few])
     assert [r["meets_target"] for r in summary["runs"]] == [True, False, False]
     assert not summary["all_meet_target"]
@@ -52,8 +52,8 @@ def test_target_is_checked_on_the_headline_condition_of_every_run(tmp_path):
     assert loose["all_meet_target"]
     rows = sim2sim.table_rows(summary)
     assert len(rows) == 6
-    assert rows[0].startswith("| a | straight_h100 * | 95.0 % |") and "| 2.90 |" in rows[0]
-    assert rows[1].startswith("| a | random_h100 | 47.5 % |")
+    assert rows[0].startswith("| a | straight_100steps * | 95.0 % |") and "| 2.90 |" in rows[0]
+    assert rows[1].startswith("| a | random_100steps | 47.5 % |")
 
 
 def test_cli_writes_json_and_figure_and_rejects_bad_input(tmp_path, capsys):
@@ -63,7 +63,7 @@ def test_cli_writes_json_and_figure_and_rejects_bad_input(tmp_path, capsys):
     data = json.loads(out.with_suffix(".json").read_text())
     assert data["runs"][0]["run_dir"] == "runs/a" and data["all_meet_target"]
     assert out.with_suffix(".png").stat().st_size > 1000
-    assert "| a | straight_h100 * |" in capsys.readouterr().out
+    assert "| a | straight_100steps * |" in capsys.readouterr().out
     bad = tmp_path / "bad.json"
     bad.write_text(json.dumps({"run_dir": "x"}))
     assert sim2sim.main([str(bad), "--out", str(out)]) == 2

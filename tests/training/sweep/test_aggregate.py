@@ -164,7 +164,8 @@ def test_load_runs_finds_the_target_and_the_failure(sweep_dir: Path) -> None:
     assert by_id["a_seed1"].to_target is None  # 4 mm is never < 3 mm in the fake log
     assert by_id["b_seed0"].to_target == {"steps": 20_000, "wall_time_s": 30.0}
     assert by_id["b_seed1"].status == "failed" and "tension_step" in by_id["b_seed1"].error
-    assert by_id["a_seed2"].scores["random_h100"]["median_error_mm"] == 14.0
+    # eval.json of before the renaming (random_h100): read under the current name
+    assert by_id["a_seed2"].scores["random_100steps"]["median_error_mm"] == 14.0
 
 
 def test_aggregate_groups_by_task_and_algorithm(sweep_dir: Path) -> None:
@@ -173,7 +174,7 @@ def test_aggregate_groups_by_task_and_algorithm(sweep_dir: Path) -> None:
     group = next(
         g
         for g in result["groups"]
-        if g["task"] == "CCKAReach-v0" and g["condition"] == "straight_h100"
+        if g["task"] == "CCKAReach-v0" and g["condition"] == "straight_100steps"
     )
     assert group["runs"] == 3 and group["algo"] == "PPO"
     # three runs: the IQM is the mean of the final medians 0.5, 4 and 7
@@ -181,7 +182,7 @@ def test_aggregate_groups_by_task_and_algorithm(sweep_dir: Path) -> None:
     assert group["success_rate"]["iqm"] == pytest.approx(2 / 3)
     bullet = [g for g in result["groups"] if g["task"] == "BulletReach-v0"]
     assert {g["runs"] for g in bullet} == {1}  # the failed seed is not a score
-    (across,) = [a for a in result["aggregate"] if a["condition"] == "straight_h100"]
+    (across,) = [a for a in result["aggregate"] if a["condition"] == "straight_100steps"]
     assert across["tasks"] == ["BulletReach-v0", "CCKAReach-v0"] and across["runs"] == 4
 
 
@@ -251,12 +252,14 @@ def test_task_metrics_are_aggregated_per_task(tmp_path: Path) -> None:
     _, runs = load_runs(root)
     track = [r for r in runs if r.task == "CCKATrack-v0"]
     assert {r.kind for r in track} == {"Track"}
-    assert track[0].scores["straight_h100"] == {
+    assert track[0].scores["straight_100steps"] == {
         "median_error_mm": 3.0,
         "success_rate": 0.5,
         "tracking_rms_mm": 2.0,
     }
-    assert track[0].baselines["straight_h100"]["oracle"]["tracking_rms_mm"] == pytest.approx(0.2)
+    assert track[0].baselines["straight_100steps"]["oracle"]["tracking_rms_mm"] == pytest.approx(
+        0.2
+    )
     result = aggregate(runs, reps=500)
     (g,) = [g for g in result["groups"] if g["task"] == "CCKATrack-v0"]
     # four runs: the IQM cuts int(0.25 * 4) = 1 per end of [1, 2, 4, 9]: mean of 2 and 4
