@@ -313,7 +313,11 @@ def _write_video(
     fig_dir: Path,
     train_horizon: int,
 ) -> Path:
-    """H.264 MP4 (``training.video``) of the first ``n_episodes`` headline episodes."""
+    """H.264 MP4 (``training.evaluate.video``) of the first ``n_episodes`` headline episodes;
+    every frame carries the step, the tip error (mm) and the task's metric
+    (``training.evaluate.overlay``)."""
+    from training.evaluate.metrics import task_name
+    from training.evaluate.overlay import caption, draw_text
     from training.evaluate.rollout import make_env
 
     kwargs = {**env_kwargs, "render_width": 320, "render_height": 320}
@@ -321,15 +325,16 @@ def _write_video(
     frames = []
     try:
         for i in range(min(n_episodes, len(specs))):
-            obs, _ = env.reset(
+            obs, info = env.reset(
                 options={"goal": specs.goals[i], "initial_tensions": specs.initial_tensions[i]}
             )
-            frames.append(env.render())
+            task = task_name(env)
+            frames.append(draw_text(env.render(), caption(0, horizon, info, task)))
             for t in range(horizon):
                 action = policy(obs[None])[0]
-                obs, _, terminated, truncated, _ = env.step(action)
+                obs, _, terminated, truncated, info = env.step(action)
                 if t % 2 == 1 or terminated:
-                    frames.append(env.render())
+                    frames.append(draw_text(env.render(), caption(t + 1, horizon, info, task)))
                 if terminated or truncated:
                     break
     finally:

@@ -74,3 +74,57 @@ def test_gymnasium_record_video_wrapper_works_on_every_id(env_id, tmp_path):
     (video,) = tmp_path.glob("ep-episode-0.mp4")
     info = probe_video(video)
     assert (info.width, info.height) == (96, 96) and info.n_frames >= 12
+
+
+def test_frames_carry_the_step_the_tip_error_and_the_task_metric():
+    """Issue 23.9: evaluation videos had no text; each frame now says the step, the tip error
+    (mm) and the task's metric, drawn with a built-in bitmap font."""
+    from training.evaluate.overlay import caption, draw_text, text_mask
+
+    info = {"distance": 0.01234, "is_success": False, "angle": np.radians(12.0)}
+    assert caption(7, 100, info, "Pose") == [
+        "step 7/100",
+        "tip error 12.3 mm",
+        "angle error 12.0°",
+        "not yet",
+    ]
+    assert caption(3, 50, {"distance": 0.002, "tracking_rms": 0.0015}, "Track")[2] == (
+        "tracking rms 1.5 mm"
+    )
+    assert caption(1, 9, {"min_clearance": 0.02, "collided": True}, "Obstacle")[1] == (
+        "clearance 20.0 mm collided"
+    )
+    assert not np.array_equal(text_mask("step 1"), text_mask("step 2"))
+    frame = np.full((120, 160, 3), 90, dtype=np.uint8)
+    out = draw_text(frame, ["step 1/100", "tip error 3.2 mm"])
+    assert out.shape == frame.shape and out.dtype == np.uint8
+    assert (out[:40, :100] == 255).any() and (out[60:] == frame[60:]).all()
+    assert (frame == 90).all()  # the input is not modified
+
+
+def test_the_evaluation_video_has_text_on_every_frame(monkeypatch, tmp_path):
+    from training.evaluate import agent, video
+    from training.evaluate.rollout import make_specs
+
+    written = {}
+
+    def capture(path, frames, fps=25.0):
+        written["frames"] = list(frames)
+        return path
+
+    monkeypatch.setattr(video, "write_video", capture)
+    specs = make_specs(1, 0, "straight", None)
+    agent._write_video(
+        "cdcr_gym/CCKAReach-v0", {}, lambda obs: np.zeros((len(obs), 3)), specs, 4, 1, tmp_path, 4
+    )
+    import gymnasium as gym
+
+    env = gym.make(
+        "cdcr_gym/CCKAReach-v0", render_mode="rgb_array", render_width=320, render_height=320
+    )
+    env.reset(options={"goal": specs.goals[0], "initial_tensions": specs.initial_tensions[0]})
+    plain = env.render()
+    env.close()
+    first = written["frames"][0]
+    assert first.shape == plain.shape and not np.array_equal(first[:60], plain[:60])
+    assert all((f[:40, :200] == 255).any() for f in written["frames"])
