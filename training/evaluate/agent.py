@@ -47,10 +47,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from training.evaluate.conditions import condition_name
+from training.evaluate.rollout import parse_env_kwarg
 from training.run.config import ConfigError, ExperimentConfig, check_writable_directory, load_config
+from training.run.envs import registered_steps
 
 __all__ = ["main", "evaluate"]
 
@@ -112,7 +113,7 @@ def evaluate(
 
     ev = config.evaluate
     seed = ev.seed if seed is None else seed
-    train_horizon = config.env.max_episode_steps or _registered_steps(config.env.id)
+    train_horizon = config.env.max_episode_steps or registered_steps(config.env.id)
     probe = make_env(env_id, env_kwargs)
     if type(probe.unwrapped.task).__name__ != "Reach":
         probe.close()
@@ -297,12 +298,6 @@ def _evaluate_task(
     return result
 
 
-def _registered_steps(env_id: str) -> int:
-    import gymnasium as gym
-
-    return gym.registry[env_id].max_episode_steps or 100
-
-
 def _write_video(
     env_id: str,
     env_kwargs: dict[str, Any],
@@ -412,15 +407,6 @@ def check_spaces(
             )
 
 
-def _parse_kwarg(text: str) -> tuple[str, Any]:
-    if "=" not in text:
-        raise ConfigError(f"--env-kwarg must look like KEY=VALUE, got {text!r}")
-    key, value = text.split("=", 1)
-    if not key.isidentifier():
-        raise ConfigError(f"--env-kwarg key must be an identifier, got {key!r}")
-    return key, yaml.safe_load(value)
-
-
 def _parse_args(argv: list[str]) -> argparse.Namespace:
     parser = argparse.ArgumentParser(
         prog="cdcr-gym evaluate",
@@ -499,7 +485,10 @@ def main(argv: list[str] | None = None) -> int:
             check_env_id(env_id, "--env-id")
         except ValueError as exc:
             raise ConfigError(str(exc)) from None
-        overrides = dict(_parse_kwarg(t) for t in args.env_kwarg)
+        try:
+            overrides = dict(parse_env_kwarg(t) for t in args.env_kwarg)
+        except ValueError as exc:
+            raise ConfigError(str(exc)) from None
         env_kwargs = {**config.env.kwargs, **overrides}
         tag = args.tag
         if tag is None and (env_id != config.env.id or overrides):

@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from training.evaluate.metrics import oracle_for, run_task_episodes, summarize_task
+from training.evaluate.rollout import parse_env_kwarg
 
 __all__ = ["main", "run_oracle"]
 
@@ -133,15 +134,6 @@ def plot_paths(task: str, runs: dict[str, list[dict[str, Any]]], path: Path) -> 
     plt.close(fig)
 
 
-def _parse_kwarg(text: str) -> tuple[str, Any]:
-    import yaml
-
-    key, sep, value = text.partition("=")
-    if not sep or not key:
-        raise ValueError(f"--env-kwarg must be KEY=VALUE, got {text!r}")
-    return key, yaml.safe_load(value)
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="cdcr-gym oracles", description=__doc__)
     parser.add_argument("--task", required=True, choices=sorted(TASKS))
@@ -156,7 +148,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.episodes < 1:
         parser.error(f"--episodes must be >= 1, got {args.episodes}")
     try:
-        env_kwargs = dict(_parse_kwarg(t) for t in args.env_kwarg)
+        env_kwargs = dict(parse_env_kwarg(t) for t in args.env_kwarg)
         result = run_oracle(
             args.task,
             args.episodes,

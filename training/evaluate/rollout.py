@@ -27,6 +27,7 @@ from cdcr_gym.backends.analytic import AnalyticBackend
 from cdcr_gym.envs.env import ReachEnv
 
 __all__ = [
+    "parse_env_kwarg",
     "check_env_id",
     "cdcr_env_ids",
     "EpisodeSpecs",
@@ -143,6 +144,19 @@ def check_env_id(env_id: str, what: str = "--env-id") -> None:
             f"{what} {env_id!r} is not a cdcr_gym env (entry point {entry!r}); "
             f"the cdcr_gym ids are {known}"
         )
+
+
+def parse_env_kwarg(text: str) -> tuple[str, Any]:
+    """``KEY=VALUE`` of an ``--env-kwarg`` argument: the key and the value read as YAML
+    (``gravity=false`` -> ``("gravity", False)``). Raises ValueError naming ``--env-kwarg``."""
+    import yaml
+
+    key, sep, value = text.partition("=")
+    if not sep:
+        raise ValueError(f"--env-kwarg must look like KEY=VALUE, got {text!r}")
+    if not key.isidentifier():
+        raise ValueError(f"--env-kwarg key must be an identifier, got {key!r}")
+    return key, yaml.safe_load(value)
 
 
 class ModelFileError(ValueError):
