@@ -176,6 +176,7 @@ def _check_eval_json(path: Path, conditions: set[str]) -> dict:
     return data
 
 
+@pytest.mark.slow  # ~25-55 s: 512 steps of the default config, then a full evaluation
 def test_train_and_evaluate_default_config_smoke(tmp_path: Path) -> None:
     """The default config, a tiny budget: every run-directory artefact exists; evaluate works."""
     run = tmp_path / "run"
@@ -299,6 +300,7 @@ def test_train_with_the_batched_vec_env(tmp_path: Path) -> None:
 
 
 # -- the fast recipes (issue 12 item 1) ---------------------------------------------------------
+@pytest.mark.slow  # 25-55 s each: one rollout of the real fast recipes (64 envs)
 @pytest.mark.parametrize("name", ["ppo_ccka_fast", "ppo_bullet_fast"])
 def test_fast_config_trains_one_rollout(tmp_path: Path, name: str) -> None:
     """A fast recipe loads and trains its first rollout (one PPO update) end to end.

@@ -303,6 +303,7 @@ def test_unrestorable_envs_are_reseeded_off_the_evaluation_seeds() -> None:
     assert fallback_env_seed(0, 100_000) != 100_000  # the old collision: eval.seed = seed + steps
 
 
+@pytest.mark.slow  # ~25 s: a real training afterwards
 def test_a_run_of_the_older_checkpoint_format_is_left_alone(tmp_path: Path) -> None:
     run = tmp_path / "run"
     (run / "checkpoints").mkdir(parents=True)
