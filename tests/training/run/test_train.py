@@ -389,6 +389,7 @@ def test_pinned_tiny_training_run(tmp_path: Path) -> None:
     assert rows == PINNED_EVAL_LOG
 
 
+@pytest.mark.slow  # two tiny trainings: 8-25 s
 def test_train_prints_a_progress_bar_and_a_summary_and_tables_only_when_verbose(
     tmp_path: Path,
 ) -> None:
