@@ -186,8 +186,11 @@ class EnvConfig:
 
     @property
     def max_episode_steps_or_default(self) -> int:
-        """``max_episode_steps``, or the registered episode length (100) when it is None."""
-        return self.max_episode_steps or 100
+        """``max_episode_steps``, or cdcr_gym's registered episode length
+        (``cdcr_gym.MAX_EPISODE_STEPS``, 100) when it is None."""
+        from cdcr_gym import MAX_EPISODE_STEPS
+
+        return self.max_episode_steps or MAX_EPISODE_STEPS
 
 
 @dataclass

@@ -207,6 +207,11 @@ def resolve_device(device: str) -> str:
 
 
 def registered_steps(env_id: str) -> int:
+    """The episode length ``env_id`` is registered with (cdcr_gym's ``MAX_EPISODE_STEPS`` for an
+    id registered without one, or not registered)."""
     import gymnasium as gym
 
-    return gym.registry[env_id].max_episode_steps or 100
+    from cdcr_gym import MAX_EPISODE_STEPS
+
+    spec = gym.registry.get(env_id)
+    return (spec.max_episode_steps if spec is not None else None) or MAX_EPISODE_STEPS
