@@ -171,6 +171,7 @@ def test_failures_are_reported_and_finished_trials_skipped(
     assert [is_finished(t) for t in expand(spec)] == [True, False, True]
 
 
+@pytest.mark.slow  # ~12 s: a real training stopped by its wall-time budget
 def test_wall_time_budget_stops_training(tmp_path: Path) -> None:
     """runtime.max_wall_time_s ends a run early, as complete, with a final evaluation."""
     cfg = _write(
