@@ -15,7 +15,7 @@ from cdcr_gym.calibration import Measurements, calibrate, load_fitted, read_csv,
 from cdcr_gym.calibration.simulate import AnalyticReplay, BackendReplay
 from cdcr_gym.model.params import STANDARD_GRAVITY
 from cdcr_gym.params import RobotParams
-from training import calibrate as cli
+from training.studies import calibrate as cli
 
 HEADER = "T1,T2,T3,direction,x,y,z,sigma\n"
 

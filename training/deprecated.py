@@ -45,6 +45,7 @@ MOVED: dict[str, tuple[str, str]] = {
     "training.reproduce.study": ("training.studies.reproduce.study", ""),
     "training.reproduce.plots": ("training.studies.reproduce.plots", ""),
     "training.reproduce.report": ("training.studies.reproduce.report", ""),
+    "training.calibrate": ("training.studies.calibrate", "calibrate"),
 }
 
 
