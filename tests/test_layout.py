@@ -33,14 +33,7 @@ FORBIDDEN = {
         "torch",
     ),
     "backends": ("cdcr_gym.tasks", "cdcr_gym.envs", "cdcr_gym.controllers", "training", "torch"),
-    "tasks": (
-        "cdcr_gym.envs.env",
-        "cdcr_gym.envs.core",
-        "cdcr_gym.envs.vector",
-        "cdcr_gym.controllers",
-        "training",
-        "torch",
-    ),
+    "tasks": ("cdcr_gym.envs", "cdcr_gym.controllers", "training", "torch"),
     "envs": ("training", "torch", "stable_baselines3"),
 }
 

@@ -44,14 +44,28 @@ def test_pinned_v1_covers_every_registered_id(current_v1):
             assert any(r.startswith(f"{backend}{task}/") for r in rollouts), (backend, task)
 
 
+#: Rollouts compared to 1e-12 instead of bit for bit. The single env's two-section (tdcr2)
+#: rollouts were pinned from the scalar lane that issue 22 deleted: it summed the statics'
+#: matrix products in Python floats, where the one path now multiplies matrices in numpy (as
+#: the batched env always did, whose pins stay bit-identical). The two orders of summation
+#: differ in the last bits only: measured at most 4.4e-16 (2 ulp) on any quantity.
+LAST_BITS = ("CCKAPose/",)
+
+
 def test_pinned_v1_is_reproduced_bit_for_bit(current_v1):
-    """Same code path arithmetic: every quantity equal (atol 0; NaN marks absent entries)."""
+    """Same arithmetic: every quantity equal (atol 0; NaN marks absent entries), except the
+    :data:`LAST_BITS` rollouts (to 1e-12)."""
     import pinned_trajectories_v1
 
     pinned = np.load(pinned_trajectories_v1.PATH)
     bad = []
     for key in pinned.files:
         got, want = current_v1[key], pinned[key]
-        if got.shape != want.shape or not np.array_equal(got, want, equal_nan=True):
+        if got.shape != want.shape:
+            bad.append(key)
+        elif key.startswith(LAST_BITS):
+            if not np.allclose(got, want, rtol=0.0, atol=1e-12, equal_nan=True):
+                bad.append(key)
+        elif not np.array_equal(got, want, equal_nan=True):
             bad.append(key)
     assert not bad, f"{len(bad)} pinned quantities differ, e.g. {bad[:10]}"

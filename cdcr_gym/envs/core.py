@@ -30,7 +30,7 @@ from cdcr_gym.backends.base import Backend, Readings
 from cdcr_gym.envs.actuation import Actuation
 from cdcr_gym.model.workspace import sample_tensions_each
 from cdcr_gym.randomization import INFO_PREFIX, DomainRandomization, Imperfections
-from cdcr_gym.tasks.base import Task, one_env_info
+from cdcr_gym.tasks.base import Task
 
 __all__ = ["EnvCore", "INITIAL_STATES"]
 
@@ -229,21 +229,6 @@ class EnvCore:
         self._readings = self.backend.read()
         self.task.advance(self.backend, self._readings)
 
-    def step_one(self, action: list[float]) -> None:
-        """:meth:`step` of a core of one env (N = 1), the clipped action (C,) given as Python
-        floats: the single env's hot path. Plain tension commands run in Python floats
-        (``Actuation.tensions_one``, ``Backend.apply_tensions_one``: the same arithmetic); the
-        other cases (N > 1, length commands, delayed or disturbed actuation) run :meth:`step`."""
-        act, imp = self.actuation, self.imperfections
-        if self.num_envs != 1 or act.commands_lengths or (imp is not None and imp.acts):
-            self.step(np.array([action]))
-            return
-        held = act.tensions_one(action, self._held_tensions.ravel().tolist())
-        self._held_tensions = np.array([held])
-        self.backend.apply_tensions_one(held)
-        self._readings = self.backend.read()
-        self.task.advance(self.backend, self._readings)
-
     @property
     def readings(self) -> Readings:
         """The backend's readings after the last reset or step."""
@@ -288,29 +273,3 @@ class EnvCore:
         for name, values in self.randomized.items():
             info[INFO_PREFIX + name] = values.copy()
         return obs, reward, success, info
-
-    def observe_one(self) -> tuple[Any, float, bool, dict[str, Any]]:
-        """:meth:`observe` of a core of one env (N = 1), unbatched: (observation of the env,
-        reward, success, info of the env's entries: Python scalars for per-env scalars, else
-        the env's arrays). The flat observation without imperfections comes from the task's
-        one-env path (``Task.observe_one``/``Task.evaluate_one``); otherwise row 0 of
-        :meth:`observe`."""
-        if self.num_envs != 1 or self.goal_conditioned or self.imperfections is not None:
-            obs, rewards, successes, batched = self.observe()
-            if self.goal_conditioned:
-                obs = {key: value[0] for key, value in obs.items()}
-            else:
-                obs = obs[0]
-            return obs, float(rewards[0]), bool(successes[0]), one_env_info(batched)
-        r = self._readings
-        task = self.task
-        flat = task.observe_one(r)
-        reward, success, info = task.evaluate_one(r)
-        info["tip"] = r.tip[0]
-        info["tensions"] = r.tensions[0]
-        info["cable_lengths"] = r.cable_lengths[0]
-        if r.anchor_tensions is not None:
-            info["anchor_tensions"] = r.anchor_tensions[0]
-        for name, values in self.randomized.items():
-            info[INFO_PREFIX + name] = values.item()
-        return flat, reward, success, info

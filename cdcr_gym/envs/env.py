@@ -11,7 +11,7 @@ import numpy as np
 from cdcr_gym import validation
 from cdcr_gym.backends.base import Backend
 from cdcr_gym.envs.core import EnvCore
-from cdcr_gym.tasks.base import Task
+from cdcr_gym.tasks.base import Task, one_env_info
 from cdcr_gym.tasks.reach import Reach
 
 __all__ = ["CDCREnv", "GoalCDCREnv", "ReachEnv", "GoalReachEnv"]
@@ -191,18 +191,27 @@ class CDCREnv(gym.Env):
         self.core.reset(
             _ONE, [self.np_random], options.get("initial_tensions"), options.get("goal")
         )
-        obs, _, _, info = self.core.observe_one()
+        obs, _, _, info = self._observe()
         if self.render_mode == "human":
             self.render()
         return obs, info
 
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
-        self.core.step_one(validation.clipped_action_values(action, self._action_shape))
-        obs, reward, success, info = self.core.observe_one()
+        self.core.step(validation.clipped_action(action, self._action_shape)[None])
+        obs, reward, success, info = self._observe()
         terminated = bool((self.terminate_on_success and success) or self.task.terminal()[0])
         if self.render_mode == "human":
             self.render()
         return obs, reward, terminated, False, info
+
+    def _observe(self) -> tuple[Any, float, bool, dict[str, Any]]:
+        """The core's outputs for its one env: (observation, reward, success, info)."""
+        obs, reward, success, info = self.core.observe()
+        if self.goal_conditioned:
+            obs = {key: value[0] for key, value in obs.items()}
+        else:
+            obs = obs[0]
+        return obs, float(reward[0]), bool(success[0]), one_env_info(info)
 
     def render(self) -> np.ndarray | None:
         if self.render_mode is None:

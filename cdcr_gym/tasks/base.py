@@ -18,20 +18,25 @@ import numpy as np
 from gymnasium import spaces
 
 from cdcr_gym.backends.base import Backend, Readings
-from cdcr_gym.envs.observation import Field, ObservationSpec
 from cdcr_gym.model.params import RobotParams
+from cdcr_gym.tasks.observation import Field, ObservationSpec
 
 __all__ = [
     "Task",
     "robot_state_fields",
     "fill_robot_state",
-    "robot_state_values",
     "one_env_info",
     "REWARD_TYPES",
+    "ERROR_SCALE",
+    "GoalTask",
+    "goal_distance",
 ]
 
 #: Reward types: dense (a negative cost each step) or sparse (−1 until success, then 0).
 REWARD_TYPES = ("dense", "sparse")
+
+#: Length scale (m) of the saturated error feature tanh((goal − tip)/ERROR_SCALE).
+ERROR_SCALE = 0.01
 
 
 def robot_state_fields(params: RobotParams) -> list[Field]:
@@ -91,30 +96,16 @@ def fill_robot_state(
 
 
 def goal_distance(achieved_goal: np.ndarray, desired_goal: np.ndarray) -> np.ndarray:
-    """Euclidean distance (m) between goal vectors (..., 3), in float64 (shape (...))."""
-    return np.linalg.norm(
-        np.asarray(achieved_goal, np.float64) - np.asarray(desired_goal, np.float64), axis=-1
-    )
+    """Euclidean distance (m) between points (..., 3), over the last axis, in float64 (shape
+    (...)): the one distance of every goal task (reward, success, ``info``, HER)."""
+    e = np.subtract(achieved_goal, desired_goal, dtype=np.float64)
+    return np.sqrt(np.add.reduce(e * e, axis=-1))
 
 
 def one_env_info(info: dict[str, np.ndarray]) -> dict[str, Any]:
     """Env 0's entries of a batched ``info`` (N = 1): a Python scalar for an (1,) entry, else
     the env's row (a view)."""
     return {key: value.item() if value.shape == (1,) else value[0] for key, value in info.items()}
-
-
-def robot_state_values(readings: Readings, scale: RobotStateScale) -> dict[str, list[float]]:
-    """The ``tensions`` and ``cable_lengths`` fields of env 0 as Python floats (the arithmetic of
-    :func:`fill_robot_state`, for tasks' one-env fast paths)."""
-    return {
-        "tensions": [t * scale.inv_max_tension for t in readings.tensions.ravel().tolist()],
-        "cable_lengths": [
-            (length - run) * inv
-            for length, run, inv in zip(
-                readings.cable_lengths.ravel().tolist(), scale.run_lengths_list, scale.inv_span_list
-            )
-        ],
-    }
 
 
 class Task(abc.ABC):
@@ -172,27 +163,12 @@ class Task(abc.ABC):
     def evaluate(self, readings: Readings) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
         """(reward (N,), success (N,) bool, task info entries of (N, ...) arrays)."""
 
-    def observe_one(self, readings: Readings) -> np.ndarray:
-        """The flat observation (spec size,) float32 of a task bound to one env (the single
-        env's hot path). Default: :meth:`observe` into a one-column buffer; a task may override
-        it with the same arithmetic in Python floats."""
-        out = np.empty((self.observation_spec(False).size, 1), dtype=np.float32)
-        self.observe(readings, out, False)
-        return out[:, 0]
-
-    def evaluate_one(self, readings: Readings) -> tuple[float, bool, dict[str, Any]]:
-        """(reward, success, info) of a task bound to one env: :meth:`evaluate`'s entries for
-        env 0 (a Python float or bool for a per-env scalar, else the env's array). Default:
-        :meth:`evaluate` and its row 0; a task may override it with the same arithmetic in
-        Python floats."""
-        reward, success, info = self.evaluate(readings)
-        return float(reward[0]), bool(success[0]), one_env_info(info)
-
-    @abc.abstractmethod
     def compute_reward(
         self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any = None
     ) -> np.ndarray:
-        """Goal-conditioned reward, vectorised over leading dimensions (for HER)."""
+        """Goal-conditioned reward, vectorised over leading dimensions (for HER); a task
+        without a goal-conditioned form (``goal_size == 0``) has none."""
+        raise NotImplementedError(f"the {type(self).__name__} task has no compute_reward")
 
     def goal_space(self) -> spaces.Box:
         """The Box of one achieved/desired goal (goal-conditioned form): by default a point,
@@ -221,3 +197,117 @@ class Task(abc.ABC):
     def render_markers(self, index: int = 0) -> dict[str, Any]:
         """What the renderer draws for env ``index`` besides the robot (e.g. ``goal``)."""
         return {}
+
+
+class GoalTask(Task):
+    """A task whose goal is a point for the tip (Reach, Pose, Obstacle; Track's moving target).
+
+    Owns, once for every such task: the goal arrays (:attr:`goal` (N, 3) m, a view of the
+    field-major rows :attr:`goal_rows` (3, N), updated in place), the position block of the
+    observation (fields ``tip``, the goal (:attr:`goal_name`), ``error`` = goal − tip and
+    ``error_tanh`` = tanh(error / :data:`ERROR_SCALE`), built by :meth:`position_fields` and
+    filled by :meth:`fill_position`), the distance (:func:`goal_distance`), the dense/sparse
+    reward of a distance (:meth:`reward_from_distance`) and :meth:`compute_reward`, vectorised
+    over the last axis so that HER can relabel batches.
+
+    Subclasses choose the field order (:meth:`fields`) and add their own fields
+    (:meth:`observe_extra`), and extend :meth:`evaluate`.
+    """
+
+    goal_size = 3
+    #: Name and description of the goal's observation field.
+    goal_name = "goal"
+    goal_description = "goal position x, y, z in R0"
+
+    reward_type = "dense"
+    distance_threshold = 0.005
+
+    def bind(self, params: RobotParams, num_envs: int) -> None:
+        super().bind(params, num_envs)
+        self.goal_rows = np.zeros((3, self.num_envs))
+        self.goal_rows[2] = params.length
+        self.goal = self.goal_rows.T  # (N, 3) view: observations copy contiguous rows
+        self._scale = RobotStateScale(params)
+        self._specs = {gc: ObservationSpec(self.fields(gc)) for gc in (False, True)}
+        self._slices = {gc: spec.slices for gc, spec in self._specs.items()}
+
+    # -- observation ----------------------------------------------------------------------------
+    def position_fields(self) -> dict[str, Field]:
+        """The position block's fields by name: ``tip``, the goal, ``error``, ``error_tanh``."""
+        ell = self.params.length
+        xyz = ("x", "y", "z")
+        goal = self.goal_name
+        return {
+            "tip": Field.uniform("tip", 3, -ell, ell, "m", "tip position x, y, z in R0", xyz),
+            goal: Field.uniform(goal, 3, -ell, ell, "m", self.goal_description, xyz),
+            "error": Field.uniform("error", 3, -2 * ell, 2 * ell, "m", f"{goal} − tip", xyz),
+            "error_tanh": Field.uniform(
+                "error_tanh", 3, -1.0, 1.0, "–", f"tanh(({goal} − tip) / {ERROR_SCALE} m)", xyz
+            ),
+        }
+
+    def fields(self, goal_conditioned: bool) -> list[Field]:
+        """The observation's fields in order (default, reach: the position block, then the
+        robot state; goal-conditioned: tip and robot state)."""
+        block = self.position_fields()
+        robot = robot_state_fields(self.params)
+        if goal_conditioned:
+            return [block["tip"], *robot]
+        return [*block.values(), *robot]
+
+    def observation_spec(self, goal_conditioned: bool) -> ObservationSpec:
+        return self._specs[goal_conditioned]
+
+    def fill_position(
+        self, out: np.ndarray, s: dict[str, slice], readings: Readings, goal_conditioned: bool
+    ) -> None:
+        """Write the position block of ``readings`` into the field-major buffer ``out``."""
+        tip = readings.tip.T
+        out[s["tip"]] = tip
+        if not goal_conditioned:
+            error = self.goal_rows - tip
+            out[s[self.goal_name]] = self.goal_rows
+            out[s["error"]] = error
+            np.tanh(error * (1.0 / ERROR_SCALE), out=out[s["error_tanh"]], casting="unsafe")
+
+    def observe(self, readings: Readings, out: np.ndarray, goal_conditioned: bool) -> None:
+        s = self._slices[goal_conditioned]
+        self.fill_position(out, s, readings, goal_conditioned)
+        self.observe_extra(readings, out, s, goal_conditioned)
+        fill_robot_state(out, s["tensions"], s["cable_lengths"], readings, self._scale)
+
+    def observe_extra(
+        self, readings: Readings, out: np.ndarray, s: dict[str, slice], goal_conditioned: bool
+    ) -> None:
+        """Write the task's own fields (default: none)."""
+
+    # -- reward ---------------------------------------------------------------------------------
+    def achieved_goal(self, readings: Readings) -> np.ndarray:
+        return readings.tip
+
+    def desired_goal(self) -> np.ndarray:
+        return self.goal
+
+    def reward_from_distance(self, distance: np.ndarray) -> np.ndarray:
+        """``"dense"``: −distance (m); ``"sparse"``: −1 while distance > distance_threshold,
+        else 0."""
+        if self.reward_type == "dense":
+            return -distance
+        return -((distance > self.distance_threshold) * 1.0)
+
+    def compute_reward(
+        self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any = None
+    ) -> np.ndarray:
+        return self.reward_from_distance(goal_distance(achieved_goal, desired_goal))
+
+    def evaluate(self, readings: Readings) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
+        distance = goal_distance(readings.tip, self.goal)
+        success = distance <= self.distance_threshold
+        info = {"distance": distance, "is_success": success, "goal": self.goal.copy(order="K")}
+        return self.reward_from_distance(distance), success, info
+
+    def info_keys(self) -> tuple[str, ...]:
+        return ("distance", "is_success", "goal")
+
+    def render_markers(self, index: int = 0) -> dict[str, Any]:
+        return {self.goal_name: self.goal[index].copy()}

@@ -8,7 +8,6 @@ import numpy as np
 
 from cdcr_gym import validation
 from cdcr_gym.backends.base import Backend, Readings
-from cdcr_gym.envs.observation import Field, ObservationSpec
 from cdcr_gym.model.ik import solve_ik
 from cdcr_gym.model.statics import cached_model
 from cdcr_gym.model.workspace import sample_tensions
@@ -21,6 +20,7 @@ from cdcr_gym.tasks.base import (
     robot_state_fields,
 )
 from cdcr_gym.tasks.collision import RobotGeometry, backend_geometry, clearance, model_geometry
+from cdcr_gym.tasks.observation import Field, ObservationSpec
 from cdcr_gym.tasks.reach import ERROR_SCALE
 
 __all__ = ["Obstacle", "ObstacleSceneError"]

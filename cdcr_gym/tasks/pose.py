@@ -9,7 +9,6 @@ from gymnasium import spaces
 
 from cdcr_gym import validation
 from cdcr_gym.backends.base import Backend, Readings
-from cdcr_gym.envs.observation import Field, ObservationSpec
 from cdcr_gym.model.ik import solve_pose_ik
 from cdcr_gym.model.workspace import sample_tensions_each
 from cdcr_gym.tasks.base import (
@@ -19,6 +18,7 @@ from cdcr_gym.tasks.base import (
     fill_robot_state,
     robot_state_fields,
 )
+from cdcr_gym.tasks.observation import Field, ObservationSpec
 from cdcr_gym.tasks.reach import ERROR_SCALE
 
 __all__ = ["Pose", "pose_errors"]

@@ -8,7 +8,6 @@ import numpy as np
 
 from cdcr_gym import validation
 from cdcr_gym.backends.base import Backend, Readings
-from cdcr_gym.envs.observation import Field, ObservationSpec
 from cdcr_gym.model.workspace import sample_tensions
 from cdcr_gym.tasks.base import (
     RobotStateScale,
@@ -17,6 +16,7 @@ from cdcr_gym.tasks.base import (
     goal_distance,
     robot_state_fields,
 )
+from cdcr_gym.tasks.observation import Field, ObservationSpec
 from cdcr_gym.tasks.reach import ERROR_SCALE
 
 __all__ = ["Track", "NOMINAL_TIMESTEP", "TargetPaths"]
