@@ -71,15 +71,21 @@ def per_cable(
 def action_array(action: Any, shape: tuple[int, ...]) -> np.ndarray:
     """An action of exactly ``shape`` as float64 (not yet clipped).
 
-    Fast for the common case (a float32/float64 numpy array); strings, complex numbers, dicts
-    and other non-real input raise.
+    Fast for the common case (a float32/float64 numpy array); bools, strings, complex numbers,
+    dicts and other non-real input raise.
 
     Raises:
         ValueError: naming ``action``.
     """
     if type(action) is np.ndarray and action.dtype.kind == "f" and action.shape == shape:
         arr = action.astype(np.float64)
-        if not np.isfinite(arr).all():
+        # a few numbers are checked faster one by one than by a numpy reduction
+        finite = (
+            all(map(math.isfinite, arr.ravel().tolist()))
+            if arr.size <= 16
+            else bool(np.isfinite(arr).all())
+        )
+        if not finite:
             raise ValueError(f"action must be finite, got {action!r}")
         return arr
     return real_array(action, "action", shape)
