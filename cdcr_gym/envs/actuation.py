@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cdcr_gym import validation
+from cdcr_gym import defaults, validation
 from cdcr_gym.model.chain import PCCModel
 from cdcr_gym.model.params import RobotParams
 from cdcr_gym.model.statics import reachable_scale
@@ -44,8 +44,8 @@ class Actuation:
         self,
         mode: str,
         params: RobotParams,
-        tension_step: float = 0.05,
-        length_step: float = 0.002,
+        tension_step: float = defaults.TENSION_STEP,
+        length_step: float = defaults.LENGTH_STEP,
     ) -> None:
         self.mode = validation.choice(mode, "action_mode", ACTION_MODES)
         self.tension_step = validation.positive(tension_step, "tension_step", upper=1.0)
