@@ -99,6 +99,9 @@ def clipped_action(action: Any, shape: tuple[int, ...]) -> np.ndarray:
     Raises:
         ValueError: naming ``action``.
     """
+    if type(action) is np.ndarray and action.dtype.kind == "f" and action.size <= 16:
+        # a few numbers are checked and clipped faster one by one than by numpy calls
+        return np.array(clipped_action_values(action, shape)).reshape(shape)
     arr = action_array(action, shape)
     np.maximum(arr, -1.0, out=arr)
     np.minimum(arr, 1.0, out=arr)
