@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import itertools
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
-from legacy import statics_v0 as old_statics
 
 from cdcr_gym.model import statics as S
 from cdcr_gym.model.chain import PCCModel
@@ -17,6 +17,8 @@ pytestmark = pytest.mark.filterwarnings("error")
 
 DEG = math.pi / 180.0
 PAPER = RobotParams()
+#: The legacy one-section model's outputs on fixed inputs (tests/data/write_legacy_arrays.py).
+OLD = np.load(Path(__file__).parent / "data" / "legacy_statics.npz")
 TDCR2 = RobotParams.preset("tdcr2")
 FOUR = SectionParams(
     length=0.15,
@@ -53,7 +55,11 @@ def _paper_arcs(n, seed):
 @pytest.mark.parametrize("pretension", [0.0, 5.0])
 def test_paper_tension_ik_equals_todays(pretension):
     theta, phi = _paper_arcs(2000, 0)
-    old_t, old_c = old_statics.tensions_from_arc(theta, phi, PAPER, pretension=pretension)
+    assert np.array_equal(theta, OLD["tension_ik_theta"]) and np.array_equal(
+        phi, OLD["tension_ik_phi"]
+    )
+    old_t = OLD[f"tensions_from_arc_{pretension:g}"]
+    old_c = OLD[f"clipped_{pretension:g}"]
     new_t, new_c = S.tensions_from_arc(theta, phi, PAPER, pretension=pretension)
     assert np.max(np.abs(new_t - old_t)) <= 1e-12
     assert np.array_equal(new_c, old_c) and old_c.any() and not old_c.all()
@@ -65,30 +71,21 @@ def test_paper_tension_ik_equals_todays(pretension):
 
 def test_paper_reachable_scale_limit_and_arc_from_tensions_equal_todays():
     theta, phi = _paper_arcs(2000, 1)
+    assert np.array_equal(theta, OLD["scale_theta"]) and np.array_equal(phi, OLD["scale_phi"])
     w = np.stack([theta * np.cos(phi), theta * np.sin(phi)], axis=-1)
-    stiffness = PAPER.bending_stiffness / (PAPER.cable_radius * PAPER.length)
-    old = old_statics._workspace_scale(w[:, 0], w[:, 1], stiffness, PAPER.max_tension)
     new = S.reachable_scale(PCCModel(PAPER), w[:, None, :])
-    assert np.max(np.abs(new - old)) <= 1e-12 and np.any(new < 1.0)
+    assert np.max(np.abs(new - OLD["workspace_scale"])) <= 1e-12 and np.any(new < 1.0)
     for p in (0.0, 3.0):
-        assert (
-            np.max(
-                np.abs(S.bending_limit(phi, PAPER, p) - old_statics.bending_limit(phi, PAPER, p))
-            )
-            <= 1e-12
-        )
+        assert np.max(np.abs(S.bending_limit(phi, PAPER, p) - OLD[f"bending_limit_{p:g}"])) <= 1e-12
     tensions = np.random.default_rng(2).uniform(0, 80, (500, 3))
-    for a, b in zip(
-        S.arc_from_tensions(tensions, PAPER), old_statics.arc_from_tensions(tensions, PAPER)
-    ):
+    assert np.array_equal(tensions, OLD["arc_tensions"])
+    for i, a in enumerate(S.arc_from_tensions(tensions, PAPER)):
+        b = OLD[f"arc_from_tensions_{i}"]
         assert np.max(np.abs(np.exp(1j * a) - np.exp(1j * b))) <= 1e-12 or np.allclose(a, b)
     assert np.allclose(
-        S.arc_from_tensions(tensions, PAPER)[0],
-        old_statics.arc_from_tensions(tensions, PAPER)[0],
-        rtol=0,
-        atol=1e-12,
+        S.arc_from_tensions(tensions, PAPER)[0], OLD["arc_from_tensions_0"], rtol=0, atol=1e-12
     )
-    assert np.allclose(S.CABLE_DIRECTIONS, old_statics.CABLE_DIRECTIONS, atol=1e-15)
+    assert np.allclose(S.CABLE_DIRECTIONS, OLD["cable_directions"], atol=1e-15)
 
 
 def _brute_minimal(vectors, moment):

@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
-from legacy import kinematics_v0 as old_kinematics
-from legacy import workspace_v0 as old_workspace
 
 from cdcr_gym.model import workspace as W
 from cdcr_gym.model.chain import PCCModel
@@ -15,32 +15,33 @@ pytestmark = pytest.mark.filterwarnings("error")
 
 PAPER = RobotParams()
 TDCR2 = RobotParams.preset("tdcr2")
+#: The legacy one-section model's outputs on fixed inputs (tests/data/write_legacy_arrays.py).
+OLD = np.load(Path(__file__).parent / "data" / "legacy_workspace.npz")
 
 
 def test_one_section_draws_are_todays():
-    a = old_workspace.sample_arcs(np.random.default_rng(9), 3000, PAPER)
     b = W.sample_arcs(np.random.default_rng(9), 3000, PAPER)
-    assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])
-    a = old_workspace.sample_arcs_each([np.random.default_rng(i) for i in range(40)], PAPER)
+    assert np.array_equal(OLD["sample_arcs_9_0"], b[0]) and np.array_equal(
+        OLD["sample_arcs_9_1"], b[1]
+    )
     b = W.sample_arcs_each([np.random.default_rng(i) for i in range(40)], PAPER)
-    assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])
+    assert np.array_equal(OLD["sample_arcs_each_0"], b[0])
+    assert np.array_equal(OLD["sample_arcs_each_1"], b[1])
     theta = np.linspace(0, 2, 50)
     phi = np.linspace(-3, 3, 50)
-    assert np.array_equal(W.area_density(theta), old_workspace.area_density(theta))
-    for x, y in zip(
-        W.clip_to_workspace(theta, phi, PAPER), old_workspace.clip_to_workspace(theta, phi, PAPER)
-    ):
+    assert np.array_equal(W.area_density(theta), OLD["area_density"])
+    for i, x in enumerate(W.clip_to_workspace(theta, phi, PAPER)):
+        y = OLD[f"clip_to_workspace_{i}"]
         assert np.allclose(x, y, rtol=0, atol=1e-12) and x.dtype == y.dtype
 
 
 def test_one_section_tension_samples_give_todays_goals_and_rng_state():
     model = PCCModel(PAPER)
-    rng_old, rng_new = np.random.default_rng(3), np.random.default_rng(3)
-    theta, phi = old_workspace.sample_arcs(rng_old, 500, PAPER)
+    rng_new = np.random.default_rng(3)
     tensions = W.sample_tensions(rng_new, PAPER, 500)
     tips = model.tip_from_bending(model.bending_from_tensions(tensions))
-    assert np.max(np.abs(tips - old_kinematics.tip_from_arc(theta, phi, PAPER.length))) <= 1e-12
-    assert rng_old.random() == rng_new.random()  # the same consumption
+    assert np.max(np.abs(tips - OLD["tips_3_500"])) <= 1e-12
+    assert rng_new.random() == OLD["next_random_3_500"]  # the same consumption
     assert np.all(tensions >= 0) and np.all(tensions <= PAPER.max_tension)
     assert np.all(np.min(tensions, axis=-1) == 0.0)  # minimal: one slack cable
 
