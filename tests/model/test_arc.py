@@ -12,7 +12,7 @@ from cdcr_gym.model import arc as A
 from cdcr_gym.model.params import RobotParams
 
 #: The legacy one-section model's outputs on fixed inputs (tests/data/write_legacy_arrays.py).
-OLD = np.load(Path(__file__).parent / "data" / "legacy_kinematics.npz")
+OLD = np.load(Path(__file__).parents[1] / "data" / "legacy_kinematics.npz")
 
 pytestmark = pytest.mark.filterwarnings("error")
 

@@ -18,7 +18,7 @@ pytestmark = pytest.mark.filterwarnings("error")
 PAPER = RobotParams()
 TDCR2 = RobotParams.preset("tdcr2")
 #: The legacy one-section model's outputs on fixed inputs (tests/data/write_legacy_arrays.py).
-OLD = np.load(Path(__file__).parent / "data" / "legacy_statics.npz")
+OLD = np.load(Path(__file__).parents[1] / "data" / "legacy_statics.npz")
 
 
 def test_paper_goals_on_the_reachable_surface_equal_todays_ik():
