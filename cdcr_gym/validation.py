@@ -99,7 +99,12 @@ def clipped_action(action: Any, shape: tuple[int, ...]) -> np.ndarray:
     Raises:
         ValueError: naming ``action``.
     """
-    if type(action) is np.ndarray and action.dtype.kind == "f" and action.size <= 16:
+    if (
+        type(action) is np.ndarray
+        and action.dtype.kind == "f"
+        and action.shape == shape
+        and action.size <= 16
+    ):
         # a few numbers are checked and clipped faster one by one than by numpy calls
         return np.array(clipped_action_values(action, shape)).reshape(shape)
     arr = action_array(action, shape)

@@ -38,7 +38,17 @@ def test_actions_of_real_numbers_are_clipped(dtype):
 
 
 @pytest.mark.parametrize(
-    "action", [np.array([True, False, True]), [0.0, np.nan, 0.0], "abc", [1j, 0, 0], [0.0, 0.0]]
+    "action",
+    [
+        np.array([True, False, True]),
+        [0.0, np.nan, 0.0],
+        "abc",
+        [1j, 0, 0],
+        [0.0, 0.0],
+        np.zeros(2, np.float32),
+        np.zeros((1, 3)),
+        np.array([0.0, np.inf, 0.0]),
+    ],
 )
 def test_bad_actions_name_action(action):
     with pytest.raises(ValueError, match="action"):
