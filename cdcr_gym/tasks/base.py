@@ -78,6 +78,8 @@ class RobotStateScale:
         self.inv_length_span = 1.0 / (np.pi * np.asarray(params.cable_radii) * (sections + 1))
         self.run_lengths_list = self.run_lengths.tolist()
         self.inv_span_list = self.inv_length_span.tolist()
+        self.inv_length_span_col = self.inv_length_span[:, None]  # (C, 1): per field row
+        self.run_lengths_col = self.run_lengths[:, None]
 
 
 def columns(values: np.ndarray, numbers: bool) -> list[Any]:
@@ -87,7 +89,7 @@ def columns(values: np.ndarray, numbers: bool) -> list[Any]:
 
 
 def robot_state_values(
-    readings: Readings, scale: RobotStateScale, numbers: bool
+    readings: Readings, scale: RobotStateScale, numbers: bool = True
 ) -> dict[str, list[Any]]:
     """The ``tensions`` and ``cable_lengths`` fields of ``readings``, as :func:`columns`."""
     inv_t = scale.inv_max_tension
@@ -113,9 +115,15 @@ def fill_robot_state(
 ) -> None:
     """Write the ``tensions`` and ``cable_lengths`` fields of ``readings`` into the field-major
     observation buffer ``out`` (size, N)."""
-    values = robot_state_values(readings, scale, False)
-    out[tension_slice] = values["tensions"]
-    out[length_slice] = values["cable_lengths"]
+    np.multiply(
+        readings.tensions.T, scale.inv_max_tension, out=out[tension_slice], casting="unsafe"
+    )
+    np.multiply(
+        readings.cable_lengths.T - scale.run_lengths_col,
+        scale.inv_length_span_col,
+        out=out[length_slice],
+        casting="unsafe",
+    )
 
 
 def _distance(a: list[Any], d: list[Any], sqrt: Any) -> Any:
@@ -127,11 +135,9 @@ def _distance(a: list[Any], d: list[Any], sqrt: Any) -> Any:
 def goal_distance(achieved_goal: np.ndarray, desired_goal: np.ndarray) -> np.ndarray:
     """Euclidean distance (m) between points (..., 3), over the last axis, in float64 (shape
     (...)): the one distance of every goal task (reward, success, ``info``, HER)."""
-    a = np.asarray(achieved_goal, dtype=np.float64)
-    d = np.asarray(desired_goal, dtype=np.float64)
-    return np.asarray(
-        _distance([a[..., k] for k in range(3)], [d[..., k] for k in range(3)], np.sqrt)
-    )
+    e = np.subtract(achieved_goal, desired_goal, dtype=np.float64)
+    e *= e
+    return np.sqrt(e[..., 0] + e[..., 1] + e[..., 2])
 
 
 def one_env_info(info: dict[str, np.ndarray]) -> dict[str, Any]:
@@ -237,14 +243,14 @@ class GoalTask(Task):
     Owns, once for every such task: the goal arrays (:attr:`goal` (N, 3) m, a view of the
     field-major rows :attr:`goal_rows` (3, N), updated in place), the position block of the
     observation (fields ``tip``, the goal (:attr:`goal_name`), ``error`` = goal − tip and
-    ``error_tanh`` = tanh(error / :data:`ERROR_SCALE`): :meth:`position_fields`), the filling
-    of the whole observation from named values (:meth:`observe`, :meth:`field_values`), the
-    distance (:func:`goal_distance`), the dense/sparse reward of a distance
+    ``error_tanh`` = tanh(error / :data:`ERROR_SCALE`): :meth:`position_fields`) and its
+    filling with the robot state (:meth:`observe`: for a batch as row blocks, for one env as
+    Python floats written at once, :meth:`common_values`), the distance (:func:`goal_distance`), the dense/sparse reward of a distance
     (:meth:`reward_from_distance`) and :meth:`compute_reward`, vectorised over the last axis so
     that HER can relabel batches, and the base of ``info`` (:meth:`evaluate`).
 
-    Subclasses choose the field order (:meth:`fields`), add the values of their own fields
-    (:meth:`extra_values`) and extend :meth:`evaluate`.
+    Subclasses choose the field order (:meth:`fields`), write their own fields
+    (:meth:`observe_extra`) and extend :meth:`evaluate`.
     """
 
     goal_size = 3
@@ -262,7 +268,18 @@ class GoalTask(Task):
         self.goal = self.goal_rows.T  # (N, 3) view of the rows
         self._scale = RobotStateScale(params)
         self._specs = {gc: ObservationSpec(self.fields(gc)) for gc in (False, True)}
-        self._names = {gc: spec.names for gc, spec in self._specs.items()}
+        self._slices = {gc: spec.slices for gc, spec in self._specs.items()}
+        common = set(self.position_fields()) | {"tensions", "cable_lengths"}
+        #: The position block's and robot state's field names (observation order) and rows.
+        self._common = {
+            gc: tuple(n for n in spec.names if n in common) for gc, spec in self._specs.items()
+        }
+        self._common_rows = {
+            gc: np.concatenate(
+                [np.arange(spec.slices[n].start, spec.slices[n].stop) for n in self._common[gc]]
+            )
+            for gc, spec in self._specs.items()
+        }
 
     # -- observation ----------------------------------------------------------------------------
     def position_fields(self) -> dict[str, Field]:
@@ -291,41 +308,49 @@ class GoalTask(Task):
     def observation_spec(self, goal_conditioned: bool) -> ObservationSpec:
         return self._specs[goal_conditioned]
 
-    def field_values(
-        self, readings: Readings, goal_conditioned: bool, numbers: bool
-    ) -> dict[str, list[Any]]:
-        """Every observation field's values by name, as :func:`columns` (numbers or rows)."""
-        tip = columns(readings.tip, numbers)
-        values = robot_state_values(readings, self._scale, numbers)
+    def observe(self, readings: Readings, out: np.ndarray, goal_conditioned: bool) -> None:
+        s = self._slices[goal_conditioned]
+        if out.shape[1] == 1:
+            # one env: the position block and the robot state on Python floats, written at once
+            values = self.common_values(readings, goal_conditioned)
+            out[self._common_rows[goal_conditioned], 0] = values
+        else:
+            self.fill_position(out, s, readings, goal_conditioned)
+            fill_robot_state(out, s["tensions"], s["cable_lengths"], readings, self._scale)
+        self.observe_extra(readings, out, s, goal_conditioned)
+
+    def common_values(self, readings: Readings, goal_conditioned: bool) -> list[float]:
+        """One env's position block and robot state (the fields of :meth:`position_fields` and
+        :func:`robot_state_fields`, in observation order) as Python floats: the arithmetic of
+        :meth:`fill_position` and :func:`fill_robot_state`, for one env."""
+        tip = readings.tip[0].tolist()
+        values = robot_state_values(readings, self._scale, True)
         values["tip"] = tip
         if not goal_conditioned:
-            goal = columns(self.goal, numbers)
+            goal = self.goal[0].tolist()
             error = [g - t for g, t in zip(goal, tip)]
-            tanh = math.tanh if numbers else np.tanh
             inv = 1.0 / ERROR_SCALE
             values[self.goal_name] = goal
             values["error"] = error
-            values["error_tanh"] = [tanh(e * inv) for e in error]
-        self.extra_values(readings, values, goal_conditioned, numbers)
-        return values
+            values["error_tanh"] = [math.tanh(e * inv) for e in error]
+        return list(chain.from_iterable(map(values.__getitem__, self._common[goal_conditioned])))
 
-    def extra_values(
-        self,
-        readings: Readings,
-        values: dict[str, list[Any]],
-        goal_conditioned: bool,
-        numbers: bool,
+    def fill_position(
+        self, out: np.ndarray, s: dict[str, slice], readings: Readings, goal_conditioned: bool
     ) -> None:
-        """Add the task's own fields to ``values`` (default: none)."""
+        """Write the position block of ``readings`` into the field-major buffer ``out``."""
+        tip = readings.tip.T
+        out[s["tip"]] = tip
+        if not goal_conditioned:
+            error = self.goal_rows - tip
+            out[s[self.goal_name]] = self.goal_rows
+            out[s["error"]] = error
+            np.tanh(error * (1.0 / ERROR_SCALE), out=out[s["error_tanh"]], casting="unsafe")
 
-    def observe(self, readings: Readings, out: np.ndarray, goal_conditioned: bool) -> None:
-        numbers = out.shape[1] == 1
-        values = self.field_values(readings, goal_conditioned, numbers)
-        flat = list(chain.from_iterable(map(values.__getitem__, self._names[goal_conditioned])))
-        if numbers:
-            out[:, 0] = flat
-        else:
-            np.stack(flat, out=out, casting="unsafe")
+    def observe_extra(
+        self, readings: Readings, out: np.ndarray, s: dict[str, slice], goal_conditioned: bool
+    ) -> None:
+        """Write the task's own fields into the field-major buffer ``out`` (default: none)."""
 
     # -- reward ---------------------------------------------------------------------------------
     def achieved_goal(self, readings: Readings) -> np.ndarray:

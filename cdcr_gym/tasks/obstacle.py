@@ -14,7 +14,6 @@ from cdcr_gym.model.workspace import sample_tensions
 from cdcr_gym.tasks.base import (
     REWARD_TYPES,
     GoalTask,
-    columns,
     goal_distance,
     robot_state_fields,
 )
@@ -272,20 +271,14 @@ class Obstacle(GoalTask):
         return np.zeros(self.num_envs, dtype=bool)
 
     # -- per step -------------------------------------------------------------------------------
-    def extra_values(
-        self,
-        readings: Readings,
-        values: dict[str, list[Any]],
-        goal_conditioned: bool,
-        numbers: bool,
+    def observe_extra(
+        self, readings: Readings, out: np.ndarray, s: dict[str, slice], goal_conditioned: bool
     ) -> None:
         n, k, ell = self.num_envs, self.max_obstacles, self.params.length
-        radii = self.obstacles[:, :, 3]
-        values["obstacle_centres"] = columns(self.obstacles[:, :, :3].reshape(n, 3 * k), numbers)
-        values["obstacle_radii"] = columns(radii, numbers)
-        values["obstacle_mask"] = columns((radii > 0.0) * 1.0, numbers)
-        clipped = np.clip(self.min_clearance, -ell, 2 * ell)[:, None]
-        values["min_clearance"] = columns(clipped, numbers)
+        out[s["obstacle_centres"]] = self.obstacles[:, :, :3].reshape(n, 3 * k).T
+        out[s["obstacle_radii"]] = self.obstacles[:, :, 3].T
+        out[s["obstacle_mask"]] = (self.obstacles[:, :, 3] > 0.0).T
+        out[s["min_clearance"]] = np.clip(self.min_clearance, -ell, 2 * ell)[None]
 
     def evaluate(self, readings: Readings) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
         distance = self.distance(readings)

@@ -11,7 +11,7 @@ from cdcr_gym import validation
 from cdcr_gym.backends.base import Backend, Readings
 from cdcr_gym.model.ik import solve_pose_ik
 from cdcr_gym.model.workspace import sample_tensions_each
-from cdcr_gym.tasks.base import REWARD_TYPES, GoalTask, columns, robot_state_fields
+from cdcr_gym.tasks.base import REWARD_TYPES, GoalTask, robot_state_fields
 from cdcr_gym.tasks.observation import Field
 
 __all__ = ["Pose", "pose_errors"]
@@ -165,19 +165,13 @@ class Pose(GoalTask):
         self.goal_direction[idx] = direction / np.linalg.norm(direction, axis=1, keepdims=True)
 
     # -- per step -------------------------------------------------------------------------------
-    def extra_values(
-        self,
-        readings: Readings,
-        values: dict[str, list[Any]],
-        goal_conditioned: bool,
-        numbers: bool,
+    def observe_extra(
+        self, readings: Readings, out: np.ndarray, s: dict[str, slice], goal_conditioned: bool
     ) -> None:
-        tip_direction = columns(readings.tip_direction, numbers)
-        values["tip_direction"] = tip_direction
+        out[s["tip_direction"]] = readings.tip_direction.T
         if not goal_conditioned:
-            goal_direction = columns(self.goal_direction, numbers)
-            values["goal_direction"] = goal_direction
-            values["direction_error"] = [g - t for g, t in zip(goal_direction, tip_direction)]
+            out[s["goal_direction"]] = self.goal_direction.T
+            out[s["direction_error"]] = (self.goal_direction - readings.tip_direction).T
 
     def achieved_goal(self, readings: Readings) -> np.ndarray:
         return np.concatenate([readings.tip, readings.tip_direction], axis=1)

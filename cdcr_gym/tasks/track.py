@@ -9,7 +9,7 @@ import numpy as np
 from cdcr_gym import validation
 from cdcr_gym.backends.base import Backend, Readings
 from cdcr_gym.model.workspace import sample_tensions
-from cdcr_gym.tasks.base import GoalTask, columns, robot_state_fields
+from cdcr_gym.tasks.base import GoalTask, robot_state_fields
 from cdcr_gym.tasks.observation import Field
 
 __all__ = ["Track", "NOMINAL_TIMESTEP", "TargetPaths"]
@@ -250,14 +250,10 @@ class Track(GoalTask):
         return np.stack([np.interp(u, np.arange(_TABLE + 1), table[:, a]) for a in range(3)], -1)
 
     # -- per step -------------------------------------------------------------------------------
-    def extra_values(
-        self,
-        readings: Readings,
-        values: dict[str, list[Any]],
-        goal_conditioned: bool,
-        numbers: bool,
+    def observe_extra(
+        self, readings: Readings, out: np.ndarray, s: dict[str, slice], goal_conditioned: bool
     ) -> None:
-        values["target_velocity"] = columns(self.velocity, numbers)
+        out[s["target_velocity"]] = self.velocity.T
 
     def evaluate(self, readings: Readings) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
         reward, success, info = super().evaluate(readings)
