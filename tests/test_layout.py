@@ -38,6 +38,7 @@ FORBIDDEN = {
 }
 
 
+@pytest.mark.slow  # ~17 s: one fresh interpreter per module
 def test_every_module_imports_first_in_a_fresh_interpreter():
     code = (
         "import importlib, subprocess, sys\n"
