@@ -381,7 +381,7 @@ class BulletBackend(Backend):
             )
         return q
 
-    def _reset_one(self, tensions: np.ndarray) -> None:
+    def _reset_robot(self, tensions: np.ndarray) -> None:
         """Put the chain at rest in its static equilibrium under ``tensions`` (C,) N.
 
         Sets q = :meth:`static_equilibrium` (tensions) and q̇ = 0 and the simulated
@@ -406,7 +406,7 @@ class BulletBackend(Backend):
         self._pose = self._points = None
         self.time += self.physics_timestep
 
-    def _apply_one(self, tensions: np.ndarray) -> None:
+    def _hold_tensions(self, tensions: np.ndarray) -> None:
         """Hold ``tensions`` (C,) N for one control step (``n_substeps`` physics steps,
         :meth:`ImplicitIntegrator.advance`).
 
@@ -550,7 +550,7 @@ class BulletBackend(Backend):
                 f"got {tensions!r}"
             ) from None
 
-    def _one(self, tensions: np.ndarray) -> np.ndarray:
+    def _robot_row(self, tensions: np.ndarray) -> np.ndarray:
         t = self._as_array(tensions)
         if t.ndim == 2 and t.shape[0] == 1:
             t = t[0]
@@ -560,11 +560,11 @@ class BulletBackend(Backend):
         """Rest in the static equilibrium under ``tensions`` (1, C) N (``mask`` (1,) bool)."""
         if mask is not None and not bool(np.asarray(mask).reshape(-1)[0]):
             return
-        self._reset_one(self._one(tensions))
+        self._reset_robot(self._robot_row(tensions))
 
     def apply_tensions(self, tensions: np.ndarray) -> None:
         """Hold ``tensions`` (1, C) N for one control step."""
-        self._apply_one(self._one(tensions))
+        self._hold_tensions(self._robot_row(tensions))
 
     def _direction(self, pose_rot: np.ndarray) -> np.ndarray:
         return self._to_base(pose_rot[-1][:, 2])
