@@ -4,19 +4,22 @@ from __future__ import annotations
 
 import itertools
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
-from legacy import statics_v0 as old_statics
 
 from cdcr_gym.model import statics as S
 from cdcr_gym.model.chain import PCCModel
 from cdcr_gym.model.params import RobotParams, SectionParams
+from cdcr_gym.params import CABLE_ANGLES
 
 pytestmark = pytest.mark.filterwarnings("error")
 
 DEG = math.pi / 180.0
 PAPER = RobotParams()
+#: The legacy one-section model's outputs on fixed inputs (tests/data/write_legacy_arrays.py).
+OLD = np.load(Path(__file__).parents[1] / "data" / "legacy_statics.npz")
 TDCR2 = RobotParams.preset("tdcr2")
 FOUR = SectionParams(
     length=0.15,
@@ -53,7 +56,11 @@ def _paper_arcs(n, seed):
 @pytest.mark.parametrize("pretension", [0.0, 5.0])
 def test_paper_tension_ik_equals_todays(pretension):
     theta, phi = _paper_arcs(2000, 0)
-    old_t, old_c = old_statics.tensions_from_arc(theta, phi, PAPER, pretension=pretension)
+    assert np.array_equal(theta, OLD["tension_ik_theta"]) and np.array_equal(
+        phi, OLD["tension_ik_phi"]
+    )
+    old_t = OLD[f"tensions_from_arc_{pretension:g}"]
+    old_c = OLD[f"clipped_{pretension:g}"]
     new_t, new_c = S.tensions_from_arc(theta, phi, PAPER, pretension=pretension)
     assert np.max(np.abs(new_t - old_t)) <= 1e-12
     assert np.array_equal(new_c, old_c) and old_c.any() and not old_c.all()
@@ -65,30 +72,21 @@ def test_paper_tension_ik_equals_todays(pretension):
 
 def test_paper_reachable_scale_limit_and_arc_from_tensions_equal_todays():
     theta, phi = _paper_arcs(2000, 1)
+    assert np.array_equal(theta, OLD["scale_theta"]) and np.array_equal(phi, OLD["scale_phi"])
     w = np.stack([theta * np.cos(phi), theta * np.sin(phi)], axis=-1)
-    stiffness = PAPER.bending_stiffness / (PAPER.cable_radius * PAPER.length)
-    old = old_statics._workspace_scale(w[:, 0], w[:, 1], stiffness, PAPER.max_tension)
     new = S.reachable_scale(PCCModel(PAPER), w[:, None, :])
-    assert np.max(np.abs(new - old)) <= 1e-12 and np.any(new < 1.0)
+    assert np.max(np.abs(new - OLD["workspace_scale"])) <= 1e-12 and np.any(new < 1.0)
     for p in (0.0, 3.0):
-        assert (
-            np.max(
-                np.abs(S.bending_limit(phi, PAPER, p) - old_statics.bending_limit(phi, PAPER, p))
-            )
-            <= 1e-12
-        )
+        assert np.max(np.abs(S.bending_limit(phi, PAPER, p) - OLD[f"bending_limit_{p:g}"])) <= 1e-12
     tensions = np.random.default_rng(2).uniform(0, 80, (500, 3))
-    for a, b in zip(
-        S.arc_from_tensions(tensions, PAPER), old_statics.arc_from_tensions(tensions, PAPER)
-    ):
+    assert np.array_equal(tensions, OLD["arc_tensions"])
+    for i, a in enumerate(S.arc_from_tensions(tensions, PAPER)):
+        b = OLD[f"arc_from_tensions_{i}"]
         assert np.max(np.abs(np.exp(1j * a) - np.exp(1j * b))) <= 1e-12 or np.allclose(a, b)
     assert np.allclose(
-        S.arc_from_tensions(tensions, PAPER)[0],
-        old_statics.arc_from_tensions(tensions, PAPER)[0],
-        rtol=0,
-        atol=1e-12,
+        S.arc_from_tensions(tensions, PAPER)[0], OLD["arc_from_tensions_0"], rtol=0, atol=1e-12
     )
-    assert np.allclose(S.CABLE_DIRECTIONS, old_statics.CABLE_DIRECTIONS, atol=1e-15)
+    assert np.allclose(S.CABLE_DIRECTIONS, OLD["cable_directions"], atol=1e-15)
 
 
 def _brute_minimal(vectors, moment):
@@ -204,3 +202,74 @@ def test_one_section_layouts_limit_is_the_tension_box_boundary():
 def test_bad_input_raises_value_error_naming_it(call, name):
     with pytest.raises(ValueError, match=name):
         call()
+
+
+# -- the one-section statics API (was tests/test_statics.py) -----------------------------------
+P = RobotParams()
+
+
+@pytest.mark.parametrize("cable", [0, 1, 2])
+@pytest.mark.parametrize("tension", [1.0, 10.0, 40.0, 80.0])
+def test_single_cable_bends_by_trl_over_ei_towards_that_cable(cable, tension):
+    tensions = np.zeros(3)
+    tensions[cable] = tension
+    theta, phi = S.arc_from_tensions(tensions, P)
+    assert theta == pytest.approx(tension * P.cable_radius * P.length / P.bending_stiffness)
+    assert np.angle(np.exp(1j * (phi - CABLE_ANGLES[cable]))) == pytest.approx(0.0, abs=1e-12)
+
+
+def test_common_mode_tension_does_not_bend():
+    rng = np.random.default_rng(0)
+    tensions = rng.uniform(0, 40, size=(100, 3))
+    extra = rng.uniform(0, 40, size=(100, 1))
+    t1, p1 = S.arc_from_tensions(tensions, P)
+    t2, p2 = S.arc_from_tensions(tensions + extra, P)
+    assert np.allclose(t1, t2, atol=1e-12)
+    assert np.allclose(np.exp(1j * p1), np.exp(1j * p2), atol=1e-9)
+    assert S.arc_from_tensions(np.full(3, 55.0), P)[0] == pytest.approx(0.0, abs=1e-12)
+
+
+@pytest.mark.parametrize("pretension", [0.0, 5.0])
+def test_tension_ik_reproduces_the_wanted_arc_with_non_negative_tensions(pretension):
+    rng = np.random.default_rng(1)
+    phi = rng.uniform(-np.pi, np.pi, 500)
+    theta = rng.uniform(0, 1, 500) * S.bending_limit(phi, P, pretension)
+    tensions, clipped = S.tensions_from_arc(theta, phi, P, pretension=pretension)
+    assert not clipped.any()
+    assert np.all(tensions >= pretension - 1e-12) and np.all(tensions <= P.max_tension + 1e-9)
+    # minimal: the cable opposite the bend carries only the pretension
+    assert np.allclose(tensions.min(axis=-1), pretension, atol=1e-9)
+    theta_back, phi_back = S.arc_from_tensions(tensions, P)
+    assert np.allclose(theta_back, theta, atol=1e-12)
+    assert np.allclose(np.exp(1j * phi_back), np.exp(1j * phi), atol=1e-9)
+
+
+def test_tension_ik_clips_and_reports_it():
+    tensions, clipped = S.tensions_from_arc(2.0, 0.0, P)  # beyond the 79° limit
+    assert clipped and tensions.max() == P.max_tension
+    _, clipped = S.tensions_from_arc(1.0, 0.0, P)
+    assert not clipped
+
+
+def test_bending_limit_matches_brute_force_over_the_tension_cube():
+    grid = np.linspace(0, P.max_tension, 41)
+    tensions = np.stack(np.meshgrid(grid, grid, grid, indexing="ij"), axis=-1).reshape(-1, 3)
+    theta, phi = S.arc_from_tensions(tensions, P)
+    limit = S.bending_limit(phi, P)
+    assert np.all(theta <= limit + 1e-9)  # no tension combination exceeds the limit
+    # the limit is attained at the hexagon's vertices (one or two cables at the maximum)
+    for k in range(6):
+        vertex = np.radians(60 * k)
+        assert S.bending_limit(vertex, P) == pytest.approx(P.max_bending_angle)
+        assert S.bending_limit(vertex + np.radians(30), P) == pytest.approx(
+            P.max_bending_angle * np.cos(np.radians(30))
+        )
+
+
+def test_bad_input():
+    with pytest.raises(ValueError, match="tensions"):
+        S.arc_from_tensions([1.0, np.nan, 0.0], P)
+    with pytest.raises(ValueError, match="pretension"):
+        S.tensions_from_arc(0.5, 0.0, P, pretension=-1.0)
+    with pytest.raises(ValueError, match="pretension"):
+        S.bending_limit(0.0, P, pretension=80.0)

@@ -44,7 +44,7 @@ pytestmark = pytest.mark.filterwarnings("error")
 
 P = RobotParams()
 ELL = P.length
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 TILTED = (0.3, 0.1, 0.2, math.sqrt(1.0 - 0.14))  # an arbitrary base orientation
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cdcr_gym.envs.observation import Field, ObservationSpec
+from cdcr_gym.tasks.observation import Field, ObservationSpec
 
 
 def _spec():

@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
-from legacy import kinematics_v0 as old
 
 from cdcr_gym.model import arc as A
 from cdcr_gym.model.params import RobotParams
+
+#: The legacy one-section model's outputs on fixed inputs (tests/data/write_legacy_arrays.py).
+OLD = np.load(Path(__file__).parents[1] / "data" / "legacy_kinematics.npz")
 
 pytestmark = pytest.mark.filterwarnings("error")
 
@@ -26,35 +29,27 @@ def _arcs(n, seed):
 
 def test_public_functions_equal_todays_kinematics():
     theta, phi = _arcs(2000, 0)
-    lengths = old.lengths_from_arc(theta, phi, ELL, R)
+    assert np.array_equal(theta, OLD["theta"]) and np.array_equal(phi, OLD["phi"])
+    lengths = OLD["lengths_from_arc"]
     assert np.max(np.abs(A.lengths_from_arc(theta, phi, ELL, R) - lengths)) <= 1e-15
-    assert (
-        np.max(np.abs(A.tip_from_arc(theta, phi, ELL) - old.tip_from_arc(theta, phi, ELL))) <= 1e-15
-    )
-    assert (
-        np.max(np.abs(A.forward_kinematics(lengths, R) - old.forward_kinematics(lengths, R)))
-        <= 1e-15
-    )
-    for a, b in zip(A.arc_from_lengths(lengths, R), old.arc_from_lengths(lengths, R)):
-        assert np.allclose(a, b, rtol=0, atol=1e-12)
-    assert np.max(np.abs(A.tip_rotation(theta, phi) - old.tip_rotation(theta, phi))) <= 1e-15
-    assert np.max(np.abs(A.tip_pose(theta, phi, ELL) - old.tip_pose(theta, phi, ELL))) <= 1e-15
-    assert (
-        np.max(
-            np.abs(
-                A.backbone_points(theta[:50], phi[:50], ELL, 9)
-                - old.backbone_points(theta[:50], phi[:50], ELL, 9)
-            )
-        )
-        <= 1e-15
-    )
+    assert np.max(np.abs(A.tip_from_arc(theta, phi, ELL) - OLD["tip_from_arc"])) <= 1e-15
+    assert np.max(np.abs(A.forward_kinematics(lengths, R) - OLD["forward_kinematics"])) <= 1e-15
+    for i, a in enumerate(A.arc_from_lengths(lengths, R)):
+        assert np.allclose(a, OLD[f"arc_from_lengths_{i}"], rtol=0, atol=1e-12)
+    assert np.max(np.abs(A.tip_rotation(theta, phi) - OLD["tip_rotation"])) <= 1e-15
+    assert np.max(np.abs(A.tip_pose(theta, phi, ELL) - OLD["tip_pose"])) <= 1e-15
+    points_50 = A.backbone_points(theta[:50], phi[:50], ELL, 9)
+    assert np.max(np.abs(points_50 - OLD["backbone_points_50_9"])) <= 1e-15
     points = np.random.default_rng(1).uniform([-0.6, -0.6, -0.2], [0.6, 0.6, 0.7], (300, 3))
-    points = np.concatenate([points, old.tip_from_arc(theta * 0.999, phi, ELL)])
-    for a, b in zip(A.arc_from_tip(points, ELL), old.arc_from_tip(points, ELL)):
-        assert np.allclose(a, b, rtol=0, atol=1e-12)
+    assert np.array_equal(points, OLD["points"][:300])
+    points = OLD["points"]
+    for i, a in enumerate(A.arc_from_tip(points, ELL)):
+        assert np.allclose(a, OLD[f"arc_from_tip_{i}"], rtol=0, atol=1e-12)
     got = A.inverse_kinematics(points, ELL, R, return_residual=True)
-    want = old.inverse_kinematics(points, ELL, R, return_residual=True)
-    assert all(np.allclose(a, b, rtol=0, atol=1e-12) for a, b in zip(got, want))
+    assert all(
+        np.allclose(a, OLD[f"inverse_kinematics_{i}"], rtol=0, atol=1e-12)
+        for i, a in enumerate(got)
+    )
 
 
 def test_arc_profile_is_exact_at_zero_and_matches_the_definition():

@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
-from legacy import kinematics_v0 as old_kinematics
-from legacy import statics_v0 as old_statics
 
-from cdcr_gym.model import ik
+from cdcr_gym.model import arc, ik
 from cdcr_gym.model.chain import PCCModel
 from cdcr_gym.model.params import RobotParams
 from cdcr_gym.model.statics import bending_limit
@@ -17,14 +17,16 @@ pytestmark = pytest.mark.filterwarnings("error")
 
 PAPER = RobotParams()
 TDCR2 = RobotParams.preset("tdcr2")
+#: The legacy one-section model's outputs on fixed inputs (tests/data/write_legacy_arrays.py).
+OLD = np.load(Path(__file__).parents[1] / "data" / "legacy_statics.npz")
 
 
 def test_paper_goals_on_the_reachable_surface_equal_todays_ik():
     theta, phi = sample_arcs(np.random.default_rng(0), 500, PAPER)
-    goals = old_kinematics.tip_from_arc(theta, phi, PAPER.length)
+    goals = OLD["ik_goals"]  # the legacy tip_from_arc(theta, phi)
+    assert np.max(np.abs(arc.tip_from_arc(theta, phi, PAPER.length) - goals)) <= 1e-15
     sol = ik.solve_ik(goals, PAPER)
-    th_old, ph_old, _ = old_kinematics.arc_from_tip(goals, PAPER.length)
-    t_old, _ = old_statics.tensions_from_arc(th_old, ph_old, PAPER)
+    t_old = OLD["ik_tensions"]  # the legacy tension IK of the legacy arc_from_tip(goals)
     assert np.max(np.abs(sol.tensions - t_old)) <= 1e-9
     assert np.max(sol.residual) <= 1e-12
     assert np.max(np.linalg.norm(sol.tip - goals, axis=-1)) <= 1e-12
@@ -35,7 +37,7 @@ def _brute_nearest_reachable(goal, n_theta=600, n_phi=1440):
     phi = np.linspace(-np.pi, np.pi, n_phi, endpoint=False)
     frac = np.linspace(0.0, 1.0, n_theta)
     theta = frac[:, None] * bending_limit(phi, PAPER)[None, :]
-    tips = old_kinematics.tip_from_arc(theta, np.broadcast_to(phi, theta.shape), PAPER.length)
+    tips = arc.tip_from_arc(theta, np.broadcast_to(phi, theta.shape), PAPER.length)
     return np.min(np.linalg.norm(tips - goal, axis=-1))
 
 
@@ -58,8 +60,8 @@ def test_paper_goals_off_the_region_project_within_the_tension_limit():
     assert np.all(theta[:, 0] <= bending_limit(phi[:, 0], PAPER) * (1 + 1e-12))
     assert np.allclose(sol.residual, np.linalg.norm(sol.tip - goals, axis=-1), atol=1e-15)
     # today's projection overshoots the limit for the first three (the examples)
-    th_old, ph_old, _ = old_kinematics.arc_from_tip(goals[:3], PAPER.length)
-    assert np.all(th_old > old_statics.bending_limit(ph_old, PAPER))
+    assert np.array_equal(OLD["far_goals"], goals[:3])
+    assert np.all(OLD["far_theta"] > OLD["far_limit"])
     step = PAPER.length * np.max(bending_limit(np.linspace(0, 7, 50), PAPER)) / 600
     for goal, res in zip(goals, sol.residual):
         brute = _brute_nearest_reachable(goal)

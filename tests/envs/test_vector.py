@@ -1,8 +1,9 @@
 """The batched CCKA env against a SyncVectorEnv of single envs, and its SB3 adapter.
 
 Equivalence: same seeds and actions give the same observations, rewards, terminations,
-truncations and infos (to float rounding: the single env runs the kernels on Python floats, the
-batched one on arrays), across autoresets, in every action mode. No timing here: throughput is
+truncations and infos (to float rounding: a one-env core computes on Python floats where a batch
+computes on rows, the same arithmetic, but a matrix product may sum in another order), across
+autoresets, in every action mode. No timing here: throughput is
 measured by ``python -m training.bench``.
 """
 
@@ -416,9 +417,9 @@ def test_bench_table_and_checks_format():
 
 @pytest.mark.parametrize("action_mode", ["tension_delta", "tension"])
 @pytest.mark.parametrize("robot", ["paper", "tdcr2"])
-def test_single_env_fast_path_equals_batched_rows(robot, action_mode):
-    """The single env's one-env lane (Python floats through actuation, model and the Reach task:
-    EnvCore.step_one/observe_one) gives the batched env's numbers and info entries."""
+def test_single_env_equals_batched_rows(robot, action_mode):
+    """The single env (the core at N = 1) gives the batched env's numbers and info entries,
+    with Python scalars for the per-env scalars."""
     single = gym.make("cdcr_gym/CCKAReach-v0", robot=robot, action_mode=action_mode)
     vec = gym.make_vec(
         "cdcr_gym/CCKAReach-v0",
