@@ -23,7 +23,13 @@ def _names(requirements):
 
 
 def test_core_dependencies_are_the_env_stack_only():
-    assert _names(PYPROJECT["project"]["dependencies"]) == {"numpy", "gymnasium", "pybullet"}
+    assert _names(PYPROJECT["project"]["dependencies"]) == {
+        "numpy",
+        "gymnasium",
+        "pybullet",
+        "mujoco",
+        "scipy",
+    }
 
 
 def test_extras():

@@ -128,7 +128,7 @@ def test_bullet_envs_refuse_pickle_and_deepcopy_but_subproc_vec_env_works():
 
 # 5. the bench's default config was relative to the working directory -------------------------
 def test_bench_default_config_does_not_depend_on_the_working_directory(tmp_path, monkeypatch):
-    from training import bench
+    from training.studies import bench
 
     monkeypatch.chdir(tmp_path)
     assert bench.DEFAULT_CONFIG.is_absolute() and bench.DEFAULT_CONFIG.is_file()
@@ -138,7 +138,7 @@ def test_bench_default_config_does_not_depend_on_the_working_directory(tmp_path,
 
 
 def test_bench_unwritable_out_fails_before_benchmarking(tmp_path, capsys):
-    from training import bench
+    from training.studies import bench
 
     blocker = tmp_path / "file"
     blocker.write_text("x")
@@ -197,7 +197,7 @@ def _unwritable(monkeypatch):
 
 
 def test_train_into_a_path_below_a_file_is_exit_2_naming_run_dir(tmp_path, capsys):
-    from training import train
+    from training.run import train
 
     (tmp_path / "afile").write_text("x")
     target = tmp_path / "afile" / "run"
@@ -209,7 +209,7 @@ def test_train_into_a_path_below_a_file_is_exit_2_naming_run_dir(tmp_path, capsy
 def test_train_into_a_read_only_directory_is_exit_2_and_creates_nothing(
     tmp_path, capsys, monkeypatch
 ):
-    from training import train
+    from training.run import train
 
     _unwritable(monkeypatch)
     target = tmp_path / "runs" / "run"

@@ -180,7 +180,7 @@ def test_randomized_bullet_robot_acts_like_the_robot_built_with_those_parameters
 
 
 def test_capstan_prediction_of_the_hysteresis_study():
-    from training.hysteresis import capstan_equilibrium
+    from training.studies.hysteresis import capstan_equilibrium
 
     b = BulletBackend(gravity=False)
     try:
