@@ -594,20 +594,29 @@ class MuJoCoBackend(Backend):
             self._mu[idx] = mu
             self._report_anchors = True
         for j, i in enumerate(idx):
-            model = None
-            if "youngs_modulus" in values:
-                ratio = float(values["youngs_modulus"][j]) / self.params.youngs_modulus
-                model = self._own_model(i)
-                model.jnt_stiffness[:] = self._nominal_stiffness * ratio
-                k = model.jnt_stiffness[model.dof_jntid]
-                model.dof_damping[:] = self.damping_time / math.sqrt(ratio) * k
             if "gravity" in values:
                 on = bool(values["gravity"][j] > 0.5)
+                self._own_model(i).opt.gravity[:] = self.gravity_in_base if on else 0.0
+            if "youngs_modulus" in values or "tip_payload" in values:
                 model = self._own_model(i)
-                model.opt.gravity[:] = self.gravity_in_base if on else 0.0
-            if "tip_payload" in values:
-                model = self._own_model(i)
-                self._set_payload(model, float(values["tip_payload"][j]))
+                if "youngs_modulus" in values:
+                    ratio = float(values["youngs_modulus"][j]) / self.params.youngs_modulus
+                    model.jnt_stiffness[:] = self._nominal_stiffness * ratio
+                if "tip_payload" in values:
+                    self._set_payload(model, float(values["tip_payload"][j]))
+                self._tune_damping(model)
+
+    def _tune_damping(self, model: Any) -> None:
+        """D = β·K with β = 2ζ/ω₁ of ``model``'s own first bending mode (its stiffness and
+        masses), so that every randomised robot keeps the damping ratio ζ."""
+        mj, data = self._mj, self._scratch
+        mj.mj_resetData(model, data)
+        mj.mj_forward(model, data)
+        mass = np.zeros((model.nv, model.nv))
+        mj.mj_fullM(model, data, mass)
+        k = model.jnt_stiffness[model.dof_jntid]
+        first, _ = bending_modes(mass, k)
+        model.dof_damping[:] = 2.0 * self.damping_ratio / first * k
 
     def _set_payload(self, model: Any, payload: float) -> None:
         """The tip link's mass, COM and inertia with ``payload`` kg at the tip disk centre."""
