@@ -162,6 +162,7 @@ class MuJoCoBackend(Backend):
         self._rollout: Any = None
         self._build(segment_tendons=self.friction_coefficient > 0.0)
         self._report_anchors = self.friction_coefficient > 0.0
+        self._rough = self.friction_coefficient > 0.0  # any robot with μ > 0
         #: Per-robot friction coefficient μ (N,) and slip state s (N, C).
         self._mu = np.full(self.num_robots, self.friction_coefficient)
         self.slip = np.zeros((self.num_robots, params.n_cables))
@@ -271,7 +272,7 @@ class MuJoCoBackend(Backend):
         """:meth:`_check_tensions` of (N, C) tensions, cheap for a float array (every step)."""
         if type(tensions) is np.ndarray and tensions.shape == self._tensions.shape:
             t = tensions.astype(np.float64)  # a copy
-            if t.min() >= 0.0 and t.max() <= self.params.max_tension:  # NaN fails
+            if 0.0 <= t.min() and t.max() <= self.params.max_tension:  # NaN fails
                 return t
         return self._check_tensions(tensions, self.num_robots)
 
@@ -359,26 +360,30 @@ class MuJoCoBackend(Backend):
         t = self._fast_tensions(tensions)
         self._tensions = t
         n_pull = self._n_pull
-        rough = bool(np.any(self._mu > 0.0))
-        if rough:
+        self.time += self.control_timestep
+        if self._rough:
             self._step_with_friction(t)
+            for i in range(self.num_robots):
+                self._check_state(i)
         elif self.threads is None:
-            advance = self._advance
+            advance, check, sense, n_sub = (
+                self._advance,
+                self._check_state,
+                self._sense,
+                self.n_substeps,
+            )
             for i, data in enumerate(self._datas):
                 data.ctrl[:n_pull] = t[i]
-                advance(self._models[i], data, self.n_substeps)
+                advance(self._models[i], data, n_sub)
+                check(i)
+                sense(i)
         else:
             for data, row in zip(self._datas, t):
                 data.ctrl[:n_pull] = row
             self._rollout_step()
-        self.time += self.control_timestep
-        if not rough:
             for i in range(self.num_robots):
                 self._check_state(i)
                 self._sense(i)
-        else:
-            for i in range(self.num_robots):
-                self._check_state(i)
 
     def _advance(self, model: Any, data: Any, n_steps: int) -> None:
         """``n_steps`` MuJoCo steps of one robot, leaving ``data`` with the position and
@@ -592,6 +597,7 @@ class MuJoCoBackend(Backend):
             if np.any(mu > 0.0) and not self._has_segments:
                 self._rebuild_with_segments()
             self._mu[idx] = mu
+            self._rough = bool(np.any(self._mu > 0.0))
             self._report_anchors = True
         for j, i in enumerate(idx):
             if "gravity" in values:
