@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import json
 import math
+from pathlib import Path
 
 import gymnasium as gym
 import mujoco
@@ -212,6 +214,33 @@ def test_default_is_within_half_a_percent_of_the_converged_chain(robot, gravity)
         np.max(np.linalg.norm(coarse.equilibrium(cases).tip - ref.equilibrium(cases).tip, axis=1))
         > 0.01 * params.length
     )
+
+
+COSSERAT_REFERENCE = (
+    Path(__file__).resolve().parents[1] / "docs/figures/physics/cosserat_reference.json"
+)
+
+
+@pytest.mark.skipif(
+    not COSSERAT_REFERENCE.exists(),
+    reason="the Cosserat reference (training.cosserat_reference, branch cosserat) is not merged",
+)
+def test_default_is_within_half_a_percent_of_the_cosserat_reference():
+    """Every case of the committed Cosserat-rod reference (its robot, gravity and tensions):
+    the default MuJoCo env's settled tip within 0.5 % of ℓ of the rod's."""
+    cases = json.loads(COSSERAT_REFERENCE.read_text())["cases"]
+    assert cases
+    groups: dict = {}
+    for case in cases:
+        groups.setdefault((case["robot"], bool(case["gravity"])), []).append(case)
+    for (robot, gravity), group in groups.items():
+        params = RobotParams.preset(robot)
+        tensions = np.array([c["tensions"] for c in group], dtype=float)
+        if tensions.max() > params.max_tension:
+            continue  # outside the env's action range
+        ours = MuJoCoBackend(params, gravity=gravity).equilibrium(tensions).tip
+        error = np.linalg.norm(ours - np.array([c["tip"] for c in group]), axis=1)
+        assert np.all(error <= 0.005 * params.length), (robot, gravity, error / params.length)
 
 
 # -- friction -----------------------------------------------------------------------------------
@@ -434,6 +463,30 @@ def test_ids_pass_the_env_checkers_and_render_headless(env_id, kwargs):
     image = env.render()
     assert image.shape == (480, 480, 3) and image.dtype == np.uint8 and image.std() > 0
     env.close()
+
+
+def test_documented_defaults_match_the_signature():
+    import inspect
+    import re
+
+    doc = inspect.getdoc(MuJoCoBackend)
+    for name, parameter in inspect.signature(MuJoCoBackend.__init__).parameters.items():
+        if name in ("self", "params"):
+            continue
+        entry = re.search(rf"^\s*{name}:(.*?)(?=^\s*\w+:|\Z)", doc, flags=re.M | re.S)
+        assert entry, f"{name} is documented"
+        text = " ".join(entry.group(1).split())
+        match = re.search(r"\(default:? ``([^`]+)``", text) or re.search(
+            r"\(default:? ([^\s,:;)]+)", text
+        )
+        if match is None:
+            match = re.search(r"``(True|False)`` \(default\)", text)
+        assert match, f"{name}: no default stated"
+        import ast
+
+        stated = re.sub(r"\s*s$", "", match.group(1))
+        value = ast.literal_eval(stated)
+        assert value == parameter.default, (name, value, parameter.default)
 
 
 def test_pose_defaults_to_tdcr2_and_bad_keywords_are_named():

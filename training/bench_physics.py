@@ -16,21 +16,25 @@ bullet's 0.01 s) and the batched ``make_vec(..., num_envs=64, vectorization_mode
 "vector_entry_point")`` (env steps = 64 × vector steps). Targets of issue 21: ≥ 3×, ≥ 8×, ≥ 6×.
 
 **Accuracy** (``--accuracy``). The settled tip (each backend's static equilibrium, which its
-dynamics reach exactly) under held tensions — one cable at 25/50/75/100 % of ``max_tension``,
-and a pair (100 % and 50 %) — for the paper robot and tdcr2, gravity off and on, against a
-reference: ``--reference FILE.json`` if given, else the converged discrete-disk chain
-(eight ball-jointed links per span, cable straight between pinholes; see
-``docs/mujoco_backend.md``). Rows: MuJoCo discretisations (joint, routing, links per span) with
-their steps/s on the paper robot's Reach env.
+dynamics reach exactly) against a reference, for the paper robot and tdcr2, gravity off and
+on. The reference is the Cosserat-rod JSON (``docs/figures/physics/cosserat_reference.json``,
+its cases' ``robot``, ``gravity``, ``tensions`` and ``tip``; another file with
+``--reference FILE.json``) when it exists; else the converged discrete-disk chain (eight
+ball-jointed links per span, cable straight between pinholes, ≈ 0.5 mm from the rod on the
+paper robot) under held tensions — one cable at 25/50/75/100 % of ``max_tension``, and a pair
+(100 % and 50 %). Rows: MuJoCo discretisations (joint, routing, links per span) with their
+steps/s on the paper robot's Reach env.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import platform
 import statistics
 import time
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
@@ -39,7 +43,7 @@ import numpy as np
 import cdcr_gym  # noqa: F401  (registers the ids)
 from cdcr_gym.params import RobotParams
 
-__all__ = ["main", "speed_table", "accuracy_table", "CASES_DOC"]
+__all__ = ["main", "speed_table", "accuracy_table", "load_reference", "CASES_DOC"]
 
 CASES_DOC = "one cable at 25/50/75/100 % of max_tension, and a pair at 100 % + 50 %"
 
@@ -182,18 +186,58 @@ def _reference_tips(params: RobotParams, gravity: bool, cases: np.ndarray) -> np
         ref.close()
 
 
-def accuracy_table(quick: bool = False, repeats: int = 3, steps: int = 300) -> list[dict[str, Any]]:
-    """Rows per discretisation: max tip error (m and % of ℓ) per (robot, gravity), and the
-    paper robot's Reach steps/s."""
-    from cdcr_gym.backends.mujoco import MuJoCoBackend
+#: The Cosserat reference of the repository (written by ``training.cosserat_reference``).
+REFERENCE_PATH = (
+    Path(__file__).resolve().parents[1] / "docs/figures/physics/cosserat_reference.json"
+)
 
-    configs = CONFIGS[::2] if quick else CONFIGS
+
+def load_reference(
+    path: Path,
+) -> dict[tuple[str, bool], tuple[RobotParams, np.ndarray, np.ndarray]]:
+    """The reference cases of a JSON file grouped by (robot, gravity): (params, tensions (M, C)
+    N, tips (M, 3) m)."""
+    cases = json.loads(Path(path).read_text())["cases"]
+    groups: dict[tuple[str, bool], list[dict[str, Any]]] = {}
+    for case in cases:
+        groups.setdefault((case["robot"], bool(case["gravity"])), []).append(case)
+    return {
+        key: (
+            RobotParams.preset(key[0]),
+            np.array([c["tensions"] for c in group], dtype=float),
+            np.array([c["tip"] for c in group], dtype=float),
+        )
+        for key, group in sorted(groups.items())
+    }
+
+
+def chain_reference() -> dict[tuple[str, bool], tuple[RobotParams, np.ndarray, np.ndarray]]:
+    """The fallback reference: :func:`tension_cases` on the converged chain."""
     refs = {}
     for robot in ("paper", "tdcr2"):
         params = RobotParams.preset(robot)
         cases = tension_cases(params)
         for gravity in (False, True):
             refs[robot, gravity] = (params, cases, _reference_tips(params, gravity, cases))
+    return refs
+
+
+def accuracy_table(
+    quick: bool = False, repeats: int = 3, steps: int = 300, reference: Path | None = None
+) -> tuple[str, list[dict[str, Any]]]:
+    """(reference name, rows): per discretisation the max tip error (m and % of ℓ) per (robot,
+    gravity), and the paper robot's Reach steps/s."""
+    from cdcr_gym.backends.mujoco import MuJoCoBackend
+
+    configs = CONFIGS[::2] if quick else CONFIGS
+    if reference is None and REFERENCE_PATH.exists():
+        reference = REFERENCE_PATH
+    if reference is not None:
+        refs = load_reference(reference)
+        name = f"Cosserat rod, {reference}"
+    else:
+        refs = chain_reference()
+        name = f"ball joints, 8 links per span, straight routing; tensions: {CASES_DOC}"
     rows = []
     timers = {}
     for joint, routing, m in configs:
@@ -223,7 +267,7 @@ def accuracy_table(quick: bool = False, repeats: int = 3, steps: int = 300) -> l
         row["steps/s"] = statistics.median(
             samples[row["joint"], row["routing"], row["links_per_span"]]
         )
-    return rows
+    return name, rows
 
 
 def _machine() -> str:
@@ -250,12 +294,15 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--steps", type=int, default=400)
     parser.add_argument("--accuracy", action="store_true", help="the convergence table")
     parser.add_argument("--quick", action="store_true", help="fewer rows (accuracy)")
+    parser.add_argument("--reference", type=Path, default=None, help="reference JSON (accuracy)")
     args = parser.parse_args(argv)
     print(f"machine: {_machine()}")
     if args.accuracy:
-        rows = accuracy_table(args.quick, max(1, args.repeats // 2), args.steps)
+        name, rows = accuracy_table(
+            args.quick, max(1, args.repeats // 2), args.steps, args.reference
+        )
         keys = [k for k in rows[0] if " g=" in k]
-        print(f"tensions: {CASES_DOC}; reference: ball joints, 8 links per span, straight routing")
+        print(f"reference: {name}")
         print("| joint | routing | links/span | " + " | ".join(keys) + " | steps/s (paper) |")
         print("|---|---|---|" + "---|" * len(keys) + "---|")
         for row in rows:

@@ -57,24 +57,25 @@ class MuJoCoBackend(Backend):
         params: the robot (:class:`~cdcr_gym.params.RobotParams`; default: the paper's), any
             number of sections. Rejected (``ValueError``) if its disk spans buckle with every
             cable at ``max_tension`` (``cdcr_gym.backends.bullet.chain.check_span_buckling``).
-        num_robots: robots N stepped together (>= 1); one ``MjModel``, N ``MjData``.
+        num_robots: robots N stepped together (default 1, >= 1); one ``MjModel``, N ``MjData``.
         gravity: ``True`` (default) applies −9.81 m/s² along −Z_world; ``False`` none.
         links_per_span: rigid links per disk span, m >= 1 (default 1). No joint cap.
-        joint: ``"ball"`` (default: a spherical joint, rotation-vector stiffness EI/Δ in every
-            direction, so bending in any plane adds no spurious twist) or ``"cardan"`` (bullet's
-            two hinges Rx(a)·Ry(b), no twist degree of freedom; its coordinates couple a
-            bend out of the x and y planes into a twist of ≈ a·b/2 per joint, which costs up
-            to 1 % of ℓ at one link per span).
-        routing: ``"corrected"`` (default: cable via-sites ∓Δ/(3m) from every disk along its
-            link, which cancels the one-link-per-span moment-arm excess, ``mjcf``) or
-            ``"disk"`` (straight from pinhole to pinhole: bullet's model).
+        joint: (default ``"ball"``) a spherical joint, rotation-vector stiffness EI/Δ in every
+            direction (also in twist, where the rod has GJ/Δ ≈ EI/(1.3Δ)), so that bending in
+            any plane adds no spurious twist; or ``"cardan"``, bullet's two hinges Rx(a)·Ry(b)
+            without a twist coordinate, whose composition twists by ≈ a·b/2 per joint when the
+            bend is out of the x and y planes (1–2.6 % of ℓ at one link per span).
+        routing: (default ``"corrected"``) cable via-sites ∓Δ/(3m) from every disk along its
+            link, which cancels the discretisation's moment-arm excess at every joint (``mjcf``);
+            or ``"disk"``, straight from pinhole to pinhole (bullet's model).
         control_timestep: simulated time (s) of one :meth:`apply_tensions` (default 0.02 s).
         physics_timestep: MuJoCo's timestep h (s), must divide ``control_timestep`` (default
             0.02 s: one physics step per control step). Stable because the damping D = β·K is
             stiffness-proportional and MuJoCo's Euler integrator treats it implicitly: long
             random-tension runs stay stable up to h = 0.1 s at ζ = 0.7 and 0.04 s at ζ = 0.3
             (``docs/mujoco_backend.md``). h changes the transient, never the settled state.
-        base_orientation: unit quaternion (x, y, z, w) of R0 in the world (default upright).
+        base_orientation: unit quaternion (x, y, z, w) of R0 in the world (default
+            ``(0.0, 0.0, 0.0, 1.0)``: upright).
         tip_payload: point mass (kg, >= 0) at the tip disk centre (default 0.0).
         damping_ratio: damping ratio ζ > 0 of the first bending mode (default 0.7): D = β·K,
             β = 2ζ/ω₁.
@@ -82,9 +83,9 @@ class MuJoCoBackend(Backend):
             plain MuJoCo path, bit-identical to a model without friction). μ > 0: every cable
             segment carries the capstan tension of ``cdcr_gym.model.friction`` (as on bullet),
             set before every physics step.
-        friction_slip_length: slip length x_s (m, > 0; default 1e-4) of the slip law.
+        friction_slip_length: slip length x_s of the slip law (default 1e-4 m, > 0).
         integrator: MuJoCo integrator (default ``"Euler"``: semi-implicit, damping implicit).
-        threads: ``None`` (default): the N robots are stepped one after the other in the
+        threads: (default ``None``) the N robots are stepped one after the other in the
             calling thread, one MuJoCo call sequence per robot and control step; an integer k:
             by ``mujoco.rollout`` in k persistent threads that release the GIL (worth it when
             cores are free; measured in ``docs/mujoco_backend.md``).
