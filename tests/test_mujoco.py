@@ -335,6 +335,7 @@ def test_loading_branch_bends_less_with_friction_as_the_capstan_statics_say():
         ({"num_robots": 0}, "num_robots"),
         ({"threads": 0}, "threads"),
         ({"params": "paper"}, "params"),
+        ({"solid_obstacles": 1}, "solid_obstacles"),
     ],
 )
 def test_bad_arguments_raise_value_error_naming_them(kwargs, name):
@@ -370,6 +371,53 @@ def test_stable_over_long_random_runs(joint):
     b = MuJoCoBackend(params, joint=joint, num_robots=2, damping_ratio=0.3)
     out = _run(b, 500)  # 10 s of random tensions held for 0.1 s each
     assert np.all(np.isfinite(out))
+
+
+# -- obstacles ----------------------------------------------------------------------------------
+SCENE = np.array([[[0.1, 0.0, 0.4, 0.04], [0.0, 0.0, 0.0, 0.0]], [[0.0, 0.3, 0.3, 0.03]] * 2])
+
+
+@pytest.mark.parametrize("solid", [False, True])
+def test_spheres_are_mujoco_geoms_detected_and_solid_ones_push_back(solid):
+    """Robot 0 bends (60 N on cable 1, +x) into a sphere in its way, robot 1's sphere is off
+    its path. Detected spheres (``solid_obstacles=False``) exert no force: both robots move as
+    without spheres, robot 0 ends inside its sphere. Solid spheres stop robot 0 (the tip stays
+    > 0.1 m short of the free tip, penetration < 15 mm: MuJoCo's soft contact at h = 0.02 s)
+    with a contact force, and leave robot 1 alone."""
+    from cdcr_gym.tasks.collision import backend_geometry, clearance
+
+    params = RobotParams()
+    b = MuJoCoBackend(gravity=False, solid_obstacles=solid, num_robots=2)
+    free = MuJoCoBackend(gravity=False, num_robots=2)
+    b.apply_tensions(np.zeros((2, 3)))
+    b.set_obstacles(np.arange(2), SCENE)  # builds the geoms; the robots keep their state
+    np.testing.assert_array_equal(b.read().tip, free.read().tip)
+    # the straight robots' clearance: MuJoCo's distance = the task's geometric check (the
+    # task's disks are discs, MuJoCo's 3 mm cylinders)
+    geometric = clearance(
+        backend_geometry(b), SCENE, 0.5 * params.backbone_diameter, params.disk_radius
+    ).min(axis=1)
+    np.testing.assert_allclose(b.obstacle_clearance, geometric, atol=2e-3)
+    assert np.all(b.obstacle_clearance > 0)
+    t = np.array([[60.0, 0.0, 0.0]] * 2)
+    for _ in range(100):
+        b.apply_tensions(t)
+        free.apply_tensions(t)
+    ours, theirs = b.read().tip, free.read().tip
+    np.testing.assert_allclose(ours[1], theirs[1], rtol=0, atol=1e-12)
+    assert b.obstacle_clearance[1] > 0 and b.contact_forces[1] == 0.0
+    if solid:
+        assert ours[0, 0] < theirs[0, 0] - 0.1
+        assert -0.015 < b.obstacle_clearance[0] < 0.0
+        assert b.contact_forces[0] > 0.5
+    else:
+        np.testing.assert_allclose(ours[0], theirs[0], rtol=0, atol=1e-12)
+        assert b.obstacle_clearance[0] < -0.01 and b.contact_forces[0] == 0.0
+    # a reset keeps the scene
+    b.reset(np.zeros((2, 3)))
+    np.testing.assert_allclose(b.obstacle_clearance, geometric, atol=2e-3)
+    with pytest.raises(ValueError, match="spheres"):
+        b.set_obstacles(np.arange(2), SCENE[:, :, :3])
 
 
 # -- randomisation, batching, ids ---------------------------------------------------------------

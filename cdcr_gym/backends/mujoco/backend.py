@@ -32,7 +32,7 @@ from cdcr_gym.backends.bullet.integrator import (
     SimulationDivergedError,
     bending_modes,
 )
-from cdcr_gym.backends.mujoco.mjcf import JOINTS, ROUTINGS, MJCFModel, build_mjcf
+from cdcr_gym.backends.mujoco.mjcf import JOINTS, PARKED, ROUTINGS, MJCFModel, build_mjcf
 from cdcr_gym.model import friction
 from cdcr_gym.model.params import STANDARD_GRAVITY, RobotParams
 
@@ -89,6 +89,9 @@ class MuJoCoBackend(Backend):
             calling thread, one MuJoCo call sequence per robot and control step; an integer k:
             by ``mujoco.rollout`` in k persistent threads that release the GIL (worth it when
             cores are free; measured in ``docs/mujoco_backend.md``).
+        solid_obstacles: (default ``False``) whether the spheres placed by
+            :meth:`set_obstacles` push the robot back (MuJoCo contacts as constraints); with
+            ``False`` they are detected (:attr:`obstacle_clearance`) but exert no force.
 
     Raises:
         ValueError: naming the argument and the value, for any invalid argument.
@@ -115,6 +118,7 @@ class MuJoCoBackend(Backend):
         friction_slip_length: float = 1e-4,
         integrator: str = "Euler",
         threads: int | None = None,
+        solid_obstacles: bool = False,
     ) -> None:
         if not isinstance(params, RobotParams):
             raise ValueError(f"params must be a cdcr_gym.params.RobotParams, got {params!r}")
@@ -154,6 +158,8 @@ class MuJoCoBackend(Backend):
         if threads is not None:
             threads = validation.integer(threads, "threads", 1)
         self.threads = threads
+        self.solid_obstacles = validation.flag(solid_obstacles, "solid_obstacles")
+        self.n_obstacles = 0
         check_span_buckling(params, self.links_per_span)
         self._base_rot = quat_to_matrix(np.asarray(self.base_orientation))
         #: Gravity (m/s²) in R0, the model's world frame.
@@ -172,7 +178,7 @@ class MuJoCoBackend(Backend):
         self.reset(np.zeros((self.num_robots, params.n_cables)))
 
     # -- model ----------------------------------------------------------------------------------
-    def _build(self, segment_tendons: bool) -> None:
+    def _build(self, segment_tendons: bool, obstacles: int = 0) -> None:
         """Build the MJCF model, the N data and the index arrays (also after a change that
         needs new tendons, e.g. friction switched on by randomisation)."""
         mj = self._mj
@@ -187,7 +193,10 @@ class MuJoCoBackend(Backend):
             timestep=self.physics_timestep,
             integrator=self.integrator,
             segment_tendons=segment_tendons,
+            obstacles=obstacles,
+            solid_obstacles=self.solid_obstacles,
         )
+        self.n_obstacles = obstacles
         model = mj.MjModel.from_xml_string(self.mjcf.xml)
         self.n_links = self.mjcf.n_links
         self.n_dof = model.nv
@@ -218,6 +227,10 @@ class MuJoCoBackend(Backend):
         site, tendon = mj.mjtObj.mjOBJ_SITE, mj.mjtObj.mjOBJ_TENDON
         self._station_ids = np.array([name(model, site, s) for s in self.mjcf.station_sites])
         self._tip_id = int(self._station_ids[-1])
+        self._tip_body = int(model.site_bodyid[self._tip_id])
+        geom = mj.mjtObj.mjOBJ_GEOM
+        self._sphere_geoms = [name(model, geom, f"obstacle{k}") for k in range(obstacles)]
+        self._robot_geoms = np.flatnonzero(model.geom_contype == 1).tolist()
         self._disk_site_ids = self._station_ids[np.asarray(self.mjcf.disk_links) - 1]
         self._pin_ids = np.array(
             [[name(model, site, s) for s in row] for row in self.mjcf.pinhole_sites]
@@ -333,14 +346,17 @@ class MuJoCoBackend(Backend):
     # -- Backend API ----------------------------------------------------------------------------
     def reset(self, tensions: np.ndarray, mask: np.ndarray | None = None) -> None:
         """Rest every robot of ``mask`` (all if None) in its static equilibrium under its row of
-        ``tensions`` (N, C) N; time 0, neutral friction slip. Deterministic."""
+        ``tensions`` (N, C) N; time 0, neutral friction slip. Deterministic. Placed spheres
+        stay; the static solve ignores them (the unobstructed equilibrium)."""
         self._check_open()
         n = self.num_robots
         t = self._check_tensions(tensions, n)
         rows = range(n) if mask is None else np.flatnonzero(np.asarray(mask).reshape(n)).tolist()
         for i in rows:
             data, model = self._datas[i], self._models[i]
+            spheres = data.mocap_pos.copy()  # the scene stays (set_obstacles)
             self._mj.mj_resetData(model, data)
+            data.mocap_pos[:] = spheres
             if not self._solve_static(model, data, t[i]):
                 raise self._diverged("no static equilibrium found", data, t[i], 0.0)
             data.time = 0.0
@@ -596,7 +612,7 @@ class MuJoCoBackend(Backend):
             if np.any(mu < 0.0) or np.any(mu > 1.0):
                 raise ValueError(f"friction_coefficient must be in [0, 1], got {mu!r}")
             if np.any(mu > 0.0) and not self._has_segments:
-                self._rebuild_with_segments()
+                self._rebuild(True, self.n_obstacles)
             self._mu[idx] = mu
             self._rough = bool(np.any(self._mu > 0.0))
             self._report_anchors = True
@@ -627,7 +643,7 @@ class MuJoCoBackend(Backend):
 
     def _set_payload(self, model: Any, payload: float) -> None:
         """The tip link's mass, COM and inertia with ``payload`` kg at the tip disk centre."""
-        body = model.nbody - 1
+        body = self._tip_body
         bare = self._bare_tip  # (mass, COM offset, inertias) of the tip link without payload
         z_tip = 0.5 * float(self.mjcf.chain.segment_lengths[-1])
         mass = bare[0] + payload
@@ -639,12 +655,116 @@ class MuJoCoBackend(Backend):
         model.body_inertia[body] = inertia
         self._mj.mj_setConst(model, self._scratch)
 
-    def _rebuild_with_segments(self) -> None:
+    def _rebuild(self, segment_tendons: bool, obstacles: int) -> None:
+        """A new model with friction segments and/or ``obstacles`` sphere geoms (more tendons or
+        geoms, the same joints); every robot keeps its state (joint positions and rates,
+        tensions, time), its randomised stiffness, damping, gravity and payload, and its
+        placed spheres."""
+        mj = self._mj
+        old_shared, old_models, old_datas = self.model, self._models, self._datas
+        old_spheres = self._sphere_geoms
         tensions = self._tensions.copy()
-        models = self._models
-        self._build(segment_tendons=True)
-        del models
+        self._build(segment_tendons=segment_tendons, obstacles=obstacles)
         self._tensions = tensions
+        tip = self._tip_body  # the chain's bodies come first in both models
+        for i, (old_model, old_data) in enumerate(zip(old_models, old_datas)):
+            if old_model is not old_shared:  # randomised or with spheres: its own model
+                model = self._own_model(i)
+                model.jnt_stiffness[:] = old_model.jnt_stiffness
+                model.dof_damping[:] = old_model.dof_damping
+                model.opt.gravity[:] = old_model.opt.gravity
+                for field in ("body_mass", "body_ipos", "body_inertia"):
+                    getattr(model, field)[tip] = getattr(old_model, field)[tip]
+                for old_g, new_g in zip(old_spheres, self._sphere_geoms):
+                    for field in ("geom_size", "geom_rbound", "geom_aabb"):
+                        getattr(model, field)[new_g] = getattr(old_model, field)[old_g]
+                    node = model.body_bvhadr[model.geom_bodyid[new_g]]
+                    model.bvh_aabb[node] = old_model.bvh_aabb[
+                        old_model.body_bvhadr[old_model.geom_bodyid[old_g]]
+                    ]
+            model = self._models[i]
+            data = self._datas[i]
+            data.qpos[:] = old_data.qpos
+            data.qvel[:] = old_data.qvel
+            data.ctrl[: self._n_pull] = tensions[i]
+            data.time = old_data.time
+            k = min(old_data.mocap_pos.shape[0], data.mocap_pos.shape[0])
+            data.mocap_pos[:k] = old_data.mocap_pos[:k]
+            mj.mj_forward(model, data)
+            self._sense(i)
+
+    # -- obstacles ------------------------------------------------------------------------------
+    def set_obstacles(self, index: np.ndarray, spheres: np.ndarray) -> None:
+        """Place spheres ``spheres`` (M, K, 4) rows (x, y, z, radius) m in R0 for robots
+        ``index`` (M,); a row of radius 0 is no sphere. The first call with K spheres builds
+        them into the model (MuJoCo geoms on mocap bodies; the robot's links and disks become
+        capsule and cylinder geoms), keeping every robot's state. Collisions are then MuJoCo's
+        contacts: :attr:`obstacle_clearance`, and with ``solid_obstacles`` the spheres push
+        back (:attr:`contact_forces`)."""
+        self._check_open()
+        idx = np.asarray(index).reshape(-1).tolist()
+        rows = validation.real_array(spheres, "spheres")
+        if rows.ndim != 3 or rows.shape[0] != len(idx) or rows.shape[2] != 4:
+            raise ValueError(
+                f"spheres must have shape ({len(idx)}, K, 4) (x, y, z, radius m), got {rows.shape}"
+            )
+        if np.any(rows[..., 3] < 0.0):
+            raise ValueError(f"spheres: radii must be >= 0 m, got {rows[..., 3]!r}")
+        k = rows.shape[1]
+        if k > self.n_obstacles:
+            self._rebuild(self._has_segments, k)
+        mj = self._mj
+        for row, i in zip(rows, idx):
+            model = self._own_model(i)
+            data = self._datas[i]
+            for j, g in enumerate(self._sphere_geoms):
+                present = j < k and row[j, 3] > 0.0
+                radius = row[j, 3] if present else 1e-3
+                # the sphere's size, bounding radius and boxes: the geom's and its body's
+                # bounding-volume node (compiled once; a stale one hides the contacts)
+                model.geom_size[g, 0] = radius
+                model.geom_rbound[g] = radius
+                model.geom_aabb[g, 3:] = radius
+                model.bvh_aabb[model.body_bvhadr[model.geom_bodyid[g]], 3:] = radius
+                parked = (PARKED * (j + 1), PARKED, PARKED)
+                data.mocap_pos[j] = row[j, :3] if present else parked
+            mj.mj_forward(model, data)  # the contacts of the new scene
+            self._sense(i)
+
+    @property
+    def obstacle_clearance(self) -> np.ndarray:
+        """Smallest distance (N,) m between every robot's geoms (links as capsules of the rod's
+        radius, disks as cylinders) and its spheres, by MuJoCo's ``mj_geomDistance``
+        (negative: penetration; inf without spheres, or with none within ℓ)."""
+        mj = self._mj
+        out = np.full(self.num_robots, np.inf)
+        fromto = np.zeros(6)
+        reach = self.params.length
+        for i, (model, data) in enumerate(zip(self._models, self._datas)):
+            for g in self._sphere_geoms:
+                if data.mocap_pos[model.body_mocapid[model.geom_bodyid[g]], 0] >= PARKED:
+                    continue
+                for r in self._robot_geoms:
+                    out[i] = min(out[i], mj.mj_geomDistance(model, data, r, g, reach, fromto))
+        return out
+
+    @property
+    def contact_forces(self) -> np.ndarray:
+        """Total normal force (N,) N the spheres exert on every robot in its current state (0
+        unless ``solid_obstacles``)."""
+        out = np.zeros(self.num_robots)
+        if not self.solid_obstacles or not self.n_obstacles:
+            return out
+        force = np.zeros(6)
+        for i, (model, data) in enumerate(zip(self._models, self._datas)):
+            # the constraint forces of the current state (the stepping leaves only its
+            # position and velocity stages computed); mj_forward changes no state
+            self._mj.mj_forward(model, data)
+            for c in range(data.ncon):
+                if data.contact.efc_address[c] >= 0:
+                    self._mj.mj_contactForce(model, data, c, force)
+                    out[i] += force[0]
+        return out
 
     def close(self) -> None:
         """Release the MuJoCo data and the rollout threads. Safe to call more than once."""

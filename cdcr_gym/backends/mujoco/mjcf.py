@@ -45,9 +45,12 @@ Friction segments (``segment_tendons=True``)
 
 Obstacles (``obstacles`` > 0)
     Capsule geoms along the links (radius d/2) and a disk cylinder per disk, and ``obstacles``
-    sphere geoms in the world (``obstacle0`` …), parked far away until placed. Contacts are
-    between robot and spheres only. Without obstacles the model has no collision geometry and
-    MuJoCo's contact and constraint stages are disabled.
+    sphere geoms on mocap bodies (``obstacle0`` …: positions in ``MjData.mocap_pos``, per
+    robot; radii in the model), parked far away until placed. Contacts are
+    between robot and spheres only (``contype``/``conaffinity``). With ``solid_obstacles`` the
+    contact and constraint stages run (penetrating contacts push back); without, they stay
+    disabled and the backend measures clearances on demand (``mj_geomDistance``). Without
+    obstacles the model has no collision geometry.
 
 Frames: the MJCF world frame *is* the base frame R0 (backbone along +z, cable β = 0 at +x); a
 turned base is modelled by turning gravity into R0 (``gravity``).
@@ -133,6 +136,7 @@ def build_mjcf(
     integrator: str = "Euler",
     segment_tendons: bool = False,
     obstacles: int = 0,
+    solid_obstacles: bool = False,
 ) -> MJCFModel:
     """The MJCF model of ``params`` (module docstring).
 
@@ -149,6 +153,7 @@ def build_mjcf(
         integrator: MuJoCo integrator name (``"Euler"``, ``"implicitfast"``, ``"RK4"``, ...).
         segment_tendons: add the per-span friction tendons and their actuators.
         obstacles: number of sphere obstacles (0: no collision geometry at all).
+        solid_obstacles: whether contacts with the spheres push back (constraint stage on).
 
     The caller (``MuJoCoBackend``) validates the arguments.
     """
@@ -186,7 +191,7 @@ def build_mjcf(
         gravity=_fmt(gravity),
         integrator=integrator,
     )
-    if obstacles == 0:
+    if obstacles == 0 or not solid_obstacles:
         ET.SubElement(option, "flag", contact="disable", constraint="disable")
     ET.SubElement(root, "size", memory="1M")
     world = ET.SubElement(root, "worldbody")
@@ -303,13 +308,19 @@ def build_mjcf(
                 )
         parent = body
 
-    for k in range(obstacles):
-        ET.SubElement(
+    for k in range(obstacles):  # mocap bodies: their positions are per-data (per robot)
+        holder = ET.SubElement(
             world,
+            "body",
+            name=f"obstacle{k}",
+            mocap="true",
+            pos=_fmt((PARKED * (k + 1), PARKED, PARKED)),
+        )
+        ET.SubElement(
+            holder,
             "geom",
             name=f"obstacle{k}",
             type="sphere",
-            pos=_fmt((PARKED * (k + 1), PARKED, PARKED)),
             size="0.01",
             contype="0",
             conaffinity="1",
