@@ -187,6 +187,24 @@ def test_same_discretisation_settles_where_bullet_settles(robot):
         bullet.close()
 
 
+def test_turned_base_sags_like_bullet_and_readings_stay_in_the_base_frame():
+    """A horizontal base (backbone along +X_world): the cantilever sags under its weight, ≈ 38 mm
+    (SPEC §4), along −x of R0 (gravity turned into R0); bullet's model gives the same
+    equilibria."""
+    quat = (0.0, math.sin(math.pi / 4), 0.0, math.cos(math.pi / 4))
+    mj = MuJoCoBackend(base_orientation=quat, joint="cardan", routing="disk")
+    bullet = BulletBackend(base_orientation=quat)
+    t = np.array([[0.0, 0.0, 0.0], [80.0, 0.0, 0.0]])
+    try:
+        ours, theirs = mj.equilibrium(t).tip, bullet.equilibrium(t).tip
+        np.testing.assert_allclose(ours, theirs, rtol=0, atol=1e-9)
+        assert 0.035 < ours[0, 0] < 0.041 and abs(ours[0, 1]) < 1e-12
+        assert mj.read().tip[0, 0] == pytest.approx(ours[0, 0], abs=1e-12)  # reset rests there
+    finally:
+        mj.close()
+        bullet.close()
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("robot", ["paper", "tdcr2"])
 @pytest.mark.parametrize("gravity", [False, True])

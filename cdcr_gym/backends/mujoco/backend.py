@@ -559,8 +559,9 @@ class MuJoCoBackend(Backend):
         )
 
     def equilibrium(self, tensions: np.ndarray) -> Readings:
-        """Static equilibria under ``tensions`` (M, C) N of the nominal robot (robot 0's model),
-        without changing the state."""
+        """Static equilibria under ``tensions`` (M, C) N of robot 0 (its model, randomised
+        parameters included: the interface has no robot index; for N = 1 the env's own robot),
+        without changing the state. The placed spheres are ignored."""
         self._check_open()
         t_all = self._check_tensions(tensions)
         m = t_all.shape[0]
