@@ -19,7 +19,8 @@ bullet's 0.01 s) and the batched ``make_vec(..., num_envs=64, vectorization_mode
 dynamics reach exactly) against a reference, for the paper robot and tdcr2, gravity off and
 on. The reference is the Cosserat-rod JSON (``docs/figures/physics/cosserat_reference.json``,
 its cases' ``robot``, ``gravity``, ``tensions`` and ``tip``; another file with
-``--reference FILE.json``) when it exists; else the converged discrete-disk chain (eight
+``--reference FILE.json``) when it exists; else (or with ``--reference chain``) the converged
+discrete-disk chain (eight
 ball-jointed links per span, cable straight between pinholes, ≈ 0.5 mm from the rod on the
 paper robot) under held tensions — one cable at 25/50/75/100 % of ``max_tension``, and a pair
 (100 % and 50 %). Rows: MuJoCo discretisations (joint, routing, links per span) with their
@@ -232,7 +233,7 @@ def accuracy_table(
     configs = CONFIGS[::2] if quick else CONFIGS
     if reference is None and REFERENCE_PATH.exists():
         reference = REFERENCE_PATH
-    if reference is not None:
+    if reference is not None and str(reference) != "chain":
         refs = load_reference(reference)
         name = f"Cosserat rod, {reference}"
     else:
@@ -294,7 +295,13 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--steps", type=int, default=400)
     parser.add_argument("--accuracy", action="store_true", help="the convergence table")
     parser.add_argument("--quick", action="store_true", help="fewer rows (accuracy)")
-    parser.add_argument("--reference", type=Path, default=None, help="reference JSON (accuracy)")
+    parser.add_argument(
+        "--reference",
+        type=Path,
+        default=None,
+        help="reference JSON, or 'chain' for the converged chain (accuracy; default: the "
+        "repository's Cosserat JSON if present)",
+    )
     args = parser.parse_args(argv)
     print(f"machine: {_machine()}")
     if args.accuracy:
