@@ -219,7 +219,6 @@ class MuJoCoBackend(Backend):
             tuple(bare.link_inertias[-1]),
         )
         self._nominal_stiffness = model.jnt_stiffness.copy()
-        self._nominal_gravity = model.opt.gravity.copy()
         self._models = [model] * self.num_robots
         self._datas = [mj.MjData(model) for _ in range(self.num_robots)]
         self._scratch = mj.MjData(model)
@@ -249,7 +248,9 @@ class MuJoCoBackend(Backend):
             if self.mjcf.segment_tendons[k][i] is not None
         ]
         self._has_segments = bool(self._segment_order)
-        self._rollout = None
+        if self._rollout is not None:  # its thread data belong to the previous model
+            self._rollout.close()
+            self._rollout = None
         self._tensions = np.zeros((self.num_robots, c))
         self._tip = np.zeros((self.num_robots, 3))
         self._direction = np.zeros((self.num_robots, 3))
