@@ -224,7 +224,7 @@ def chain_reference() -> dict[tuple[str, bool], tuple[RobotParams, np.ndarray, n
 
 
 def accuracy_table(
-    quick: bool = False, repeats: int = 3, steps: int = 300, reference: Path | None = None
+    quick: bool = False, repeats: int = 7, steps: int = 1200, reference: Path | None = None
 ) -> tuple[str, list[dict[str, Any]]]:
     """(reference name, rows): per discretisation the max tip error (m and % of ℓ) per (robot,
     gravity), and the paper robot's Reach steps/s."""
@@ -264,10 +264,16 @@ def accuracy_table(
     for _ in range(repeats):
         for key, timer in timers.items():
             samples[key].append(timer())
+    default = (
+        statistics.median(samples["ball", "corrected", 1])
+        if ("ball", "corrected", 1) in samples
+        else None
+    )
     for row in rows:
         row["steps/s"] = statistics.median(
             samples[row["joint"], row["routing"], row["links_per_span"]]
         )
+        row["speed"] = row["steps/s"] / default if default else float("nan")
     return name, rows
 
 
@@ -305,19 +311,21 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     print(f"machine: {_machine()}")
     if args.accuracy:
-        name, rows = accuracy_table(
-            args.quick, max(1, args.repeats // 2), args.steps, args.reference
-        )
+        name, rows = accuracy_table(args.quick, args.repeats, 3 * args.steps, args.reference)
         keys = [k for k in rows[0] if " g=" in k]
         print(f"reference: {name}")
-        print("| joint | routing | links/span | " + " | ".join(keys) + " | steps/s (paper) |")
-        print("|---|---|---|" + "---|" * len(keys) + "---|")
+        print(
+            "| joint | routing | links/span | "
+            + " | ".join(keys)
+            + " | steps/s (paper) | speed vs default |"
+        )
+        print("|---|---|---|" + "---|" * len(keys) + "---|---|")
         for row in rows:
             cells = [f"{row[k][0] * 1e3:.2f} mm ({row[k][1] * 100:.2f} %)" for k in keys]
             print(
                 f"| {row['joint']} | {row['routing']} | {row['links_per_span']} | "
                 + " | ".join(cells)
-                + f" | {row['steps/s']:.0f} |"
+                + f" | {row['steps/s']:.0f} | {row['speed']:.2f}× |"
             )
         return
     rows = speed_table(args.robot, args.repeats, args.steps)
