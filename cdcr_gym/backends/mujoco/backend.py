@@ -256,6 +256,7 @@ class MuJoCoBackend(Backend):
         self._direction = np.zeros((self.num_robots, 3))
         self._lengths = np.zeros((self.num_robots, c))
         self._nstate = mj.mj_stateSize(model, mj.mjtState.mjSTATE_FULLPHYSICS)
+        self._make_views()
 
     def _own_model(self, i: int) -> Any:
         """Robot i's own MjModel (a copy of the shared one, made on its first change)."""
@@ -284,10 +285,15 @@ class MuJoCoBackend(Backend):
         return np.array(t)
 
     def _fast_tensions(self, tensions: Any) -> np.ndarray:
-        """:meth:`_check_tensions` of (N, C) tensions, cheap for a float array (every step)."""
+        """:meth:`_check_tensions` of (N, C) tensions, cheap for a float array (every step;
+        a few values are checked as Python floats, cheaper than numpy reductions)."""
         if type(tensions) is np.ndarray and tensions.shape == self._tensions.shape:
             t = tensions.astype(np.float64)  # a copy
-            if 0.0 <= t.min() and t.max() <= self.params.max_tension:  # NaN fails
+            high = self.params.max_tension
+            if t.size <= 16:
+                if all(0.0 <= x <= high for x in t.ravel().tolist()):  # NaN fails
+                    return t
+            elif 0.0 <= t.min() and t.max() <= high:
                 return t
         return self._check_tensions(tensions, self.num_robots)
 
@@ -390,8 +396,9 @@ class MuJoCoBackend(Backend):
                 self._sense,
                 self.n_substeps,
             )
+            views = self._views
             for i, data in enumerate(self._datas):
-                data.ctrl[:n_pull] = t[i]
+                views[i][6][:n_pull] = t[i]
                 advance(self._models[i], data, n_sub)
                 check(i)
                 sense(i)
@@ -506,31 +513,49 @@ class MuJoCoBackend(Backend):
     def _sense(self, i: int) -> None:
         """Robot i's tip, tip direction and cable lengths (tendon lengths) from its data, which
         holds the position stage of its current state (:meth:`_advance`)."""
-        data = self._datas[i]
+        xpos, xmat, lengths = self._views[i][3:6]
         tid = self._tip_id
-        self._tip[i] = data.site_xpos[tid]
-        self._direction[i] = data.site_xmat[tid, 2::3]
-        self._lengths[i] = data.ten_length[self._cable_ids]
+        self._tip[i] = xpos[tid]
+        self._direction[i] = xmat[tid, 2::3]
+        self._lengths[i] = lengths[self._cable_ids]
+
+    def _make_views(self) -> None:
+        """Per robot: numpy views of the ``MjData`` arrays read every step (a view stays valid
+        for the data's life; taking one through the binding costs more than the read)."""
+        warn = _BADQACC
+        self._views = [
+            (d.qpos, d.qvel, d.warning[warn], d.site_xpos, d.site_xmat, d.ten_length, d.ctrl)
+            for d in self._datas
+        ]
 
     def _check_state(self, i: int) -> None:
-        data = self._datas[i]
-        rate = np.abs(data.qvel).max()
+        """Raise :class:`SimulationDivergedError` if robot i's state is non-finite, a joint is
+        bent beyond ``MAX_JOINT_ANGLE``, the joint-rate vector is longer than
+        ``MAX_JOINT_RATE``, or MuJoCo reported a bad acceleration (it then resets the data)."""
+        qpos, qvel, warning = self._views[i][:3]
+        rate2 = qvel.dot(qvel)  # NaN fails the comparisons below
         if (
-            data.warning[_BADQACC].number > 0
-            or not rate <= MAX_JOINT_RATE
-            or not self._max_joint_angle(data) <= MAX_JOINT_ANGLE
+            warning.number > 0
+            or not rate2 <= MAX_JOINT_RATE * MAX_JOINT_RATE
+            or not self._max_joint_angle(qpos) <= MAX_JOINT_ANGLE
         ):
+            data = self._datas[i]
             raise self._diverged(
                 "the simulation diverged", data, self._tensions[i], float(self.time[i])
             )
 
-    def _max_joint_angle(self, data: Any) -> float:
-        """Largest joint angle (rad): the ball joints' rotation angles, the hinges' angles
-        (inf for a non-finite state)."""
-        q = data.qpos
+    def _max_joint_angle(self, q: np.ndarray) -> float:
+        """Largest joint angle (rad) of joint positions ``q``: the ball joints' rotation angles,
+        the hinges' angles (inf for a non-finite state); a cheap bound first (sum of squares)."""
         if self.joint == "ball":
-            w = float(np.abs(q[0::4]).min())
-            return 2.0 * math.acos(min(w, 1.0)) if math.isfinite(w) else math.inf
+            w = q[0::4]
+            # Σ sin²(angle/2) = n − Σ w² <= 1/2 bounds every angle by 90°
+            if self.n_links - w.dot(w) <= 0.5:
+                return 0.0
+            w_min = float(np.abs(w).min())
+            return 2.0 * math.acos(min(w_min, 1.0)) if math.isfinite(w_min) else math.inf
+        if q.dot(q) <= MAX_JOINT_ANGLE * MAX_JOINT_ANGLE:
+            return 0.0
         return float(np.abs(q).max())
 
     def _diverged(
