@@ -205,7 +205,6 @@ def test_turned_base_sags_like_bullet_and_readings_stay_in_the_base_frame():
         bullet.close()
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("robot", ["paper", "tdcr2"])
 @pytest.mark.parametrize("gravity", [False, True])
 def test_default_is_within_half_a_percent_of_the_converged_chain(robot, gravity):
@@ -330,6 +329,34 @@ def test_loading_branch_bends_less_with_friction_as_the_capstan_statics_say():
     ref_tip, seg = _capstan_statics(RobotParams(), np.array([80.0, 0.0, 0.0]), 0.2, slip)
     assert np.linalg.norm(tips[0.2].tip[0] - ref_tip) < 1e-5
     np.testing.assert_allclose(tips[0.2].anchor_tensions[0, 0], seg[-1, 0], rtol=1e-6)
+
+
+def test_abrupt_steps_overshoot_flip_the_slip_and_bend_further():
+    """Issue 21's loading (10 N steps held 600 control steps, paper robot, gravity off, μ = 0.2):
+    with ζ = 0.7 each step overshoots, the spring-back slides the cable back by more than the
+    slip length, the slip state flips to "releasing" and the anchor then carries more than the
+    actuator pulls (≈ 107 N): the robot ends bent further than without friction, as bullet does.
+    Without overshoot (ζ = 1) the same steps give the loading branch (less bent, ≈ 62 N)."""
+    ends = {}
+    for zeta in (0.7, 1.0):
+        b = MuJoCoBackend(
+            gravity=False,
+            friction_coefficient=0.2,
+            joint="cardan",
+            routing="disk",
+            damping_ratio=zeta,
+        )
+        for t in range(10, 90, 10):
+            for _ in range(600):
+                b.apply_tensions(np.array([[t, 0.0, 0.0]]))
+        ends[zeta] = (b.read(), b.slip[0, 0])
+    frictionless_x = 0.39993  # m, the μ = 0 tip at 80 N (ζ does not change a settled state)
+    bent, slip = ends[0.7]
+    assert slip < -0.9 and bent.anchor_tensions[0, 0] > 100.0
+    assert bent.tip[0, 0] > frictionless_x
+    loading, slip = ends[1.0]
+    assert slip > 0.9 and loading.anchor_tensions[0, 0] < 65.0
+    assert loading.tip[0, 0] < frictionless_x - 0.015
 
 
 # -- arguments and errors -----------------------------------------------------------------------
