@@ -521,6 +521,32 @@ def test_vector_env_rows_equal_single_envs_and_runs_are_deterministic():
         e.close()
 
 
+def test_vector_env_rows_equal_single_envs_with_randomised_robots_and_friction():
+    n, seed = 3, 4
+    kwargs = {
+        "randomize": {"youngs_modulus": [30e9, 40e9], "friction_coefficient": [0.0, 0.3]},
+        "physics_timestep": 0.01,  # two physics steps per control step
+    }
+    vec = gym.make_vec(
+        "cdcr_gym/MuJoCoReach-v0", num_envs=n, vectorization_mode="vector_entry_point", **kwargs
+    )
+    singles = [gym.make("cdcr_gym/MuJoCoReach-v0", **kwargs) for _ in range(n)]
+    obs_v, info_v = vec.reset(seed=seed)
+    obs_s = np.stack([e.reset(seed=seed + i)[0] for i, e in enumerate(singles)])
+    np.testing.assert_array_equal(obs_v, obs_s)
+    rng = np.random.default_rng(2)
+    for _ in range(25):
+        actions = rng.uniform(-1, 1, (n, 3)).astype(np.float32)
+        out_v = vec.step(actions)
+        out_s = [e.step(a) for e, a in zip(singles, actions)]
+        np.testing.assert_array_equal(out_v[0], np.stack([o[0] for o in out_s]))
+        np.testing.assert_array_equal(
+            out_v[4]["anchor_tensions"], np.stack([o[4]["anchor_tensions"] for o in out_s])
+        )
+    for e in (vec, *singles):
+        e.close()
+
+
 def test_same_seed_same_trajectory():
     def run():
         env = gym.make("cdcr_gym/MuJoCoReach-v0", initial_state="random")

@@ -585,15 +585,16 @@ class MuJoCoBackend(Backend):
         )
 
     def equilibrium(self, tensions: np.ndarray) -> Readings:
-        """Static equilibria under ``tensions`` (M, C) N of robot 0 (its model, randomised
-        parameters included: the interface has no robot index; for N = 1 the env's own robot),
+        """Static equilibria under ``tensions`` (M, C) N of the nominal robot (the constructor's
+        parameters, not a randomised robot's: the interface has no robot index, and so the
+        goals of N batched envs are those of N single envs, as on the analytic backend),
         without changing the state. The placed spheres are ignored."""
         self._check_open()
         t_all = self._check_tensions(tensions)
         m = t_all.shape[0]
         tip, direction = np.empty((m, 3)), np.empty((m, 3))
         lengths = np.empty((m, self.params.n_cables))
-        data, model = self._scratch, self._models[0]
+        data, model = self._scratch, self.model
         for j, t in enumerate(t_all):
             if not self._solve_static(model, data, t):
                 raise self._diverged("no static equilibrium found", data, t, 0.0)
