@@ -1,6 +1,7 @@
 """cdcr_gym: Gymnasium environments for cable-driven continuum robots.
 
-Importing the package registers one id per (backend × task) (cheap: string entry points only):
+Importing the package registers one id per (backend × task) of the table in
+``cdcr_gym.registration`` (cheap: string entry points only):
 
 * ``cdcr_gym/CCKAReach-v0`` — tip reaching on the analytic piecewise-constant-curvature model;
 * ``cdcr_gym/BulletReach-v0`` — tip reaching on a pybullet multibody backbone;
@@ -19,34 +20,11 @@ without a prior ``import cdcr_gym``. The robot is chosen by ``robot="paper"`` (d
 
 from __future__ import annotations
 
-from gymnasium.envs.registration import register, registry
+from cdcr_gym.defaults import MAX_EPISODE_STEPS
+from cdcr_gym.registration import register_all
 
 __version__ = "0.2.0"
 
-#: Episode length (steps) of the registered ids.
-MAX_EPISODE_STEPS = 100
+__all__ = ["MAX_EPISODE_STEPS", "__version__"]
 
-#: Backends (id prefix) and whether they have a batched vector entry point.
-_BACKENDS = {"CCKA": True, "Bullet": False, "MuJoCo": True}
-#: Tasks (id infix).
-_TASKS = ("Reach", "Track", "Pose", "Obstacle")
-
-
-def _register_all() -> None:
-    for backend, batched in _BACKENDS.items():
-        for task in _TASKS:
-            name = f"{backend}{task}-v0"
-            for env_id in (f"cdcr_gym/{name}", name):
-                if env_id not in registry:
-                    register(
-                        id=env_id,
-                        entry_point="cdcr_gym.envs.factory:make_env",
-                        vector_entry_point="cdcr_gym.envs.vector:CDCRVectorEnv"
-                        if batched
-                        else None,
-                        max_episode_steps=MAX_EPISODE_STEPS,
-                        kwargs={"backend": backend, "task": task},
-                    )
-
-
-_register_all()
+register_all()

@@ -78,6 +78,7 @@ lengths, tensions, in that order).
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
 import math
 from collections.abc import Mapping, Sequence
@@ -197,6 +198,54 @@ class DomainRandomization:
             )
         self.ranges = ranges
         self.params = params
+        self._check_extreme_robot()
+
+    def _check_extreme_robot(self) -> None:
+        """The robot at the ranges' extreme corner must be one ``RobotParams`` accepts, and its
+        observations must stay in the nominal robot's Box.
+
+        Bending scales with r/E (``cdcr_gym.backends.analytic``): the softest, widest-routed
+        robot (lowest E, largest r) bends most, so it must keep every section within 180°
+        (``RobotParams``' bend limit; also its disk radius must exceed the cable radius); its
+        cable-length changes r·θ must stay within the observation's ±π r₀ per section.
+        """
+        keys = [k for k in ("youngs_modulus", "cable_radius") if k in self.ranges]
+        if not keys:
+            return
+        p = self.params
+        youngs = self.ranges["youngs_modulus"][0] if "youngs_modulus" in self.ranges else None
+        radius = self.ranges["cable_radius"][1] if "cable_radius" in self.ranges else None
+        ratio = 1.0 if radius is None else radius / p.cable_radii[0]
+        named = " and ".join(f"randomize[{k!r}]={list(self.ranges[k])}" for k in keys)
+        corner = ", ".join(
+            f"{k}={v!r}"
+            for k, v in (("youngs_modulus", youngs), ("cable_radius", radius))
+            if v is not None
+        )
+        try:
+            extreme = dataclasses.replace(
+                p,
+                sections=tuple(
+                    dataclasses.replace(s, cable_radius=s.cable_radius * ratio) for s in p.sections
+                ),
+                length=None,  # type: ignore[arg-type]  # derived from the sections
+                n_disks=None,  # type: ignore[arg-type]
+                cable_radius=None,
+                youngs_modulus=p.youngs_modulus if youngs is None else youngs,
+            )
+        except ValueError as exc:
+            raise ValueError(
+                f"{named}: the robot at the range's extreme ({corner}) is not a valid robot: "
+                f"{exc}; narrow the range"
+            ) from None
+        bend = max(extreme.section_bend_limits)
+        if ratio * bend > math.pi * (1.0 + 1e-12):
+            raise ValueError(
+                f"{named}: the robot at the range's extreme ({corner}) bends to "
+                f"{math.degrees(bend):.1f}° with cable lengths changing by up to "
+                f"{ratio * bend / math.pi:.3g}·π·r₀ per section, outside the observation's "
+                f"±π·r₀; narrow the range"
+            )
 
     @property
     def enabled(self) -> bool:

@@ -26,12 +26,14 @@ __all__ = [
 ]
 
 
-def real_array(value: Any, name: str, shape: tuple[int, ...] | None = None) -> np.ndarray:
+def real_array(
+    value: Any, name: str, shape: tuple[int, ...] | None = None, *, allow_bool: bool = True
+) -> np.ndarray:
     """``value`` as a finite float64 array (optionally of exactly ``shape``).
 
     Raises:
-        ValueError: naming ``name``, for non-numeric input (strings, complex numbers, objects),
-            a wrong shape, or a NaN/infinite entry.
+        ValueError: naming ``name``, for non-numeric input (strings, complex numbers, objects;
+            bools unless ``allow_bool``), a wrong shape, or a NaN/infinite entry.
     """
     if type(value) is np.ndarray and value.dtype.kind == "f":
         arr = value.astype(np.float64, copy=False)
@@ -40,7 +42,7 @@ def real_array(value: Any, name: str, shape: tuple[int, ...] | None = None) -> n
             probe = np.asarray(value)
         except Exception as exc:  # ragged sequences and the like
             raise ValueError(f"{name} must be an array of real numbers, got {value!r}") from exc
-        if probe.dtype.kind not in "fiub":
+        if probe.dtype.kind not in ("fiub" if allow_bool else "fiu"):
             raise ValueError(f"{name} must be an array of real numbers, got {value!r}")
         arr = probe.astype(np.float64)
     if shape is not None and arr.shape != shape:
@@ -71,18 +73,24 @@ def per_cable(
 def action_array(action: Any, shape: tuple[int, ...]) -> np.ndarray:
     """An action of exactly ``shape`` as float64 (not yet clipped).
 
-    Fast for the common case (a float32/float64 numpy array); strings, complex numbers, dicts
-    and other non-real input raise.
+    Fast for the common case (a float32/float64 numpy array); integers work; bools, strings,
+    complex numbers, dicts and other non-real input raise.
 
     Raises:
         ValueError: naming ``action``.
     """
     if type(action) is np.ndarray and action.dtype.kind == "f" and action.shape == shape:
         arr = action.astype(np.float64)
-        if not np.isfinite(arr).all():
+        # a few numbers are checked faster one by one than by a numpy reduction
+        finite = (
+            all(map(math.isfinite, arr.ravel().tolist()))
+            if arr.size <= 16
+            else bool(np.isfinite(arr).all())
+        )
+        if not finite:
             raise ValueError(f"action must be finite, got {action!r}")
         return arr
-    return real_array(action, "action", shape)
+    return real_array(action, "action", shape, allow_bool=False)
 
 
 def clipped_action(action: Any, shape: tuple[int, ...]) -> np.ndarray:
@@ -91,6 +99,14 @@ def clipped_action(action: Any, shape: tuple[int, ...]) -> np.ndarray:
     Raises:
         ValueError: naming ``action``.
     """
+    if (
+        type(action) is np.ndarray
+        and action.dtype.kind == "f"
+        and action.shape == shape
+        and action.size <= 16
+    ):
+        # a few numbers are checked and clipped faster one by one than by numpy calls
+        return np.array(clipped_action_values(action, shape)).reshape(shape)
     arr = action_array(action, shape)
     np.maximum(arr, -1.0, out=arr)
     np.minimum(arr, 1.0, out=arr)
@@ -122,17 +138,26 @@ def clipped_action_values(action: Any, shape: tuple[int, ...]) -> list[float]:
 
 
 def positive(
-    value: Any, name: str, upper: float | None = None, *, allow_zero: bool = False
+    value: Any,
+    name: str,
+    upper: float | None = None,
+    *,
+    allow_zero: bool = False,
+    unit: str = "",
 ) -> float:
-    """A finite real > 0 (or >= 0 with ``allow_zero``), optionally <= ``upper``, as float."""
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise ValueError(f"{name} must be a real number, got {value!r}")
+    """A finite real > 0 (or >= 0 with ``allow_zero``), optionally <= ``upper``, as float;
+    ``unit`` (e.g. ``"s"``) is named in the error."""
+    in_unit = f" ({unit})" if unit else ""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(
+        value, (int, float, np.integer, np.floating)
+    ):
+        raise ValueError(f"{name} must be a real number{in_unit}, got {value!r}")
     value = float(value)
     too_small = value < 0.0 if allow_zero else value <= 0.0
     if not math.isfinite(value) or too_small or (upper is not None and value > upper):
         rule = ">= 0" if allow_zero else "> 0"
         bound = f" and <= {upper}" if upper is not None else ""
-        raise ValueError(f"{name} must be finite, {rule}{bound}, got {value!r}")
+        raise ValueError(f"{name} must be finite, {rule}{bound}{in_unit}, got {value!r}")
     return value
 
 

@@ -1,4 +1,4 @@
-"""What `pip install cdcr-gym` promises: the envs with numpy, gymnasium, pybullet and mujoco only; the
+"""What `pip install cdcr-gym` promises: the envs with numpy, gymnasium, pybullet, mujoco and scipy only; the
 configs inside the wheel; extras for the rest. (.ci/run also installs the built wheel into a
 fresh virtual environment without torch and makes every id there.)"""
 
@@ -28,6 +28,7 @@ def test_core_dependencies_are_the_env_stack_only():
         "gymnasium",
         "pybullet",
         "mujoco",
+        "scipy",
     }
 
 

@@ -23,3 +23,49 @@ def test_trajectory_matches_the_pinned_one_to_1e_12(current, key):
     got = current[key]
     assert got.shape == pinned.shape
     np.testing.assert_allclose(got, pinned, rtol=0.0, atol=1e-12)
+
+
+# -- v1: every registered id, bit for bit ------------------------------------------------------
+@pytest.fixture(scope="module")
+def current_v1():
+    import pinned_trajectories_v1
+
+    return pinned_trajectories_v1.trajectories()
+
+
+def test_pinned_v1_covers_every_registered_id(current_v1):
+    import pinned_trajectories_v1
+
+    pinned = np.load(pinned_trajectories_v1.PATH)
+    assert sorted(pinned.files) == sorted(current_v1)
+    rollouts = {key.split("|")[0] for key in pinned.files}
+    for backend in ("CCKA", "Bullet"):
+        for task in ("Reach", "Track", "Pose", "Obstacle"):
+            assert any(r.startswith(f"{backend}{task}/") for r in rollouts), (backend, task)
+
+
+#: Rollouts compared to 1e-12 instead of bit for bit. The single env's two-section (tdcr2)
+#: rollouts were pinned from the scalar lane that issue 22 deleted: it summed the statics'
+#: matrix products in Python floats, where the one path now multiplies matrices in numpy (as
+#: the batched env always did, whose pins stay bit-identical). The two orders of summation
+#: differ in the last bits only: measured at most 4.4e-16 (2 ulp) on any quantity.
+LAST_BITS = ("CCKAPose/",)
+
+
+def test_pinned_v1_is_reproduced_bit_for_bit(current_v1):
+    """Same arithmetic: every quantity equal (atol 0; NaN marks absent entries), except the
+    :data:`LAST_BITS` rollouts (to 1e-12)."""
+    import pinned_trajectories_v1
+
+    pinned = np.load(pinned_trajectories_v1.PATH)
+    bad = []
+    for key in pinned.files:
+        got, want = current_v1[key], pinned[key]
+        if got.shape != want.shape:
+            bad.append(key)
+        elif key.startswith(LAST_BITS):
+            if not np.allclose(got, want, rtol=0.0, atol=1e-12, equal_nan=True):
+                bad.append(key)
+        elif not np.array_equal(got, want, equal_nan=True):
+            bad.append(key)
+    assert not bad, f"{len(bad)} pinned quantities differ, e.g. {bad[:10]}"

@@ -1,19 +1,26 @@
-"""``cdcr-gym``: one command in front of the ``python -m training.<module>`` entry points.
+"""``cdcr-gym``: the one command of the RL pipeline; each subcommand is a module's ``main``.
 
 ::
 
-    cdcr-gym train ppo_ccka_reach [--run-dir DIR] ...   # python -m training.train configs/ppo_ccka_reach.yaml
-    cdcr-gym evaluate RUN_DIR [--video] ...             # python -m training.evaluate
-    cdcr-gym reproduce [--out DIR] ...                  # python -m training.reproduce
-    cdcr-gym bench [--quick] ...                        # python -m training.bench
-    cdcr-gym sweep sweeps/benchmark ...                 # python -m training.sweep (Ray Tune)
-    cdcr-gym demo [--env-id ID] ...                     # python -m training.ik_demo
+    cdcr-gym train ppo_ccka_reach [--run-dir DIR] ...   # training.run.train
+    cdcr-gym evaluate RUN_DIR [--video] ...             # training.evaluate.agent
+    cdcr-gym sweep sweeps/benchmark ...                 # training.sweep.tune (Ray Tune)
+    cdcr-gym aggregate SWEEP_OUT [--doc PAGE]           # training.sweep.aggregate
+    cdcr-gym reproduce [--out DIR] ...                  # training.studies.reproduce
+    cdcr-gym bench [--quick] ...                        # training.studies.bench
+    cdcr-gym demo [--env-id ID] ...                     # training.evaluate.ik_demo
     cdcr-gym configs                                    # the packaged experiment configs
 
+and ``from-zoo``, ``oracles``, ``results``, ``task-results``, ``sim2sim``, ``hysteresis``,
+``step-response``, ``transfer-probe``, ``verification``, ``bench-realism``, ``calibrate`` (``cdcr-gym --help``).
+The former ``python -m training.<module>`` forms still work (aliases, see
+:mod:`training.deprecated`).
+
 Everything after the subcommand goes to that module's ``main`` unchanged (``cdcr-gym train
---help`` prints the trainer's own help). A config argument that is not an existing file is
-looked up among the packaged configs by name, with or without ``.yaml``: the checkout's
-``configs/`` directory, which a wheel ships as ``training/configs/``.
+--help`` prints the trainer's own help, whose usage line reads ``cdcr-gym train``). A config
+argument that is not an existing file is looked up among the packaged configs by name, with or
+without ``.yaml``: the checkout's ``configs/`` directory, which a wheel ships as
+``training/configs/``.
 """
 
 from __future__ import annotations
@@ -28,16 +35,72 @@ __all__ = ["main", "configs_dir", "resolve_config", "COMMANDS"]
 
 #: subcommand -> (module, one-line description, the extra it needs)
 COMMANDS: dict[str, tuple[str, str, str]] = {
-    "train": ("training.train", "train an agent (PPO, SAC, TD3, TQC) from a YAML config", "train"),
-    "evaluate": ("training.evaluate", "evaluate a run against the analytic-IK oracle", "train"),
+    "train": (
+        "training.run.train",
+        "train an agent (PPO, SAC, TD3, TQC) from a YAML config",
+        "train",
+    ),
+    "evaluate": (
+        "training.evaluate.agent",
+        "evaluate a run against the analytic-IK oracle",
+        "train",
+    ),
+    "sweep": ("training.sweep.tune", "hyperparameter sweep (Ray Tune)", "sweep"),
+    "aggregate": ("training.sweep.aggregate", "a sweep's IQMs, CIs and benchmark page", "train"),
     "reproduce": (
-        "training.reproduce",
+        "training.studies.reproduce",
         "the paper's CCKA-vs-physics study (figures, report)",
         "train",
     ),
-    "bench": ("training.bench", "throughput of the envs and of PPO training", "train"),
-    "sweep": ("training.sweep", "hyperparameter sweep (Ray Tune)", "sweep"),
-    "demo": ("training.ik_demo", "the analytic-IK controller on a few goals (no training)", ""),
+    "bench": ("training.studies.bench", "throughput of the envs and of PPO training", "train"),
+    "demo": (
+        "training.evaluate.ik_demo",
+        "the analytic-IK controller on a few goals (no training)",
+        "",
+    ),
+    "from-zoo": ("training.run.from_zoo", "an RL Baselines3 Zoo run as a run directory", "train"),
+    "oracles": (
+        "training.evaluate.oracles",
+        "the task oracles' numbers on fixed-seed episodes",
+        "train",
+    ),
+    "results": ("training.evaluate.results", "markdown tables of evaluated runs", "train"),
+    "task-results": (
+        "training.evaluate.task_results",
+        "collect task evaluations into a JSON",
+        "train",
+    ),
+    "sim2sim": ("training.studies.sim2sim", "summarise zero-shot sim-to-sim evaluations", "train"),
+    "hysteresis": (
+        "training.studies.hysteresis",
+        "cable-friction hysteresis study (pybullet)",
+        "train",
+    ),
+    "step-response": (
+        "training.studies.step_response",
+        "tip step response: physics vs CCKA",
+        "train",
+    ),
+    "transfer-probe": (
+        "training.studies.transfer_probe",
+        "probes of the CCKA -> bullet gap",
+        "train",
+    ),
+    "verification": (
+        "training.studies.verification",
+        "the pybullet backend vs closed-form mechanics",
+        "train",
+    ),
+    "calibrate": (
+        "training.studies.calibrate",
+        "fit robot parameters to measured tip positions (CSV)",
+        "",
+    ),
+    "bench-realism": (
+        "training.studies.bench_realism",
+        "step time with randomisation/imperfections",
+        "",
+    ),
 }
 
 
@@ -179,8 +242,8 @@ def _usage() -> str:
         "",
         "commands:",
     ]
-    for name, (module, text, _) in COMMANDS.items():
-        lines.append(f"  {name:<{width}}{text} (python -m {module})")
+    for name, (_, text, _) in COMMANDS.items():
+        lines.append(f"  {name:<{width}}{text}")
     lines.append(f"  {'configs':<{width}}list the packaged experiment configs")
     lines += [
         "",

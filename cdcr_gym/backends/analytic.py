@@ -64,9 +64,6 @@ class AnalyticBackend(Backend):
         buffers fill from contiguous rows (``tensions`` are kept as given).
         """
         m = self.model
-        if length_scale is None and comp.shape[1] == 1:  # one robot: a row of Python floats
-            row = np.array(m.forward_values_one(comp))[None]
-            return Readings(row[:, 0:3], row[:, 3:6], row[:, 6:], tensions)
         tip, direction, lengths = m.forward_rows(comp)
         if length_scale is not None:  # lengths are linear in w: scaling w scales Δl
             lengths = m.bending_to_lengths.T @ (comp * length_scale)
@@ -102,16 +99,6 @@ class AnalyticBackend(Backend):
 
     def apply_tensions(self, tensions: np.ndarray) -> None:
         self._set(tensions)
-
-    def apply_tensions_one(self, tensions: list[float]) -> None:
-        if self.num_robots != 1 or self.bending_scale is not None:
-            self.apply_tensions(np.array([tensions]))
-            return
-        m = self.model
-        comp = m.bending_values_one(tensions)
-        self._comp = np.array(comp)[:, None]
-        row = np.array(m.forward_values_one(comp))[None]
-        self._readings = Readings(row[:, 0:3], row[:, 3:6], row[:, 6:], np.array([tensions]))
 
     def apply_cable_lengths(self, lengths: np.ndarray) -> None:
         m = self.model

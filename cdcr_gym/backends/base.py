@@ -82,12 +82,6 @@ class Backend(abc.ABC):
         The caller guarantees finite values in [0, params.max_tension].
         """
 
-    def apply_tensions_one(self, tensions: list[float]) -> None:
-        """:meth:`apply_tensions` for a backend of one robot, the tensions (C,) N given as Python
-        floats (the single env's hot path). Default: ``apply_tensions`` of the (1, C) array; a
-        backend may override it with cheaper scalar arithmetic and the same result."""
-        self.apply_tensions(np.array([tensions]))
-
     def apply_cable_lengths(self, lengths: np.ndarray) -> None:
         """Set cable lengths ``lengths`` (N, C) m (cable-displacement control).
 

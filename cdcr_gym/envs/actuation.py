@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cdcr_gym import validation
+from cdcr_gym import defaults, validation
 from cdcr_gym.model.chain import PCCModel
 from cdcr_gym.model.params import RobotParams
 from cdcr_gym.model.statics import reachable_scale
@@ -44,8 +44,8 @@ class Actuation:
         self,
         mode: str,
         params: RobotParams,
-        tension_step: float = 0.05,
-        length_step: float = 0.002,
+        tension_step: float = defaults.TENSION_STEP,
+        length_step: float = defaults.LENGTH_STEP,
     ) -> None:
         self.mode = validation.choice(mode, "action_mode", ACTION_MODES)
         self.tension_step = validation.positive(tension_step, "tension_step", upper=1.0)
@@ -71,20 +71,6 @@ class Actuation:
             np.maximum(t, 0.0, out=t)
             np.minimum(t, self.max_tension, out=t)
         return t
-
-    def tensions_one(self, action: list[float], held: list[float]) -> list[float]:
-        """:meth:`tensions` of one env in Python floats (same arithmetic): tensions (C,) N from
-        the clipped ``action`` (C,) and the ``held`` tensions (C,), as lists. At a few numbers
-        each numpy call costs more than the arithmetic (the single env's hot path)."""
-        if self.mode == "tension":
-            top = self.max_tension
-            return [top * 0.5 * (a + 1.0) for a in action]
-        inc, top = self._tension_increment, self.max_tension
-        out = []
-        for h, a in zip(held, action):
-            x = h + a * inc
-            out.append(0.0 if x < 0.0 else top if x > top else x)
-        return out
 
     def lengths(self, action: np.ndarray, held: np.ndarray) -> np.ndarray:
         """Cable lengths (N, C) m after clipped ``action`` (N, C) from the ``held`` lengths."""

@@ -25,17 +25,19 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from cdcr_gym import validation
+from cdcr_gym import defaults, validation
 from cdcr_gym.backends.base import Backend, Readings
 from cdcr_gym.envs.actuation import Actuation
 from cdcr_gym.model.workspace import sample_tensions_each
 from cdcr_gym.randomization import INFO_PREFIX, DomainRandomization, Imperfections
-from cdcr_gym.tasks.base import Task, one_env_info
+from cdcr_gym.tasks.base import Task
 
-__all__ = ["EnvCore", "INITIAL_STATES"]
+__all__ = ["EnvCore", "INITIAL_STATES", "OPTION_KEYS"]
 
 #: Start shapes: straight (zero tensions) or a shape drawn like the goals.
 INITIAL_STATES = ("straight", "random")
+#: Keys of ``reset(options=...)`` (the vector env also takes Gymnasium's ``reset_mask``).
+OPTION_KEYS = ("goal", "initial_tensions")
 
 
 class EnvCore:
@@ -49,6 +51,7 @@ class EnvCore:
         initial_state: ``"straight"`` or ``"random"``, or a sequence of N such values.
         goal_conditioned: Dict observations (``observation``, ``achieved_goal``,
             ``desired_goal``) instead of a flat vector.
+        terminate_on_success: end an env's episode once its task succeeds.
         randomize: per-episode parameter ranges (``cdcr_gym.randomization``); None: off.
         imperfections: sensor and actuator imperfections (``cdcr_gym.randomization``);
             None: off.
@@ -59,11 +62,12 @@ class EnvCore:
         backend: Backend,
         task: Task,
         *,
-        action_mode: str = "tension_delta",
-        tension_step: float = 0.05,
-        length_step: float = 0.002,
-        initial_state: str | Sequence[str] = "straight",
+        action_mode: str = defaults.ACTION_MODE,
+        tension_step: float = defaults.TENSION_STEP,
+        length_step: float = defaults.LENGTH_STEP,
+        initial_state: str | Sequence[str] = defaults.INITIAL_STATE,
         goal_conditioned: bool = False,
+        terminate_on_success: bool = False,
         randomize: Mapping[str, Any] | None = None,
         imperfections: Mapping[str, Any] | None = None,
     ) -> None:
@@ -78,6 +82,7 @@ class EnvCore:
                 f"{type(backend).__name__} has none (use 'tension' or 'tension_delta')"
             )
         self.goal_conditioned = validation.flag(goal_conditioned, "goal_conditioned")
+        self.terminate_on_success = validation.flag(terminate_on_success, "terminate_on_success")
         if self.goal_conditioned and task.goal_size == 0:
             raise ValueError(f"goal_conditioned=True: the {type(task).__name__} task has no goal")
         self.backend = backend
@@ -151,6 +156,42 @@ class EnvCore:
             self.imperfections.draw_biases(idx, rngs)
 
     # -- reset ----------------------------------------------------------------------------------
+    def reset_options(
+        self, options: Any, allow_mask: bool = False
+    ) -> tuple[np.ndarray | None, Any, Any]:
+        """``reset(options=...)`` of either env, checked: (the envs to reset (sorted indices)
+        from ``reset_mask`` or None for all, ``initial_tensions``, ``goal``).
+
+        Raises:
+            ValueError: naming ``options`` for anything but None or a mapping of
+                :data:`OPTION_KEYS` (and ``reset_mask`` with ``allow_mask``), and naming
+                ``options['reset_mask']`` for a mask that is not (N,) bool selecting an env.
+        """
+        if options is None:
+            return None, None, None
+        allowed = OPTION_KEYS + (("reset_mask",) if allow_mask else ())
+        if not isinstance(options, Mapping):
+            raise ValueError(f"options must be None or a dict with keys {allowed}, got {options!r}")
+        unknown = set(options) - set(allowed)
+        if unknown:
+            raise ValueError(
+                f"options has unknown keys {sorted(unknown, key=str)}; allowed: "
+                + ", ".join(repr(k) for k in allowed)
+            )
+        mask = options.get("reset_mask")
+        idx = None
+        if mask is not None:
+            n = self.num_envs
+            if not isinstance(mask, np.ndarray) or mask.dtype != np.bool_ or mask.shape != (n,):
+                raise ValueError(
+                    f"options['reset_mask'] must be a bool numpy array of shape ({n},), "
+                    f"got {mask!r}"
+                )
+            if not mask.any():
+                raise ValueError("options['reset_mask'] must select at least one env")
+            idx = np.flatnonzero(mask)
+        return idx, options.get("initial_tensions"), options.get("goal")
+
     def reset(
         self,
         idx: np.ndarray,
@@ -229,20 +270,12 @@ class EnvCore:
         self._readings = self.backend.read()
         self.task.advance(self.backend, self._readings)
 
-    def step_one(self, action: list[float]) -> None:
-        """:meth:`step` of a core of one env (N = 1), the clipped action (C,) given as Python
-        floats: the single env's hot path. Plain tension commands run in Python floats
-        (``Actuation.tensions_one``, ``Backend.apply_tensions_one``: the same arithmetic); the
-        other cases (N > 1, length commands, delayed or disturbed actuation) run :meth:`step`."""
-        act, imp = self.actuation, self.imperfections
-        if self.num_envs != 1 or act.commands_lengths or (imp is not None and imp.acts):
-            self.step(np.array([action]))
-            return
-        held = act.tensions_one(action, self._held_tensions.ravel().tolist())
-        self._held_tensions = np.array([held])
-        self.backend.apply_tensions_one(held)
-        self._readings = self.backend.read()
-        self.task.advance(self.backend, self._readings)
+    def terminated(self, success: np.ndarray) -> np.ndarray:
+        """(N,) bool: the envs whose episode ends now: a success with ``terminate_on_success``,
+        or the task's own end (``Task.terminal``, e.g. a collision). A fresh array."""
+        if self.terminate_on_success:
+            return success | self.task.terminal()
+        return self.task.terminal().copy()
 
     @property
     def readings(self) -> Readings:
@@ -288,29 +321,3 @@ class EnvCore:
         for name, values in self.randomized.items():
             info[INFO_PREFIX + name] = values.copy()
         return obs, reward, success, info
-
-    def observe_one(self) -> tuple[Any, float, bool, dict[str, Any]]:
-        """:meth:`observe` of a core of one env (N = 1), unbatched: (observation of the env,
-        reward, success, info of the env's entries: Python scalars for per-env scalars, else
-        the env's arrays). The flat observation without imperfections comes from the task's
-        one-env path (``Task.observe_one``/``Task.evaluate_one``); otherwise row 0 of
-        :meth:`observe`."""
-        if self.num_envs != 1 or self.goal_conditioned or self.imperfections is not None:
-            obs, rewards, successes, batched = self.observe()
-            if self.goal_conditioned:
-                obs = {key: value[0] for key, value in obs.items()}
-            else:
-                obs = obs[0]
-            return obs, float(rewards[0]), bool(successes[0]), one_env_info(batched)
-        r = self._readings
-        task = self.task
-        flat = task.observe_one(r)
-        reward, success, info = task.evaluate_one(r)
-        info["tip"] = r.tip[0]
-        info["tensions"] = r.tensions[0]
-        info["cable_lengths"] = r.cable_lengths[0]
-        if r.anchor_tensions is not None:
-            info["anchor_tensions"] = r.anchor_tensions[0]
-        for name, values in self.randomized.items():
-            info[INFO_PREFIX + name] = values.item()
-        return flat, reward, success, info

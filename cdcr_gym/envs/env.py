@@ -8,10 +8,10 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from cdcr_gym import validation
+from cdcr_gym import defaults, validation
 from cdcr_gym.backends.base import Backend
 from cdcr_gym.envs.core import EnvCore
-from cdcr_gym.tasks.base import Task
+from cdcr_gym.tasks.base import Task, one_env_info
 from cdcr_gym.tasks.reach import Reach
 
 __all__ = ["CDCREnv", "GoalCDCREnv", "ReachEnv", "GoalReachEnv"]
@@ -116,10 +116,10 @@ class CDCREnv(gym.Env):
         backend: Backend,
         task: Task | None = None,
         *,
-        action_mode: str = "tension_delta",
-        tension_step: float = 0.05,
-        length_step: float = 0.002,
-        initial_state: str = "straight",
+        action_mode: str = defaults.ACTION_MODE,
+        tension_step: float = defaults.TENSION_STEP,
+        length_step: float = defaults.LENGTH_STEP,
+        initial_state: str = defaults.INITIAL_STATE,
         terminate_on_success: bool = False,
         render_mode: str | None = None,
         render_width: int = 480,
@@ -143,6 +143,7 @@ class CDCREnv(gym.Env):
             length_step=length_step,
             initial_state=initial_state,
             goal_conditioned=self.goal_conditioned,
+            terminate_on_success=terminate_on_success,
             randomize=randomize,
             imperfections=imperfections,
         )
@@ -151,7 +152,7 @@ class CDCREnv(gym.Env):
         self.tension_step = self.core.actuation.tension_step
         self.length_step = self.core.actuation.length_step
         self.initial_state = initial_state
-        self.terminate_on_success = validation.flag(terminate_on_success, "terminate_on_success")
+        self.terminate_on_success = self.core.terminate_on_success
         if render_mode is not None:
             validation.choice(render_mode, "render_mode", tuple(self.metadata["render_modes"]))
         if render_mode == "human":
@@ -182,27 +183,29 @@ class CDCREnv(gym.Env):
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[Any, dict[str, Any]]:
         super().reset(seed=seed)
-        options = {} if options is None else dict(options)
-        unknown = set(options) - {"goal", "initial_tensions"}
-        if unknown:
-            raise ValueError(
-                f"options has unknown keys {sorted(unknown)}; allowed: 'goal', 'initial_tensions'"
-            )
-        self.core.reset(
-            _ONE, [self.np_random], options.get("initial_tensions"), options.get("goal")
-        )
-        obs, _, _, info = self.core.observe_one()
+        _, initial_tensions, goal = self.core.reset_options(options)
+        self.core.reset(_ONE, [self.np_random], initial_tensions, goal)
+        obs, _, _, info = self._observe()
         if self.render_mode == "human":
             self.render()
         return obs, info
 
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
-        self.core.step_one(validation.clipped_action_values(action, self._action_shape))
-        obs, reward, success, info = self.core.observe_one()
-        terminated = bool((self.terminate_on_success and success) or self.task.terminal()[0])
+        self.core.step(validation.clipped_action(action, self._action_shape)[None])
+        obs, reward, terminated, info = self._observe()
         if self.render_mode == "human":
             self.render()
         return obs, reward, terminated, False, info
+
+    def _observe(self) -> tuple[Any, float, bool, dict[str, Any]]:
+        """The core's outputs for its one env: (observation, reward, terminated, info)."""
+        obs, reward, success, info = self.core.observe()
+        if self.goal_conditioned:
+            obs = {key: value[0] for key, value in obs.items()}
+        else:
+            obs = obs[0]
+        terminated = bool(self.core.terminated(success)[0])
+        return obs, float(reward[0]), terminated, one_env_info(info)
 
     def render(self) -> np.ndarray | None:
         if self.render_mode is None:

@@ -1,5 +1,5 @@
-"""Entry points of the registered ids: a (backend × task) table, keyword arguments routed by
-signature.
+"""Entry points of the registered ids (the (backend × task) table of ``cdcr_gym.registration``),
+keyword arguments routed by signature.
 
 ``gymnasium.make("cdcr_gym/BulletReach-v0", robot="tdcr2", gravity=False, action_mode="tension")``
 lands in :func:`make_env` with ``backend="Bullet"`` and ``task="Reach"`` (the registered
@@ -14,11 +14,14 @@ from __future__ import annotations
 
 import importlib
 import inspect
+from os import PathLike
+from pathlib import Path
 from typing import Any
 
 from cdcr_gym import validation
 from cdcr_gym.envs.env import CDCREnv, GoalCDCREnv
 from cdcr_gym.model.params import RobotParams
+from cdcr_gym.registration import BACKENDS, DEFAULT_ROBOTS, TASKS
 
 __all__ = [
     "BACKENDS",
@@ -30,28 +33,6 @@ __all__ = [
     "default_robot",
     "DEFAULT_ROBOTS",
 ]
-
-#: Backend name (id prefix) → class, as "module:attribute" (imported only when used).
-BACKENDS = {
-    "CCKA": "cdcr_gym.backends.analytic:AnalyticBackend",
-    "Bullet": "cdcr_gym.backends.bullet:BulletBackend",
-    "MuJoCo": "cdcr_gym.backends.mujoco:MuJoCoBackend",
-}
-#: Task name (id infix) → class, as "module:attribute".
-TASKS = {
-    "Reach": "cdcr_gym.tasks.reach:Reach",
-    "Track": "cdcr_gym.tasks.track:Track",
-    "Pose": "cdcr_gym.tasks.pose:Pose",
-    "Obstacle": "cdcr_gym.tasks.obstacle:Obstacle",
-}
-#: The robot preset of a (backend, task) when neither ``robot`` nor ``params`` is given (else
-#: "paper"). Pose defaults to the two-section robot (a one-section tip direction is fixed by its
-#: position) on every backend that models several sections.
-DEFAULT_ROBOTS = {
-    ("CCKA", "Pose"): "tdcr2",
-    ("Bullet", "Pose"): "tdcr2",
-    ("MuJoCo", "Pose"): "tdcr2",
-}
 
 
 def _load(table: dict[str, str], name: Any, what: str) -> Any:
@@ -72,9 +53,13 @@ def keyword_names(callable_: Any) -> tuple[str, ...]:
 
 
 def resolve_params(robot: Any = None, params: Any = None, default: str = "paper") -> RobotParams:
-    """The robot: ``params`` (a RobotParams) or a preset name ``robot``; else preset ``default``."""
+    """The robot: ``params`` (a RobotParams, or the path of a YAML file such as
+    ``cdcr-gym calibrate``'s ``params.yaml``, read by ``RobotParams.from_yaml``) or a preset name
+    ``robot``; else preset ``default``."""
     if robot is not None and params is not None:
         raise ValueError("give either robot (a preset name) or params (a RobotParams), not both")
+    if isinstance(params, (str, PathLike)):
+        return RobotParams.from_yaml(Path(params))
     if params is not None:
         if not isinstance(params, RobotParams):
             raise ValueError(f"params must be a cdcr_gym.params.RobotParams, got {params!r}")

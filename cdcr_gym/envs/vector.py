@@ -16,7 +16,7 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from cdcr_gym import MAX_EPISODE_STEPS, validation
+from cdcr_gym import defaults, validation
 from cdcr_gym.envs import factory
 from cdcr_gym.envs.core import EnvCore
 
@@ -68,7 +68,7 @@ class CDCRVectorEnv(VectorEnv):
         self,
         num_envs: int = 1,
         *,
-        max_episode_steps: int | None = MAX_EPISODE_STEPS,
+        max_episode_steps: int | None = defaults.MAX_EPISODE_STEPS,
         backend: str = "CCKA",
         task: str = "Reach",
         goal_conditioned: bool = False,
@@ -113,12 +113,10 @@ class CDCRVectorEnv(VectorEnv):
             )
         for key in ("render_width", "render_height"):
             env_kw.pop(key, None)
-        self.terminate_on_success = validation.flag(
-            env_kw.pop("terminate_on_success", False), "terminate_on_success"
-        )
         self.task = task_class(**task_kw)
         robots = backend_class(params=params, num_robots=n, **backend_kw)
         self.core = EnvCore(robots, self.task, goal_conditioned=self.goal_conditioned, **env_kw)
+        self.terminate_on_success = self.core.terminate_on_success
         self.params = params
         self.observation_spec = self.core.spec
         actuation = self.core.actuation
@@ -180,29 +178,14 @@ class CDCRVectorEnv(VectorEnv):
                 raise ValueError(
                     f"seed must be None, an int or a list of num_envs={n} seeds, got {len(seeds)}"
                 )
-        options = {} if options is None else dict(options)
-        mask = options.pop("reset_mask", None)
-        unknown = set(options) - {"goal", "initial_tensions"}
-        if unknown:
-            raise ValueError(
-                f"options has unknown keys {sorted(unknown)}; "
-                f"allowed: 'goal', 'initial_tensions', 'reset_mask'"
-            )
-        if mask is None:
+        idx, initial_tensions, goal = self.core.reset_options(options, allow_mask=True)
+        mask = None if idx is None else options["reset_mask"]  # type: ignore[index]
+        if idx is None:
             idx = self._all
-        else:
-            if not isinstance(mask, np.ndarray) or mask.dtype != np.bool_ or mask.shape != (n,):
-                raise ValueError(
-                    f"options['reset_mask'] must be a bool numpy array of shape ({n},), "
-                    f"got {mask!r}"
-                )
-            if not mask.any():
-                raise ValueError("options['reset_mask'] must select at least one env")
-            idx = np.flatnonzero(mask)
         for i in idx.tolist():
             if seeds[i] is not None:
                 self._rngs[i], self._rng_seeds[i] = seeding.np_random(seeds[i])
-        self._reset_envs(idx, options.get("initial_tensions"), options.get("goal"))
+        self._reset_envs(idx, initial_tensions, goal)
         self._autoreset[idx] = False
         self._needs_reset = False
         obs, _, _, info = self.core.observe()
@@ -222,8 +205,8 @@ class CDCRVectorEnv(VectorEnv):
         any_reset = bool(resetting.any())
         if any_reset:  # resetting envs ignore their actions (even non-finite ones)
             raw = np.asarray(actions)
-            if raw.dtype.kind not in "fiub" or raw.shape != self._action_shape:
-                validation.real_array(actions, "actions", self._action_shape)  # raises
+            if raw.dtype.kind not in "fiu" or raw.shape != self._action_shape:
+                validation.real_array(actions, "actions", self._action_shape, allow_bool=False)
             a = validation.real_array(np.where(resetting[:, None], 0.0, raw), "actions")
         else:
             a = validation.action_array(actions, self._action_shape)
@@ -234,11 +217,7 @@ class CDCRVectorEnv(VectorEnv):
             self._reset_envs(np.flatnonzero(resetting))
         obs, reward, success, info = self.core.observe()
         n = self.num_envs
-        if self.terminate_on_success:
-            terminated = success.copy()
-        else:
-            terminated = np.zeros(n, dtype=np.bool_)
-        terminated |= self.task.terminal()
+        terminated = self.core.terminated(success)
         if self.max_episode_steps is None:
             truncated = np.zeros(n, dtype=np.bool_)
         else:

@@ -30,6 +30,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 __all__ = [
     "arc_profile",
@@ -169,7 +170,7 @@ def _tip_components(theta, wx, wy, length):
 # -- public API (the same names, signatures and results as cdcr_gym.kinematics) ------------------
 
 
-def arc_from_lengths(lengths, r: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def arc_from_lengths(lengths: ArrayLike, r: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Arc parameters from the three cable lengths (paper eq. 2–4, with atan2).
 
     Args:
@@ -192,7 +193,7 @@ def arc_from_lengths(lengths, r: float) -> tuple[np.ndarray, np.ndarray, np.ndar
     return theta, phi, kappa
 
 
-def lengths_from_arc(theta, phi, length: float, r: float) -> np.ndarray:
+def lengths_from_arc(theta: ArrayLike, phi: ArrayLike, length: float, r: float) -> np.ndarray:
     """Cable lengths for an arc: l_i = ℓ − r·θ·cos(φ − β_i).
 
     Args:
@@ -216,7 +217,7 @@ def lengths_from_arc(theta, phi, length: float, r: float) -> np.ndarray:
     )
 
 
-def tip_from_arc(theta, phi, length: float) -> np.ndarray:
+def tip_from_arc(theta: ArrayLike, phi: ArrayLike, length: float) -> np.ndarray:
     """Tip position of the arc (paper eq. 1), exact at θ = 0.
 
     X = ℓ(1 − cos θ)/θ · cos φ,  Y = ℓ(1 − cos θ)/θ · sin φ,  Z = ℓ sin θ/θ.
@@ -235,7 +236,7 @@ def tip_from_arc(theta, phi, length: float) -> np.ndarray:
     return _stack3(*_tip_components(theta, theta * np.cos(phi), theta * np.sin(phi), length))
 
 
-def forward_kinematics(lengths, r: float) -> np.ndarray:
+def forward_kinematics(lengths: ArrayLike, r: float) -> np.ndarray:
     """Tip position from the three cable lengths (the corrected paper eq. 5).
 
     Args:
@@ -253,7 +254,7 @@ def forward_kinematics(lengths, r: float) -> np.ndarray:
     return _stack3(*_tip_components(np.sqrt(wx * wx + wy * wy), wx, wy, backbone))
 
 
-def arc_from_tip(tip, length: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def arc_from_tip(tip: ArrayLike, length: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The arc (θ in [0, π]) whose tip is nearest to ``tip``, and the distance between them.
 
     For a point on the reachable surface, φ = atan2(y, x) and θ = 2·atan2(√(x²+y²), z) (the
@@ -333,7 +334,7 @@ def _profile_derivatives(theta: np.ndarray) -> tuple[np.ndarray, ...]:
 
 
 def inverse_kinematics(
-    tip, length: float, r: float, *, return_residual: bool = False
+    tip: ArrayLike, length: float, r: float, *, return_residual: bool = False
 ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
     """Cable lengths that put the tip at ``tip`` (analytic CCKA inverse kinematics).
 
@@ -356,7 +357,7 @@ def inverse_kinematics(
     return (lengths, residual) if return_residual else lengths
 
 
-def tip_rotation(theta, phi) -> np.ndarray:
+def tip_rotation(theta: ArrayLike, phi: ArrayLike) -> np.ndarray:
     """Orientation of the tip frame in R0: Rz(φ)·Ry(θ)·Rz(−φ).
 
     Args:
@@ -382,7 +383,7 @@ def tip_rotation(theta, phi) -> np.ndarray:
     return rot
 
 
-def tip_pose(theta, phi, length: float) -> np.ndarray:
+def tip_pose(theta: ArrayLike, phi: ArrayLike, length: float) -> np.ndarray:
     """Homogeneous transform of the tip frame in R0, shape (..., 4, 4) (translation in m)."""
     theta, phi = np.broadcast_arrays(_as_theta(theta), as_finite("phi", phi))
     pose = np.zeros(theta.shape + (4, 4))
@@ -392,7 +393,7 @@ def tip_pose(theta, phi, length: float) -> np.ndarray:
     return pose
 
 
-def backbone_points(theta, phi, length: float, n: int = 50) -> np.ndarray:
+def backbone_points(theta: ArrayLike, phi: ArrayLike, length: float, n: int = 50) -> np.ndarray:
     """Points along the constant-curvature backbone, evenly spaced in arc length.
 
     Args:

@@ -25,7 +25,6 @@ disk centre, backbone along +Z0, the disks' x axis along +X0).
 from __future__ import annotations
 
 import math
-from operator import mul
 
 import numpy as np
 
@@ -104,12 +103,8 @@ class PCCModel:
         self.bending_to_lengths = np.ascontiguousarray(b.reshape(C, 2 * S).T)
         self.straight_lengths = through.astype(np.float64) @ self.section_lengths
         self.lengths_to_bending = self._sequential_least_squares()
-        self._bending_to_lengths_columns = self.bending_to_lengths.T.tolist()
-        self._tension_to_bending_rows = self.tension_to_bending.T.tolist()
-        self._straight_list = self.straight_lengths.tolist()
         self._section_length_list = self.section_lengths.tolist()
         self._tiled: dict[int, np.ndarray] = {}
-        self._buffers: dict[int, np.ndarray] = {}
         self.disk_fractions = tuple(
             np.arange(1, s.n_disks + 1, dtype=np.float64) / s.n_disks for s in params.sections
         )
@@ -206,196 +201,56 @@ class PCCModel:
         return bending_from_arc(as_finite("theta", theta), as_finite("phi", phi))
 
     # -- forward kinematics ----------------------------------------------------------------------
-    # The hot path (called every env step on (N, S, 2) arrays) works component-major on
-    # (S, N) rows, so every numpy call runs over the whole batch, and writes its intermediates into
-    # scratch buffers kept per batch size: allocating fresh 128 kB temporaries costs more than the
-    # arithmetic (page faults). Consequently a PCCModel must not be shared between threads.
-    def _scratch(self, rows: int) -> np.ndarray:
-        buf = self._buffers.get(rows)
-        if buf is None:
-            if len(self._buffers) > 8:
-                self._buffers.clear()
-            buf = self._buffers[rows] = np.empty((10 * self.n_sections + 7, rows))
-        return buf
-
-    def _profile(self, w):
-        """(wx, wy, f, g, h = cos θ), each (S, M) rows of a scratch buffer, 7 free scratch rows
-        (7, M) and the batch shape; M = batch size."""
+    # One kernel (:func:`_tip_and_direction`) serves every caller: plain arithmetic on "numbers"
+    # that are numpy arrays of the batch shape, or Python floats for a single shape (at one
+    # number a numpy call costs ~20x the arithmetic). The same operations in the same order give
+    # the same bits either way.
+    def _components(self, w) -> tuple[list[np.ndarray], tuple[int, ...]]:
+        """The bending components (wx_0, wy_0, wx_1, …) of w (..., S, 2) as 2S arrays of the
+        batch shape (views), and the batch shape."""
         w = _finite("w", w)
         S = self.n_sections
         if w.shape[-2:] != (S, 2):
             raise ValueError(f"w must have shape (..., {S}, 2), got {w.shape}")
-        batch = w.shape[:-2]
-        flat = w.reshape(-1, 2 * S)
-        buf = self._scratch(flat.shape[0])
-        comp = buf[: 2 * S]
-        np.copyto(comp, flat.T)
-        return self._profile_rows(comp, buf) + (batch,)
+        return [w[..., j, k] for j in range(S) for k in (0, 1)], w.shape[:-2]
 
-    def _profile_rows(self, comp: np.ndarray, buf: np.ndarray):
-        """(wx, wy, f, g, h, tmp) from the component rows ``comp`` (2S, M) = (wx_0, wy_0, wx_1,
-        …); ``buf`` is the scratch buffer of M rows (``comp`` may be its first 2S rows)."""
-        S = self.n_sections
-        rest, tmp = buf[2 * S : 10 * S], buf[10 * S :]
-        wx, wy = comp[0::2], comp[1::2]
-        th2, x, safe, p, t, den, g, f = (rest[k * S : (k + 1) * S] for k in range(8))
-        np.multiply(wx, wx, out=th2)
-        np.multiply(wy, wy, out=x)
-        th2 += x
-        np.sqrt(th2, out=x)
-        x *= 0.25  # θ/4
-        np.add(x, 1e-300, out=safe)  # == x unless x < 1e-284; tan(1e-300)/1e-300 == 1.0 exactly
-        np.tan(safe, out=p)
-        p /= safe  # tan(θ/4)/(θ/4)
-        np.multiply(p, x, out=t)
-        t *= t  # tan²(θ/4)
-        np.add(t, 1.0, out=den)
-        p /= den  # q = sin(θ/2)/(θ/2)
-        np.subtract(1.0, t, out=g)
-        g *= p
-        g /= den  # sin θ/θ = q·cos(θ/2)
-        np.multiply(p, p, out=f)
-        f *= 0.5  # (1 − cos θ)/θ² = q²/2
-        h = x  # reuse: cos θ = 1 − f θ²
-        np.multiply(f, th2, out=h)
-        np.subtract(1.0, h, out=h)
-        return wx, wy, f, g, h, tmp
-
-    @staticmethod
-    def _rotate_into(wx, wy, f, g, h, v, tmp) -> None:
-        """v (3, M) <- R(w)·v, R = I + g[a]× + f[a]×², h = cos θ; tmp: (4, M) scratch."""
-        c, d, gv3, fd = tmp[0], tmp[1], tmp[2], tmp[3]
-        np.multiply(wx, v[0], out=c)
-        np.multiply(wy, v[1], out=d)
-        c += d  # w·v
-        np.multiply(wx, v[1], out=d)
-        np.multiply(wy, v[0], out=gv3)
-        d -= gv3  # (−wy, wx)·v
-        np.multiply(g, v[2], out=gv3)
-        np.multiply(f, d, out=fd)
-        v *= h
-        np.multiply(wx, gv3, out=d)
-        v[0] += d
-        np.multiply(wy, fd, out=d)
-        v[0] -= d
-        np.multiply(wy, gv3, out=d)
-        v[1] += d
-        np.multiply(wx, fd, out=d)
-        v[1] += d
-        np.multiply(g, c, out=d)
-        v[2] -= d
-
-    def _tip_into(self, wx, wy, f, g, h, v, tmp) -> None:
-        """v (3, M) <- the tip (m) from the (S, M) components."""
-        ell = self.section_lengths
-        for j in range(self.n_sections - 1, -1, -1):
-            if j < self.n_sections - 1:
-                self._rotate_into(wx[j], wy[j], f[j], g[j], h[j], v, tmp)
-                np.multiply(f[j], wx[j], out=tmp[0])
-                tmp[0] *= ell[j]
-                v[0] += tmp[0]
-                np.multiply(f[j], wy[j], out=tmp[0])
-                tmp[0] *= ell[j]
-                v[1] += tmp[0]
-                np.multiply(g[j], ell[j], out=tmp[0])
-                v[2] += tmp[0]
-            else:
-                np.multiply(f[j], wx[j], out=v[0])
-                np.multiply(f[j], wy[j], out=v[1])
-                v[:2] *= ell[j]
-                np.multiply(g[j], ell[j], out=v[2])
-
-    def _direction_into(self, wx, wy, f, g, h, v, tmp) -> None:
-        """v (3, M) <- the unit tangent at the tip from the (S, M) components."""
-        last = self.n_sections - 1
-        np.multiply(g[last], wx[last], out=v[0])
-        np.multiply(g[last], wy[last], out=v[1])
-        np.copyto(v[2], h[last])
-        for j in range(last - 1, -1, -1):
-            self._rotate_into(wx[j], wy[j], f[j], g[j], h[j], v, tmp)
-
-    @staticmethod
-    def _pack(v: np.ndarray, batch: tuple[int, ...]) -> np.ndarray:
-        """A fresh (..., 3) array from the rows v (3, M) (column writes: v.T.copy() is slower)."""
-        out = np.empty((v.shape[1], 3))
-        out[:, 0], out[:, 1], out[:, 2] = v
-        return out.reshape(batch + (3,))
+    def _kinematics(self, comp) -> tuple[tuple, tuple]:
+        """(tip (x, y, z) m, unit tip tangent (x, y, z)) of the bending components ``comp``
+        (2S numbers or arrays of one shape), each a 3-tuple of the same kind."""
+        if isinstance(comp, np.ndarray) and comp.ndim == 2 and comp.shape[1] == 1:
+            comp = comp[:, 0].tolist()  # one robot: Python floats
+        numbers = isinstance(comp[0], float)
+        return _tip_and_direction(
+            comp,
+            self._section_length_list,
+            math.sqrt if numbers else np.sqrt,
+            math.tan if numbers else np.tan,
+        )
 
     def tip_from_bending(self, w) -> np.ndarray:
         """Tip position (..., 3) (m) in R0 of the shape w (..., S, 2) (rad)."""
-        wx, wy, f, g, h, tmp, batch = self._profile(w)
-        self._tip_into(wx, wy, f, g, h, tmp[:3], tmp[3:])
-        return self._pack(tmp[:3], batch)
+        comp, batch = self._components(w)
+        return np.stack(np.broadcast_arrays(*self._kinematics(comp)[0]), axis=-1).reshape(
+            batch + (3,)
+        )
 
     def tip_direction_from_bending(self, w) -> np.ndarray:
         """Unit backbone tangent at the tip, (..., 3), in R0 (the tip frame's z axis)."""
-        wx, wy, f, g, h, tmp, batch = self._profile(w)
-        self._direction_into(wx, wy, f, g, h, tmp[:3], tmp[3:])
-        return self._pack(tmp[:3], batch)
+        comp, batch = self._components(w)
+        return np.stack(np.broadcast_arrays(*self._kinematics(comp)[1]), axis=-1).reshape(
+            batch + (3,)
+        )
 
     def tip_and_direction_from_bending(self, w) -> tuple[np.ndarray, np.ndarray]:
-        """``(tip_from_bending(w), tip_direction_from_bending(w))``, sharing the arc profile."""
-        wx, wy, f, g, h, tmp, batch = self._profile(w)
-        self._tip_into(wx, wy, f, g, h, tmp[:3], tmp[3:])
-        tip = self._pack(tmp[:3], batch)
-        self._direction_into(wx, wy, f, g, h, tmp[:3], tmp[3:])
-        return tip, tmp[:3].T.copy().reshape(batch + (3,))
+        """``(tip_from_bending(w), tip_direction_from_bending(w))``, computed together."""
+        comp, batch = self._components(w)
+        tip, direction = self._kinematics(comp)
+        return (
+            np.stack(np.broadcast_arrays(*tip), axis=-1).reshape(batch + (3,)),
+            np.stack(np.broadcast_arrays(*direction), axis=-1).reshape(batch + (3,)),
+        )
 
-    def _forward_one(self, comp: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """:meth:`forward_rows` for one robot (M = 1): rows of :meth:`forward_values_one`."""
-        rows = np.array(self.forward_values_one(comp))[:, None]
-        return rows[0:3], rows[3:6], rows[6:]
-
-    def bending_values_one(self, tensions: list[float]) -> list[float]:
-        """:meth:`bending_rows_from_tensions` of one robot in Python floats: the bending
-        components (wx_0, wy_0, wx_1, …) (2S,) rad from tensions (C,) N (finite, validated by
-        the caller), as a list."""
-        return [sum(map(mul, row, tensions)) for row in self._tension_to_bending_rows]
-
-    def forward_values_one(self, comp: np.ndarray | list[float]) -> list[float]:
-        """Tip (3) m, tip direction (3) and cable lengths (C) m, as one list of Python floats,
-        of one robot's bending components ``comp``: rows (2S, 1), or the (2S,) values as a list
-        (finite: the caller validates).
-
-        The same formulas in the same order as :meth:`_profile_rows`, :meth:`_tip_into` and
-        :meth:`_direction_into` (for any S): at M = 1 each numpy call costs ~1 µs of overhead
-        for one number, which made the single env several times slower than the batched one
-        per robot. Results agree with the rows kernel to rounding (tests/test_model_chain.py).
-        """
-        vals = comp[:, 0].tolist() if isinstance(comp, np.ndarray) else comp
-        ell = self._section_length_list
-        prof = []
-        for j in range(self.n_sections):
-            wx, wy = vals[2 * j], vals[2 * j + 1]
-            th2 = wx * wx + wy * wy
-            x = math.sqrt(th2) * 0.25
-            safe = x + 1e-300
-            p = math.tan(safe) / safe
-            t = p * x
-            t *= t
-            den = t + 1.0
-            p /= den
-            g = (1.0 - t) * p / den
-            f = p * p * 0.5
-            prof.append((wx, wy, f, g, 1.0 - f * th2))
-
-        last = self.n_sections - 1
-        wx, wy, f, g, h = prof[last]
-        p0, p1, p2 = f * wx * ell[last], f * wy * ell[last], g * ell[last]
-        d0, d1, d2 = g * wx, g * wy, h
-        for j in range(last - 1, -1, -1):
-            wx, wy, f, g, h = prof[j]
-            p0, p1, p2 = _rotate_one(prof[j], p0, p1, p2)
-            p0 += f * wx * ell[j]
-            p1 += f * wy * ell[j]
-            p2 += g * ell[j]
-            d0, d1, d2 = _rotate_one(prof[j], d0, d1, d2)
-        values = [p0, p1, p2, d0, d1, d2]
-        for column, straight in zip(self._bending_to_lengths_columns, self._straight_list):
-            values.append(sum(map(mul, column, vals)) + straight)
-        return values
-
-    # -- the same, field-major: the batched backend's hot path ----------------------------------
+    # -- the same, field-major: the backend's hot path -------------------------------------------
     def bending_rows_from_tensions(self, tensions: np.ndarray) -> np.ndarray:
         """Bending components as rows (2S, M) = (wx_0, wy_0, wx_1, …) (rad) from tensions (M, C)
         (N; any memory layout, finite: the caller validates). A fresh array."""
@@ -406,22 +261,14 @@ class PCCModel:
         of the bending component rows ``comp`` (2S, M) (finite: the caller validates).
 
         Field-major twin of :meth:`tip_and_direction_from_bending` and
-        :meth:`lengths_from_bending` (same arithmetic): with one row per component, every numpy
-        call runs over the whole batch and no transposing copy is needed; ``.T`` of the results
-        gives (M, ·) arrays (Fortran-ordered views).
+        :meth:`lengths_from_bending` (the same kernel): ``.T`` of the results gives (M, ·)
+        arrays (Fortran-ordered views).
         """
         m = comp.shape[1]
-        if m == 1:
-            return self._forward_one(comp)
-        buf = self._scratch(m)
-        wx, wy, f, g, h, tmp = self._profile_rows(comp, buf)
-        tip = np.empty((3, m))
-        self._tip_into(wx, wy, f, g, h, tip, tmp)
-        direction = np.empty((3, m))
-        self._direction_into(wx, wy, f, g, h, direction, tmp)
+        tip, direction = self._kinematics(comp)
         lengths = self.bending_to_lengths.T @ comp
         lengths += self.straight_lengths[:, None]
-        return tip, direction, lengths
+        return np.array(tip).reshape(3, m), np.array(direction).reshape(3, m), lengths
 
     def section_frames(self, w) -> np.ndarray:
         """Homogeneous frames (..., S+1, 4, 4) in R0: the base frame, then every section's end.
@@ -505,17 +352,47 @@ class PCCModel:
         return self._stations(w, self.disk_fractions)
 
 
-def _rotate_one(
-    profile: tuple[float, float, float, float, float], v0: float, v1: float, v2: float
-) -> tuple[float, float, float]:
-    """One section's rotation of the vector (v0, v1, v2) from the arc profile
-    (wx, wy, f, g, h) of :meth:`PCCModel.forward_values_one` (Python floats)."""
-    wx, wy, f, g, h = profile
+def _arc_profile(wx, wy, sqrt, tan):
+    """(f, g, h) = ((1 − cos θ)/θ², sin θ/θ, cos θ) of the bending components (wx, wy), θ = |w|:
+    exact and finite at θ = 0, from tan(θ/4) (no cancellation; tan(1e-300)/1e-300 == 1.0)."""
+    th2 = wx * wx + wy * wy
+    x = sqrt(th2) * 0.25  # θ/4
+    safe = x + 1e-300  # == x unless x < 1e-284
+    p = tan(safe) / safe  # tan(θ/4)/(θ/4)
+    t = p * x
+    t = t * t  # tan²(θ/4)
+    den = t + 1.0
+    p = p / den  # sin(θ/2)/(θ/2)
+    g = (1.0 - t) * p / den  # sin θ/θ = q·cos(θ/2)
+    f = p * p * 0.5  # (1 − cos θ)/θ² = q²/2
+    return f, g, 1.0 - f * th2
+
+
+def _rotate(wx, wy, f, g, h, v0, v1, v2):
+    """R(w)·v with R = I + g[a]× + f[a]×², a = (−wy, wx, 0), h = cos θ."""
     c = wx * v0 + wy * v1
     fd = f * (wx * v1 - wy * v0)
     gv3 = g * v2
-    return (
-        v0 * h + wx * gv3 - wy * fd,
-        v1 * h + wy * gv3 + wx * fd,
-        v2 * h - g * c,
-    )
+    return v0 * h + wx * gv3 - wy * fd, v1 * h + wy * gv3 + wx * fd, v2 * h - g * c
+
+
+def _tip_and_direction(comp, ell, sqrt, tan):
+    """Tip (m) and unit tip tangent of the components ``comp`` = (wx_0, wy_0, wx_1, …) of S
+    sections of lengths ``ell`` (m), composed from the distal section to the base; numbers or
+    arrays alike (``sqrt``/``tan`` of their kind)."""
+    sections = []
+    for j in range(len(ell)):
+        wx, wy = comp[2 * j], comp[2 * j + 1]
+        sections.append((wx, wy) + _arc_profile(wx, wy, sqrt, tan))
+    last = len(ell) - 1
+    wx, wy, f, g, h = sections[last]
+    p0, p1, p2 = f * wx * ell[last], f * wy * ell[last], g * ell[last]
+    d0, d1, d2 = g * wx, g * wy, h
+    for j in range(last - 1, -1, -1):
+        wx, wy, f, g, h = sections[j]
+        p0, p1, p2 = _rotate(wx, wy, f, g, h, p0, p1, p2)
+        p0 = p0 + f * wx * ell[j]
+        p1 = p1 + f * wy * ell[j]
+        p2 = p2 + g * ell[j]
+        d0, d1, d2 = _rotate(wx, wy, f, g, h, d0, d1, d2)
+    return (p0, p1, p2), (d0, d1, d2)

@@ -32,11 +32,6 @@ CABLE_ANGLES: tuple[float, float, float] = (0.0, 2.0 * math.pi / 3.0, 4.0 * math
 #: Standard gravity (m/s²), the one value of g in the package (along −Z_world where enabled).
 STANDARD_GRAVITY = 9.81
 
-# the paper's section (Table 1)
-_PAPER_LENGTH = 0.641
-_PAPER_N_DISKS = 9
-_PAPER_CABLE_RADIUS = 0.029
-
 
 def _real(owner: str, name: str, value: Any, *, positive: bool = True) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
@@ -72,9 +67,9 @@ class SectionParams:
         ValueError: naming the field and the offending value.
     """
 
-    length: float = _PAPER_LENGTH
-    n_disks: int = _PAPER_N_DISKS
-    cable_radius: float = _PAPER_CABLE_RADIUS
+    length: float = 0.641  # the paper's Table 1
+    n_disks: int = 9
+    cable_radius: float = 0.029
     cable_angles: tuple[float, ...] = CABLE_ANGLES
 
     def __post_init__(self) -> None:
@@ -188,14 +183,13 @@ class RobotParams:
         sections = self.sections
         given_sections = sections is not None
         if sections is None:
+            paper = SectionParams()  # the paper's section (Table 1)
             section = SectionParams(
-                length=_PAPER_LENGTH
-                if self.length is None
-                else _real(owner, "length", self.length),
-                n_disks=_PAPER_N_DISKS
+                length=paper.length if self.length is None else _real(owner, "length", self.length),
+                n_disks=paper.n_disks
                 if self.n_disks is None
                 else _count(owner, "n_disks", self.n_disks, 1),
-                cable_radius=_PAPER_CABLE_RADIUS
+                cable_radius=paper.cable_radius
                 if self.cable_radius is None
                 else _real(owner, "cable_radius", self.cable_radius),
             )
@@ -272,6 +266,28 @@ class RobotParams:
         if not isinstance(name, str) or name not in PRESETS:
             raise ValueError(f"robot must be one of {sorted(PRESETS)}, got {name!r}")
         return replace(PRESETS[name], **overrides) if overrides else PRESETS[name]
+
+    # -- YAML (cdcr_gym.model.params_yaml) -----------------------------------------------------
+    def to_yaml(self, path: Any = None) -> str:
+        """This robot as YAML text (SI units, exact floats); also written to ``path`` if given.
+
+        ``RobotParams.from_yaml(p.to_yaml()) == p``. Format: :mod:`cdcr_gym.model.params_yaml`.
+        """
+        from cdcr_gym.model.params_yaml import to_yaml
+
+        return to_yaml(self, path)
+
+    @classmethod
+    def from_yaml(cls, source: Any) -> RobotParams:
+        """The robot of a YAML file (a path) or text (:meth:`to_yaml`, or a file written by
+        ``cdcr-gym calibrate``, whose robot sits under ``robot:``). Needs PyYAML.
+
+        Raises:
+            ValueError: naming the key, for unknown keys or invalid values.
+        """
+        from cdcr_gym.model.params_yaml import from_yaml
+
+        return from_yaml(source)
 
     # -- derived quantities --------------------------------------------------------------------
     @property

@@ -8,20 +8,17 @@ import numpy as np
 
 from cdcr_gym import validation
 from cdcr_gym.backends.base import Backend, Readings
-from cdcr_gym.envs.observation import Field, ObservationSpec
 from cdcr_gym.model.ik import solve_ik
 from cdcr_gym.model.statics import cached_model
 from cdcr_gym.model.workspace import sample_tensions
 from cdcr_gym.tasks.base import (
     REWARD_TYPES,
-    RobotStateScale,
-    Task,
-    fill_robot_state,
+    GoalTask,
     goal_distance,
     robot_state_fields,
 )
 from cdcr_gym.tasks.collision import RobotGeometry, backend_geometry, clearance, model_geometry
-from cdcr_gym.tasks.reach import ERROR_SCALE
+from cdcr_gym.tasks.observation import Field
 
 __all__ = ["Obstacle", "ObstacleSceneError"]
 
@@ -33,7 +30,7 @@ class ObstacleSceneError(RuntimeError):
     """No scene satisfying the Obstacle task's rules was found (arguments too demanding)."""
 
 
-class Obstacle(Task):
+class Obstacle(GoalTask):
     """Reach a goal point with the tip without touching spheres placed in the way.
 
     **Scene** (drawn at every reset from the env's generator, on the CCKA/PCC model of the
@@ -147,8 +144,6 @@ class Obstacle(Task):
     def bind(self, params, num_envs: int) -> None:
         super().bind(params, num_envs)
         n, k = self.num_envs, self.max_obstacles
-        self.goal = np.zeros((n, 3))
-        self.goal[:, 2] = params.length
         self.obstacles = np.zeros((n, k, 4))
         self.min_clearance = np.full(n, np.inf)
         self.collision = np.zeros(n, dtype=bool)
@@ -158,34 +153,22 @@ class Obstacle(Task):
         self._rod = 0.5 * params.backbone_diameter
         self._disk = params.disk_radius
         self._model = cached_model(params)
-        self._scale = RobotStateScale(params)
-        self._spec = self._build_spec()
-        self._slices = self._spec.slices
 
-    def _build_spec(self) -> ObservationSpec:
+    def fields(self, goal_conditioned: bool) -> list[Field]:
         ell, k = self.params.length, self.max_obstacles
-        xyz = ("x", "y", "z")
-        labels = tuple(f"{i}{a}" for i in range(k) for a in xyz)
-        return ObservationSpec(
-            [
-                Field.uniform("tip", 3, -ell, ell, "m", "tip position x, y, z in R0", xyz),
-                Field.uniform("goal", 3, -ell, ell, "m", "goal position x, y, z in R0", xyz),
-                Field.uniform("error", 3, -2 * ell, 2 * ell, "m", "goal − tip", xyz),
-                Field.uniform("error_tanh", 3, -1.0, 1.0, "–", "tanh((goal − tip) / 0.01 m)", xyz),
-                Field.uniform(
-                    "obstacle_centres", 3 * k, -2 * ell, 2 * ell, "m", "sphere centres", labels
-                ),
-                Field.uniform("obstacle_radii", k, 0.0, ell, "m", "sphere radii (0: none)"),
-                Field.uniform("obstacle_mask", k, 0.0, 1.0, "–", "1: sphere, 0: padding"),
-                Field.uniform(
-                    "min_clearance", 1, -ell, 2 * ell, "m", "smallest robot–sphere clearance"
-                ),
-                *robot_state_fields(self.params),
-            ]
-        )
-
-    def observation_spec(self, goal_conditioned: bool) -> ObservationSpec:
-        return self._spec
+        labels = tuple(f"{i}{a}" for i in range(k) for a in ("x", "y", "z"))
+        return [
+            *self.position_fields().values(),
+            Field.uniform(
+                "obstacle_centres", 3 * k, -2 * ell, 2 * ell, "m", "sphere centres", labels
+            ),
+            Field.uniform("obstacle_radii", k, 0.0, ell, "m", "sphere radii (0: none)"),
+            Field.uniform("obstacle_mask", k, 0.0, 1.0, "–", "1: sphere, 0: padding"),
+            Field.uniform(
+                "min_clearance", 1, -ell, 2 * ell, "m", "smallest robot–sphere clearance"
+            ),
+            *robot_state_fields(self.params),
+        ]
 
     # -- scenes ---------------------------------------------------------------------------------
     def _free(self, geometry: RobotGeometry, sphere: np.ndarray) -> bool:
@@ -288,37 +271,18 @@ class Obstacle(Task):
         return np.zeros(self.num_envs, dtype=bool)
 
     # -- per step -------------------------------------------------------------------------------
-    def observe(self, readings: Readings, out: np.ndarray, goal_conditioned: bool) -> None:
-        s = self._slices
-        ell = self.params.length
-        error = (self.goal - readings.tip).T
-        out[s["tip"]] = readings.tip.T
-        out[s["goal"]] = self.goal.T
-        out[s["error"]] = error
-        np.tanh(error * (1.0 / ERROR_SCALE), out=out[s["error_tanh"]], casting="unsafe")
-        n, k = self.num_envs, self.max_obstacles
+    def observe_extra(
+        self, readings: Readings, out: np.ndarray, s: dict[str, slice], goal_conditioned: bool
+    ) -> None:
+        n, k, ell = self.num_envs, self.max_obstacles, self.params.length
         out[s["obstacle_centres"]] = self.obstacles[:, :, :3].reshape(n, 3 * k).T
         out[s["obstacle_radii"]] = self.obstacles[:, :, 3].T
         out[s["obstacle_mask"]] = (self.obstacles[:, :, 3] > 0.0).T
         out[s["min_clearance"]] = np.clip(self.min_clearance, -ell, 2 * ell)[None]
-        fill_robot_state(out, s["tensions"], s["cable_lengths"], readings, self._scale)
-
-    def achieved_goal(self, readings: Readings) -> np.ndarray:
-        return readings.tip
-
-    def desired_goal(self) -> np.ndarray:
-        return self.goal
 
     def evaluate(self, readings: Readings) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
-        distance = np.linalg.norm(self.goal - readings.tip, axis=1)
+        distance = self.distance(readings)
         success = (distance <= self.distance_threshold) & ~self.collided
-        if self._dense:
-            reward = -distance
-        else:
-            reward = success - 1.0
-        reward = reward - self.collision_penalty * self.collision
-        if self.penetration_weight:
-            reward = reward - self.penetration_weight * np.maximum(0.0, -self.min_clearance)
         info = {
             "distance": distance,
             "is_success": success,
@@ -328,12 +292,36 @@ class Obstacle(Task):
             "min_clearance": self.min_clearance.copy(),
             "obstacles": self.obstacles.copy(),
         }
-        return reward, success, info
+        return self.penalised(self.reward_from_success(distance, success), info), success, info
+
+    def reward_from_success(self, distance: np.ndarray, success: np.ndarray) -> np.ndarray:
+        """The goal part of the reward: ``"dense"`` −distance (m), ``"sparse"`` −1 until
+        success, then 0."""
+        return -distance if self.reward_type == "dense" else success - 1.0
+
+    def penalised(self, reward: np.ndarray, info: dict[str, Any]) -> np.ndarray:
+        """``reward`` minus the collision penalties of ``info`` (``collision``,
+        ``min_clearance``)."""
+        reward = reward - self.collision_penalty * np.asarray(info["collision"])
+        if self.penetration_weight:
+            penetration = np.maximum(0.0, -np.asarray(info["min_clearance"], dtype=np.float64))
+            reward = reward - self.penetration_weight * penetration
+        return reward
 
     def compute_reward(
         self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any = None
     ) -> np.ndarray:
-        return -goal_distance(achieved_goal, desired_goal)
+        """The reward :meth:`evaluate` gives, from achieved and desired goals (..., 3) and the
+        ``info`` entries ``collided``, ``collision`` and ``min_clearance`` (shape (...)), which
+        it needs: a collision costs whatever the goals."""
+        if info is None or not {"collided", "collision", "min_clearance"} <= set(info):
+            raise ValueError(
+                "the Obstacle reward needs info with 'collided', 'collision' and "
+                "'min_clearance' (its collision penalties)"
+            )
+        distance = goal_distance(achieved_goal, desired_goal)
+        success = (distance <= self.distance_threshold) & ~np.asarray(info["collided"], bool)
+        return self.penalised(self.reward_from_success(distance, success), info)
 
     def info_keys(self) -> tuple[str, ...]:
         return (

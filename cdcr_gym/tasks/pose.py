@@ -9,17 +9,10 @@ from gymnasium import spaces
 
 from cdcr_gym import validation
 from cdcr_gym.backends.base import Backend, Readings
-from cdcr_gym.envs.observation import Field, ObservationSpec
 from cdcr_gym.model.ik import solve_pose_ik
 from cdcr_gym.model.workspace import sample_tensions_each
-from cdcr_gym.tasks.base import (
-    REWARD_TYPES,
-    RobotStateScale,
-    Task,
-    fill_robot_state,
-    robot_state_fields,
-)
-from cdcr_gym.tasks.reach import ERROR_SCALE
+from cdcr_gym.tasks.base import REWARD_TYPES, GoalTask, robot_state_fields
+from cdcr_gym.tasks.observation import Field
 
 __all__ = ["Pose", "pose_errors"]
 
@@ -37,7 +30,7 @@ def pose_errors(achieved: np.ndarray, desired: np.ndarray) -> tuple[np.ndarray, 
     return distance, angle
 
 
-class Pose(Task):
+class Pose(GoalTask):
     """Reach a goal tip position **and** tip direction (and hold them).
 
     **Goal**: a pose drawn each episode from the backend's own reachable set, like Reach's goal:
@@ -118,39 +111,26 @@ class Pose(Task):
 
     def bind(self, params, num_envs: int) -> None:
         super().bind(params, num_envs)
-        n = self.num_envs
-        self.goal = np.zeros((n, 3))
-        self.goal[:, 2] = params.length
-        self.goal_direction = np.zeros((n, 3))
+        self.goal_direction = np.zeros((self.num_envs, 3))
         self.goal_direction[:, 2] = 1.0
-        self._scale = RobotStateScale(params)
-        self._specs = {gc: self._build_spec(gc) for gc in (False, True)}
-        self._slices = {gc: spec.slices for gc, spec in self._specs.items()}
 
-    def _build_spec(self, goal_conditioned: bool) -> ObservationSpec:
-        ell = self.params.length
+    def fields(self, goal_conditioned: bool) -> list[Field]:
+        block = self.position_fields()
         xyz = ("x", "y", "z")
-        tip = Field.uniform("tip", 3, -ell, ell, "m", "tip position x, y, z in R0", xyz)
         tip_dir = Field.uniform("tip_direction", 3, -1, 1, "–", "unit tip tangent in R0", xyz)
+        robot = robot_state_fields(self.params)
         if goal_conditioned:
-            return ObservationSpec([tip, tip_dir, *robot_state_fields(self.params)])
-        return ObservationSpec(
-            [
-                tip,
-                tip_dir,
-                Field.uniform("goal", 3, -ell, ell, "m", "goal position x, y, z in R0", xyz),
-                Field.uniform("goal_direction", 3, -1, 1, "–", "unit goal direction in R0", xyz),
-                Field.uniform("error", 3, -2 * ell, 2 * ell, "m", "goal − tip", xyz),
-                Field.uniform("error_tanh", 3, -1.0, 1.0, "–", "tanh((goal − tip) / 0.01 m)", xyz),
-                Field.uniform(
-                    "direction_error", 3, -2, 2, "–", "goal_direction − tip_direction", xyz
-                ),
-                *robot_state_fields(self.params),
-            ]
-        )
-
-    def observation_spec(self, goal_conditioned: bool) -> ObservationSpec:
-        return self._specs[goal_conditioned]
+            return [block["tip"], tip_dir, *robot]
+        return [
+            block["tip"],
+            tip_dir,
+            block["goal"],
+            Field.uniform("goal_direction", 3, -1, 1, "–", "unit goal direction in R0", xyz),
+            block["error"],
+            block["error_tanh"],
+            Field.uniform("direction_error", 3, -2, 2, "–", "goal_direction − tip_direction", xyz),
+            *robot,
+        ]
 
     def goal_space(self) -> spaces.Box:
         ell = self.params.length
@@ -185,18 +165,13 @@ class Pose(Task):
         self.goal_direction[idx] = direction / np.linalg.norm(direction, axis=1, keepdims=True)
 
     # -- per step -------------------------------------------------------------------------------
-    def observe(self, readings: Readings, out: np.ndarray, goal_conditioned: bool) -> None:
-        s = self._slices[goal_conditioned]
-        out[s["tip"]] = readings.tip.T
+    def observe_extra(
+        self, readings: Readings, out: np.ndarray, s: dict[str, slice], goal_conditioned: bool
+    ) -> None:
         out[s["tip_direction"]] = readings.tip_direction.T
         if not goal_conditioned:
-            error = (self.goal - readings.tip).T
-            out[s["goal"]] = self.goal.T
             out[s["goal_direction"]] = self.goal_direction.T
-            out[s["error"]] = error
-            np.tanh(error * (1.0 / ERROR_SCALE), out=out[s["error_tanh"]], casting="unsafe")
             out[s["direction_error"]] = (self.goal_direction - readings.tip_direction).T
-        fill_robot_state(out, s["tensions"], s["cable_lengths"], readings, self._scale)
 
     def achieved_goal(self, readings: Readings) -> np.ndarray:
         return np.concatenate([readings.tip, readings.tip_direction], axis=1)

@@ -8,16 +8,9 @@ import numpy as np
 
 from cdcr_gym import validation
 from cdcr_gym.backends.base import Backend, Readings
-from cdcr_gym.envs.observation import Field, ObservationSpec
 from cdcr_gym.model.workspace import sample_tensions
-from cdcr_gym.tasks.base import (
-    RobotStateScale,
-    Task,
-    fill_robot_state,
-    goal_distance,
-    robot_state_fields,
-)
-from cdcr_gym.tasks.reach import ERROR_SCALE
+from cdcr_gym.tasks.base import GoalTask, robot_state_fields
+from cdcr_gym.tasks.observation import Field
 
 __all__ = ["Track", "NOMINAL_TIMESTEP", "TargetPaths"]
 
@@ -99,7 +92,7 @@ class TargetPaths:
         return a + frac * chord, chord / np.maximum(norm, 1e-300)
 
 
-class Track(Task):
+class Track(GoalTask):
     """Follow a target that moves along a smooth closed path at a constant speed.
 
     **Target path**: drawn at every reset, in the robot's configuration space so that it is
@@ -153,6 +146,8 @@ class Track(Task):
 
     name = "Track"
     goal_size = 0
+    goal_name = "target"
+    goal_description = "target position x, y, z in R0"
 
     def __init__(
         self,
@@ -182,34 +177,30 @@ class Track(Task):
         n = self.num_envs
         self.paths = TargetPaths(n)
         self.steps = np.zeros(n, dtype=np.int64)
-        self.target = np.zeros((n, 3))
-        self.target[:, 2] = params.length
         self.velocity = np.zeros((n, 3))
         self._sum_sq = np.zeros(n)
         self._max = np.zeros(n)
         self._count = np.zeros(n, dtype=np.int64)
-        self._scale = RobotStateScale(params)
-        self._spec = self._build_spec()
-        self._slices = self._spec.slices
 
-    def _build_spec(self) -> ObservationSpec:
-        ell, v = self.params.length, self.speed
-        xyz = ("x", "y", "z")
-        return ObservationSpec(
-            [
-                Field.uniform("tip", 3, -ell, ell, "m", "tip position x, y, z in R0", xyz),
-                Field.uniform("target", 3, -ell, ell, "m", "target position x, y, z in R0", xyz),
-                Field.uniform("target_velocity", 3, -v, v, "m/s", "target velocity in R0", xyz),
-                Field.uniform("error", 3, -2 * ell, 2 * ell, "m", "target − tip", xyz),
-                Field.uniform(
-                    "error_tanh", 3, -1.0, 1.0, "–", "tanh((target − tip) / 0.01 m)", xyz
-                ),
-                *robot_state_fields(self.params),
-            ]
+    @property
+    def target(self) -> np.ndarray:
+        """(N, 3) target positions (m): the task's goal, moving."""
+        return self.goal
+
+    def fields(self, goal_conditioned: bool) -> list[Field]:
+        block = self.position_fields()
+        v = self.speed
+        velocity = Field.uniform(
+            "target_velocity", 3, -v, v, "m/s", "target velocity in R0", ("x", "y", "z")
         )
-
-    def observation_spec(self, goal_conditioned: bool) -> ObservationSpec:
-        return self._spec
+        return [
+            block["tip"],
+            block["target"],
+            velocity,
+            block["error"],
+            block["error_tanh"],
+            *robot_state_fields(self.params),
+        ]
 
     # -- paths ----------------------------------------------------------------------------------
     def reset_goals(
@@ -238,14 +229,14 @@ class Track(Task):
     def _place(self, idx: np.ndarray | None = None) -> None:
         point, tangent = self.paths.at(self.speed * self.dt * self.steps)
         if idx is None:
-            self.target, self.velocity = point, self.speed * tangent
+            self.goal[:], self.velocity[:] = point, self.speed * tangent
         else:
-            self.target[idx], self.velocity[idx] = point[idx], self.speed * tangent[idx]
+            self.goal[idx], self.velocity[idx] = point[idx], self.speed * tangent[idx]
 
     def advance(self, backend: Backend, readings: Readings) -> None:
         self.steps += 1
         self._place()
-        d = np.linalg.norm(self.target - readings.tip, axis=1)
+        d = self.distance(readings)
         counted = self.steps > self.settle_steps
         self._sum_sq += np.where(counted, d * d, 0.0)
         self._max = np.where(counted, np.maximum(self._max, d), self._max)
@@ -259,42 +250,19 @@ class Track(Task):
         return np.stack([np.interp(u, np.arange(_TABLE + 1), table[:, a]) for a in range(3)], -1)
 
     # -- per step -------------------------------------------------------------------------------
-    def observe(self, readings: Readings, out: np.ndarray, goal_conditioned: bool) -> None:
-        s = self._slices
-        error = (self.target - readings.tip).T
-        out[s["tip"]] = readings.tip.T
-        out[s["target"]] = self.target.T
+    def observe_extra(
+        self, readings: Readings, out: np.ndarray, s: dict[str, slice], goal_conditioned: bool
+    ) -> None:
         out[s["target_velocity"]] = self.velocity.T
-        out[s["error"]] = error
-        np.tanh(error * (1.0 / ERROR_SCALE), out=out[s["error_tanh"]], casting="unsafe")
-        fill_robot_state(out, s["tensions"], s["cable_lengths"], readings, self._scale)
-
-    def achieved_goal(self, readings: Readings) -> np.ndarray:
-        return readings.tip
-
-    def desired_goal(self) -> np.ndarray:
-        return self.target
 
     def evaluate(self, readings: Readings) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
-        distance = np.linalg.norm(self.target - readings.tip, axis=1)
-        success = distance <= self.distance_threshold
+        reward, success, info = super().evaluate(readings)
         count = self._count
-        rms = np.sqrt(self._sum_sq / np.maximum(count, 1))
-        info = {
-            "distance": distance,
-            "is_success": success,
-            "target": self.target.copy(),
-            "target_velocity": self.velocity.copy(),
-            "tracking_rms": rms,
-            "tracking_max": self._max.copy(),
-            "tracking_steps": count.copy(),
-        }
-        return -distance, success, info
-
-    def compute_reward(
-        self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any = None
-    ) -> np.ndarray:
-        return -goal_distance(achieved_goal, desired_goal)
+        info["target_velocity"] = self.velocity.copy()
+        info["tracking_rms"] = np.sqrt(self._sum_sq / np.maximum(count, 1))
+        info["tracking_max"] = self._max.copy()
+        info["tracking_steps"] = count.copy()
+        return reward, success, info
 
     def info_keys(self) -> tuple[str, ...]:
         return (
@@ -306,6 +274,3 @@ class Track(Task):
             "tracking_max",
             "tracking_steps",
         )
-
-    def render_markers(self, index: int = 0) -> dict[str, Any]:
-        return {"target": self.target[index].copy()}

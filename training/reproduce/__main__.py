@@ -1,8 +1,5 @@
-"""``python -m training.reproduce``: run the study (see :mod:`training.reproduce.study`)."""
+"""``python -m training.reproduce``: deprecated alias of ``cdcr-gym reproduce``."""
 
-import sys
+from training.deprecated import alias
 
-from training.reproduce.study import main
-
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+alias(__name__, "training.reproduce")

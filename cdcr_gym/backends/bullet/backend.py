@@ -33,6 +33,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from cdcr_gym import validation
 from cdcr_gym.backends.base import Backend, Readings
 from cdcr_gym.backends.bullet.chain import (
     ChainPose,
@@ -52,23 +53,6 @@ from cdcr_gym.backends.bullet.multibody import MAX_JOINTS, build_multibody
 from cdcr_gym.model.params import STANDARD_GRAVITY, RobotParams
 
 __all__ = ["BulletBackend"]
-
-
-def _check_bool(name: str, value) -> bool:
-    if not isinstance(value, (bool, np.bool_)):
-        raise ValueError(f"{name} must be a bool, got {value!r}")
-    return bool(value)
-
-
-def _check_positive(name: str, value, unit: str) -> float:
-    if isinstance(value, (bool, np.bool_)) or not isinstance(
-        value, (int, float, np.integer, np.floating)
-    ):
-        raise ValueError(f"{name} must be a real number ({unit}), got {value!r}")
-    value = float(value)
-    if not math.isfinite(value) or value <= 0.0:
-        raise ValueError(f"{name} must be finite and > 0 {unit}, got {value!r}")
-    return value
 
 
 class BulletBackend(Backend):
@@ -138,17 +122,11 @@ class BulletBackend(Backend):
         if not isinstance(params, RobotParams):
             raise ValueError(f"params must be a cdcr_gym.params.RobotParams, got {params!r}")
         self.params = params
-        self.gravity = _check_bool("gravity", gravity)
-        self.gui = _check_bool("gui", gui)
-        if (
-            isinstance(links_per_span, (bool, np.bool_))
-            or not isinstance(links_per_span, (int, np.integer))
-            or links_per_span < 1
-        ):
-            raise ValueError(f"links_per_span must be an integer >= 1, got {links_per_span!r}")
-        self.links_per_span = int(links_per_span)
-        self.control_timestep = _check_positive("control_timestep", control_timestep, "s")
-        self.physics_timestep = _check_positive("physics_timestep", physics_timestep, "s")
+        self.gravity = validation.flag(gravity, "gravity")
+        self.gui = validation.flag(gui, "gui")
+        self.links_per_span = validation.integer(links_per_span, "links_per_span", 1)
+        self.control_timestep = validation.positive(control_timestep, "control_timestep", unit="s")
+        self.physics_timestep = validation.positive(physics_timestep, "physics_timestep", unit="s")
         ratio = self.control_timestep / self.physics_timestep
         n_sub = round(ratio)
         if n_sub < 1 or abs(ratio - n_sub) > 1e-9 * max(1.0, ratio):
@@ -173,25 +151,15 @@ class BulletBackend(Backend):
                 f"(±1e-6), got {base_orientation!r}"
             )
         self.base_orientation = tuple(float(v) for v in quat / np.linalg.norm(quat))
-        if (
-            isinstance(tip_payload, (bool, np.bool_))
-            or not isinstance(tip_payload, (int, float, np.integer, np.floating))
-            or not math.isfinite(float(tip_payload))
-            or float(tip_payload) < 0.0
-        ):
-            raise ValueError(f"tip_payload must be finite and >= 0 kg, got {tip_payload!r}")
-        self.tip_payload = float(tip_payload)
-        self.damping_ratio = _check_positive("damping_ratio", damping_ratio, "")
-        mu = friction_coefficient
-        if (
-            isinstance(mu, (bool, np.bool_))
-            or not isinstance(mu, (int, float, np.integer, np.floating))
-            or not 0.0 <= float(mu) <= 1.0
-        ):
-            raise ValueError(f"friction_coefficient must be a real number in [0, 1], got {mu!r}")
-        self.friction_coefficient = float(mu)
-        self.friction_slip_length = _check_positive(
-            "friction_slip_length", friction_slip_length, "m"
+        self.tip_payload = validation.positive(
+            tip_payload, "tip_payload", allow_zero=True, unit="kg"
+        )
+        self.damping_ratio = validation.positive(damping_ratio, "damping_ratio")
+        self.friction_coefficient = validation.positive(
+            friction_coefficient, "friction_coefficient", 1.0, allow_zero=True
+        )
+        self.friction_slip_length = validation.positive(
+            friction_slip_length, "friction_slip_length", unit="m"
         )
 
         p = params
@@ -267,10 +235,33 @@ class BulletBackend(Backend):
                 self.friction_slip_length,
             )
             self._joint_ids = self._integrator.joint_ids
+            self._check_payload()
+            self.reset(np.zeros(p.n_cables))
         except BaseException:
             self.close()
             raise
-        self.reset(np.zeros(p.n_cables))
+
+    def _check_payload(self) -> None:
+        """With a tip payload under gravity: the robot must hold it at the extreme shapes
+        (each cable, and each pair of cables, at max_tension), else the payload is refused
+        here, by name, instead of a divergence at every reset (goals are drawn from these
+        shapes)."""
+        if self.tip_payload == 0.0 or not self.gravity:
+            return
+        c, top = self.params.n_cables, self.params.max_tension
+        corners = [np.eye(c)[i] * top for i in range(c)]
+        corners += [(np.eye(c)[i] + np.eye(c)[j]) * top for i in range(c) for j in range(i)]
+        for t in [np.zeros(c), *corners]:
+            _, converged = self.chain.static_equilibrium(
+                t, self._integrator.gravity_bias, max_angle=MAX_JOINT_ANGLE
+            )
+            if not converged:
+                raise ValueError(
+                    f"tip_payload={self.tip_payload!r} kg is more than this robot holds under "
+                    f"gravity: no static equilibrium with tensions {t.tolist()} N (the payload's "
+                    f"weight buckles the bent backbone); use a lighter tip_payload, "
+                    f"gravity=False, a stiffer backbone or a lower max_tension"
+                )
 
     # ---------------------------------------------------------------- state access
 
@@ -374,17 +365,23 @@ class BulletBackend(Backend):
             t, self._integrator.gravity_bias, max_angle=MAX_JOINT_ANGLE
         )
         if not converged:
+            payload = (
+                f" (with tip_payload={self.tip_payload!r} kg under gravity: a lighter payload "
+                "may help)"
+                if self.tip_payload > 0.0 and self.gravity
+                else ""
+            )
             raise self._diverged(
                 "no static equilibrium found: the cables' destabilising load stiffness (which grows "
                 "with the disk spacing, see backends.bullet.chain) exceeds the joint stiffness; "
-                "use more disks, more links_per_span or lower tensions",
+                "use more disks, more links_per_span or lower tensions" + payload,
                 q,
                 np.zeros(self.n_dof),
                 t,
             )
         return q
 
-    def _reset_one(self, tensions: np.ndarray) -> None:
+    def _reset_robot(self, tensions: np.ndarray) -> None:
         """Put the chain at rest in its static equilibrium under ``tensions`` (C,) N.
 
         Sets q = :meth:`static_equilibrium` (tensions) and q̇ = 0 and the simulated
@@ -409,7 +406,7 @@ class BulletBackend(Backend):
         self._pose = self._points = None
         self.time += self.physics_timestep
 
-    def _apply_one(self, tensions: np.ndarray) -> None:
+    def _hold_tensions(self, tensions: np.ndarray) -> None:
         """Hold ``tensions`` (C,) N for one control step (``n_substeps`` physics steps,
         :meth:`ImplicitIntegrator.advance`).
 
@@ -553,7 +550,7 @@ class BulletBackend(Backend):
                 f"got {tensions!r}"
             ) from None
 
-    def _one(self, tensions: np.ndarray) -> np.ndarray:
+    def _robot_row(self, tensions: np.ndarray) -> np.ndarray:
         t = self._as_array(tensions)
         if t.ndim == 2 and t.shape[0] == 1:
             t = t[0]
@@ -563,11 +560,11 @@ class BulletBackend(Backend):
         """Rest in the static equilibrium under ``tensions`` (1, C) N (``mask`` (1,) bool)."""
         if mask is not None and not bool(np.asarray(mask).reshape(-1)[0]):
             return
-        self._reset_one(self._one(tensions))
+        self._reset_robot(self._robot_row(tensions))
 
     def apply_tensions(self, tensions: np.ndarray) -> None:
         """Hold ``tensions`` (1, C) N for one control step."""
-        self._apply_one(self._one(tensions))
+        self._hold_tensions(self._robot_row(tensions))
 
     def _direction(self, pose_rot: np.ndarray) -> np.ndarray:
         return self._to_base(pose_rot[-1][:, 2])

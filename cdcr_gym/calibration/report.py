@@ -1,0 +1,257 @@
+"""The outputs of a calibration: ``params.yaml`` (what envs read), ``report.md`` and the
+before/after residual figure.
+
+``params.yaml`` holds the fitted robot under ``robot:`` (read by ``RobotParams.from_yaml`` and by
+``gymnasium.make(id, params="params.yaml")``), the fitted backend arguments under ``backend:``
+(friction, payload, gravity, base orientation: pass them to a physics env,
+``gym.make("cdcr_gym/BulletReach-v0", params=path, **backend_kwargs_from_yaml(path))``), and a
+``calibration:`` record (data, backend, values and 95 % intervals, residual medians).
+"""
+
+from __future__ import annotations
+
+import datetime
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from cdcr_gym.calibration.fit import CalibrationResult
+from cdcr_gym.model.params import RobotParams
+from cdcr_gym.model.params_yaml import dump_yaml, load_yaml, params_from_dict, params_to_dict
+
+__all__ = [
+    "write_params_yaml",
+    "load_fitted",
+    "backend_kwargs_from_yaml",
+    "report_markdown",
+    "plot_residuals",
+    "write_outputs",
+    "display",
+]
+
+#: How a parameter is shown in reports: (unit, factor from SI).
+_DISPLAY = {
+    "youngs_modulus": ("GPa", 1e-9),
+    "cable_radius": ("mm", 1e3),
+    "friction_coefficient": ("", 1.0),
+    "tip_payload": ("g", 1e3),
+}
+
+
+def display(name: str) -> tuple[str, float]:
+    """Display unit and factor of parameter ``name`` (angles in degrees)."""
+    if name in _DISPLAY:
+        return _DISPLAY[name]
+    return ("°", 180.0 / math.pi)
+
+
+def _plain(value: Any) -> Any:
+    if isinstance(value, (np.floating, float)):
+        return float(value)
+    if isinstance(value, (np.integer,)):
+        return int(value)
+    if isinstance(value, (tuple, list)):
+        return [_plain(v) for v in value]
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    return value
+
+
+def write_params_yaml(result: CalibrationResult, path: str | Path, command: str = "") -> None:
+    """Write ``params.yaml`` (module docstring)."""
+    e0, e1 = result.errors_before, result.errors_after
+    record = {
+        "data": result.data.source,
+        "points": len(result.data),
+        "backend": result.backend,
+        "fitted": {n: result.values[n] for n in result.names},
+        "ci95": {
+            n: (result.ci95[n] if math.isfinite(result.ci95[n]) else None) for n in result.names
+        },
+        "start": {n: result.start[n] for n in result.names},
+        "median_tip_error_before_m": float(np.median(e0)),
+        "median_tip_error_after_m": float(np.median(e1)),
+        "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+    }
+    if command:
+        record["command"] = command
+    doc = {
+        "robot": params_to_dict(result.params),
+        "backend": _plain(result.backend_kwargs),
+        "calibration": _plain(record),
+    }
+    header = (
+        "# A robot fitted by cdcr-gym calibrate. Envs read it: gym.make(id, params=<this file>);\n"
+        "# a physics env also takes the fitted backend arguments: "
+        "cdcr_gym.calibration.backend_kwargs_from_yaml(<this file>).\n"
+    )
+    text = dump_yaml({k: v for k, v in doc.items() if v != {}})
+    Path(path).write_text(header + text)
+
+
+def load_fitted(path: str | Path) -> tuple[RobotParams, dict[str, Any]]:
+    """The robot and the backend keyword arguments of a ``params.yaml``."""
+    data = load_yaml(Path(path))
+    params = params_from_dict(data, str(path))
+    return params, backend_kwargs_from_yaml(path, data)
+
+
+def backend_kwargs_from_yaml(path: str | Path, data: Any = None) -> dict[str, Any]:
+    """The ``backend:`` mapping of a ``params.yaml`` (empty if none); ``base_orientation`` as a
+    tuple."""
+    data = load_yaml(Path(path)) if data is None else data
+    kw = dict(data.get("backend") or {}) if isinstance(data, dict) else {}
+    if "base_orientation" in kw:
+        kw["base_orientation"] = tuple(kw["base_orientation"])
+    return kw
+
+
+def _fmt(name: str, value: float) -> str:
+    unit, factor = display(name)
+    return f"{value * factor:.6g}"
+
+
+def report_markdown(result: CalibrationResult, command: str = "", figure: str = "") -> str:
+    """The Markdown report: parameters with 95 % intervals, residual statistics, per-point
+    residuals before and after, notes."""
+    e0, e1 = result.errors_before * 1e3, result.errors_after * 1e3
+    out = ["# Calibration report", ""]
+    if command:
+        out += ["```", command, "```", ""]
+    out += [
+        f"Data: `{result.data.source}`, {len(result.data)} points; backend: **{result.backend}**"
+        + (f" ({_plain(result.backend_kwargs)})" if result.backend_kwargs else "")
+        + f"; {result.nfev} model evaluations in {result.seconds:.1f} s ({result.message})",
+        "",
+        "## Parameters",
+        "",
+        "| parameter | unit | start | fitted | ± 95 % CI | std. error |",
+        "|---|---|---|---|---|---|",
+    ]
+    for n in result.names:
+        unit, factor = display(n)
+        ci = result.ci95[n]
+        ci_text = f"{ci * factor:.3g}" if math.isfinite(ci) else "not identifiable"
+        sd = result.std[n]
+        sd_text = f"{sd * factor:.3g}" if math.isfinite(sd) else "—"
+        out.append(
+            f"| {n} | {unit} | {_fmt(n, result.start[n])} | {_fmt(n, result.values[n])} | "
+            f"{ci_text} | {sd_text} |"
+        )
+    out += [
+        "",
+        f"Residual standard deviation s = {result.residual_sigma:.3g} × the rows' σ "
+        "(the intervals use s²(JᵀJ)⁻¹).",
+        "",
+    ]
+    if len(result.names) > 1:
+        out += ["Correlations:", "", "| | " + " | ".join(result.names) + " |"]
+        out.append("|---" * (len(result.names) + 1) + "|")
+        for i, n in enumerate(result.names):
+            row = " | ".join(f"{c:+.3f}" for c in result.correlation[i])
+            out.append(f"| {n} | {row} |")
+        out.append("")
+    out += [
+        "## Tip residuals (mm)",
+        "",
+        "| | median | mean | max |",
+        "|---|---|---|---|",
+        f"| before (start values) | {np.median(e0):.3f} | {e0.mean():.3f} | {e0.max():.3f} |",
+        f"| after (fitted) | {np.median(e1):.3f} | {e1.mean():.3f} | {e1.max():.3f} |",
+        "",
+    ]
+    if figure:
+        out += [f"![residuals]({figure})", ""]
+    if result.notes or result.unsettled > 1e-6:
+        out += ["## Notes", ""]
+        out += [f"- {n}" for n in result.notes]
+        if result.unsettled > 1e-6:
+            out.append(
+                f"- the physics replay was still moving by {result.unsettled * 1e3:.3g} mm per "
+                "control step at some rows: raise --settle-steps"
+            )
+        out.append("")
+    words = {1: "up", -1: "down", 0: ""}
+    cables = [f"T{i + 1} (N)" for i in range(result.data.n_cables)]
+    out += [
+        "## Per point",
+        "",
+        "| line | " + " | ".join(cables) + " | direction | before (mm) | after (mm) |",
+        "|---" * (len(cables) + 4) + "|",
+    ]
+    d = result.data
+    for k in range(len(d)):
+        ts = " | ".join(f"{t:.4g}" for t in d.tensions[k])
+        out.append(
+            f"| {d.lines[k]} | {ts} | {words[int(d.direction[k])]} | {e0[k]:.3f} | {e1[k]:.3f} |"
+        )
+    return "\n".join(out) + "\n"
+
+
+def plot_residuals(result: CalibrationResult, path: str | Path, title: str = "") -> None:
+    """Before/after figure: the tip's distance from the axis against the load, rows in order
+    (left: loading and unloading branches), and the per-point errors (right)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    d = result.data
+    fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(11, 4.4))
+    up = d.direction >= 0
+
+    def radial(p: np.ndarray) -> np.ndarray:
+        return np.hypot(p[:, 0], p[:, 1]) * 1e3
+
+    load = d.tensions.sum(axis=1)
+    for pts, style, label in (
+        (d.tip, dict(color="k", marker="o", ms=5, ls="none", mfc="none"), "measured"),
+        (result.before.tip, dict(color="tab:red", marker="x", ms=4, lw=0.6), "start values"),
+        (result.after.tip, dict(color="tab:blue", marker="+", ms=6, lw=0.6), "fitted"),
+    ):
+        ax0.plot(load, radial(pts), label=label, **style)  # type: ignore[arg-type]
+    ax0.set_xlabel("total cable tension (N), rows in order")
+    ax0.set_ylabel("tip distance from the axis √(x²+y²) (mm)")
+    ax0.grid(alpha=0.3)
+    ax0.legend()
+    idx = np.arange(len(d))
+    e0, e1 = result.errors_before * 1e3, result.errors_after * 1e3
+    ax1.semilogy(idx, np.maximum(e0, 1e-4), "x-", color="tab:red", ms=4, lw=0.8, label="start")
+    ax1.semilogy(idx, np.maximum(e1, 1e-4), "+-", color="tab:blue", ms=6, lw=0.8, label="fitted")
+    ax1.plot(
+        idx[~up],
+        np.maximum(e1[~up], 1e-4),
+        "s",
+        mfc="none",
+        color="tab:blue",
+        ms=6,
+        label="unloading rows",
+    )
+    ax1.set_xlabel("measurement (in order)")
+    ax1.set_ylabel("tip error (mm)")
+    ax1.grid(alpha=0.3, which="both")
+    ax1.legend()
+    fig.suptitle(
+        title
+        or f"{d.source}, {result.backend}: median error {np.median(e0):.3g} → {np.median(e1):.3g} mm"
+    )
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def write_outputs(result: CalibrationResult, out: str | Path, command: str = "") -> dict[str, Path]:
+    """Write ``params.yaml``, ``report.md`` and ``residuals.png`` into ``out``; their paths."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = {
+        "params": out / "params.yaml",
+        "report": out / "report.md",
+        "figure": out / "residuals.png",
+    }
+    write_params_yaml(result, paths["params"], command)
+    plot_residuals(result, paths["figure"])
+    paths["report"].write_text(report_markdown(result, command, "residuals.png"))
+    return paths

@@ -1,0 +1,29 @@
+"""Defaults shared by the envs, the registered ids and training, in one place.
+
+Every constructor that takes one of these arguments uses the constant here as its default, so a
+change is made once (and ``training`` can import them instead of repeating the numbers).
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "ACTION_MODE",
+    "TENSION_STEP",
+    "LENGTH_STEP",
+    "INITIAL_STATE",
+    "MAX_EPISODE_STEPS",
+    "DISTANCE_THRESHOLD",
+]
+
+#: Action mode of every env (``cdcr_gym.envs.actuation.ACTION_MODES``).
+ACTION_MODE = "tension_delta"
+#: Largest tension change per step in ``tension_delta`` mode, as a fraction of max_tension.
+TENSION_STEP = 0.05
+#: Largest cable displacement per step in ``length_delta`` mode (m).
+LENGTH_STEP = 0.002
+#: Start shape: ``"straight"`` (zero tensions) or ``"random"``.
+INITIAL_STATE = "straight"
+#: Episode length (steps) of the registered ids (Gymnasium's ``max_episode_steps``).
+MAX_EPISODE_STEPS = 100
+#: Success radius (m) of the goal tasks.
+DISTANCE_THRESHOLD = 0.005

@@ -1,0 +1,114 @@
+"""envs.core: the one batched reset/step; the single env is the core at N = 1."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import cdcr_gym  # noqa: F401  (registers the ids)
+from cdcr_gym.backends.analytic import AnalyticBackend
+from cdcr_gym.envs.core import OPTION_KEYS, EnvCore
+from cdcr_gym.model.params import RobotParams
+from cdcr_gym.tasks.obstacle import Obstacle
+from cdcr_gym.tasks.pose import Pose
+from cdcr_gym.tasks.reach import Reach
+from cdcr_gym.tasks.track import Track
+
+PAPER = RobotParams()
+
+
+def _core(n, task=None, **kwargs):
+    return EnvCore(AnalyticBackend(PAPER, num_robots=n), task or Reach(), **kwargs)
+
+
+def test_no_scalar_lane_is_left():
+    import cdcr_gym.backends.analytic as analytic
+    import cdcr_gym.backends.base as base
+    import cdcr_gym.envs.actuation as actuation
+    import cdcr_gym.envs.core as core
+    import cdcr_gym.model.chain as chain
+    import cdcr_gym.tasks.base as tasks_base
+    import cdcr_gym.tasks.reach as reach
+
+    for module in (analytic, base, actuation, core, chain, tasks_base, reach):
+        owners = [module] + [
+            v for v in vars(module).values() if getattr(v, "__module__", "") == module.__name__
+        ]
+        for owner in owners:
+            names = [n for n in dir(owner) if n.endswith("_one") and not n.startswith("__")]
+            assert not names, (module.__name__, owner, names)
+
+
+@pytest.mark.parametrize("task", [Reach, Pose, Track, Obstacle])
+def test_rows_of_n_envs_equal_n_cores_of_one_env(task):
+    """One core of 3 envs and 3 cores of one env: the same outputs row by row (the one-env
+    core computes on Python floats where the batch computes on rows: same arithmetic)."""
+    n, steps = 3, 6
+    params = RobotParams.preset("tdcr2") if task is Pose else PAPER
+    big = EnvCore(AnalyticBackend(params, num_robots=n), task(), action_mode="tension")
+    ones = [EnvCore(AnalyticBackend(params), task(), action_mode="tension") for _ in range(n)]
+    rngs = [np.random.default_rng(i) for i in range(n)]
+    big.reset(np.arange(n), rngs)
+    for i, core in enumerate(ones):
+        core.reset(np.arange(1), [np.random.default_rng(i)])
+    actions = np.random.default_rng(9).uniform(-1, 1, (steps, n, params.n_cables))
+    for a in actions:
+        big.step(a)
+        obs, reward, success, info = big.observe()
+        for i, core in enumerate(ones):
+            core.step(a[i : i + 1])
+            o, r, s, inf = core.observe()
+            np.testing.assert_allclose(o[0], obs[i], rtol=0, atol=1e-6)
+            np.testing.assert_allclose(r[0], reward[i], rtol=0, atol=1e-12)
+            assert s[0] == success[i]
+            for key in info:
+                np.testing.assert_allclose(inf[key][0], info[key][i], rtol=0, atol=1e-12)
+
+
+def test_reset_options_are_parsed_in_one_place():
+    core = _core(2)
+    assert core.reset_options(None) == (None, None, None)
+    idx, tensions, goal = core.reset_options({"goal": [0.1, 0.0, 0.6]})
+    assert idx is None and tensions is None and goal == [0.1, 0.0, 0.6]
+    idx, _, _ = core.reset_options({"reset_mask": np.array([False, True])}, allow_mask=True)
+    assert idx.tolist() == [1]
+    with pytest.raises(ValueError, match="unknown keys"):
+        core.reset_options({"reset_mask": np.array([True, True])})
+    with pytest.raises(ValueError, match="select at least one"):
+        core.reset_options({"reset_mask": np.array([False, False])}, allow_mask=True)
+    with pytest.raises(ValueError, match="options must be None or a dict"):
+        core.reset_options("goal")
+    assert OPTION_KEYS == ("goal", "initial_tensions")
+
+
+def test_termination_in_one_place():
+    core = _core(3, terminate_on_success=True)
+    success = np.array([True, False, False])
+    assert core.terminated(success).tolist() == [True, False, False]
+    core = _core(3, Obstacle(terminate_on_collision=True))
+    core.task.collision[:] = [False, True, False]
+    assert core.terminated(np.ones(3, bool)).tolist() == [False, True, False]
+
+
+def test_the_single_env_is_a_core_of_one_env():
+    env = gym.make("cdcr_gym/CCKAReach-v0")
+    assert isinstance(env.unwrapped.core, EnvCore) and env.unwrapped.core.num_envs == 1
+    obs, info = env.reset(seed=0)
+    obs, reward, terminated, truncated, info = env.step(np.zeros(3, np.float32))
+    assert isinstance(reward, float) and isinstance(terminated, bool)
+    assert isinstance(info["distance"], float) and isinstance(info["is_success"], bool)
+    assert info["tip"].shape == (3,) and obs.dtype == np.float32
+
+
+@pytest.mark.parametrize(
+    "kwargs, name",
+    [
+        ({"initial_state": "bent"}, "initial_state"),
+        ({"goal_conditioned": 1}, "goal_conditioned"),
+        ({"terminate_on_success": "yes"}, "terminate_on_success"),
+    ],
+)
+def test_bad_arguments_name_themselves(kwargs, name):
+    with pytest.raises(ValueError, match=name):
+        _core(1, **kwargs)

@@ -1,0 +1,64 @@
+"""tasks.base.GoalTask: one distance, one reward, compute_reward vectorised over axis −1 (HER),
+the observation written once from named values (numbers for one env, rows for a batch)."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import cdcr_gym  # noqa: F401  (registers the ids)
+from cdcr_gym.tasks.base import GoalTask, columns, goal_distance
+from cdcr_gym.tasks.obstacle import Obstacle
+from cdcr_gym.tasks.pose import Pose
+from cdcr_gym.tasks.reach import Reach
+from cdcr_gym.tasks.track import Track
+
+
+@pytest.mark.parametrize("task", [Reach, Pose, Track, Obstacle])
+def test_every_goal_task_is_a_goal_task(task):
+    assert issubclass(task, GoalTask)
+
+
+def test_goal_distance_is_the_euclidean_norm_over_the_last_axis():
+    rng = np.random.default_rng(0)
+    a, d = rng.normal(size=(4, 5, 3)), rng.normal(size=(4, 5, 3))
+    np.testing.assert_allclose(goal_distance(a, d), np.linalg.norm(a - d, axis=-1), rtol=1e-15)
+    assert goal_distance([0.0, 0.0, 0.0], [3.0, 4.0, 0.0]) == 5.0
+
+
+@pytest.mark.parametrize("reward_type", ["dense", "sparse"])
+def test_compute_reward_relabels_batches_as_the_env_rewards(reward_type):
+    env = gym.make("cdcr_gym/CCKAReach-v0", goal_conditioned=True, reward_type=reward_type)
+    obs, _ = env.reset(seed=0)
+    achieved, desired, rewards = [], [], []
+    for a in np.random.default_rng(1).uniform(-1, 1, (20, 3)).astype(np.float32):
+        obs, reward, _, _, info = env.step(a)
+        achieved.append(obs["achieved_goal"])
+        desired.append(obs["desired_goal"])
+        rewards.append(reward)
+        assert reward == env.unwrapped.compute_reward(
+            obs["achieved_goal"], obs["desired_goal"], info
+        )
+    batch = env.unwrapped.compute_reward(np.array(achieved)[None], np.array(desired)[None], None)
+    assert batch.shape == (1, 20) and np.array_equal(batch[0], rewards)
+
+
+def test_columns_are_numbers_for_one_env_and_rows_for_a_batch():
+    a = np.arange(6.0).reshape(2, 3)
+    assert columns(a[:1], True) == [0.0, 1.0, 2.0]
+    rows = columns(a, False)
+    assert len(rows) == 3 and rows[1].tolist() == [1.0, 4.0]
+
+
+def test_obstacle_compute_reward_agrees_with_evaluate():
+    env = gym.make("cdcr_gym/CCKAObstacle-v0", action_mode="tension", penetration_weight=2.0)
+    env.reset(seed=8)
+    task = env.unwrapped.task
+    for a in np.random.default_rng(8).uniform(-1, 1, (15, 3)).astype(np.float32):
+        _, reward, _, _, info = env.step(a)
+        batched = {k: np.asarray(v)[None] for k, v in info.items()}
+        again = task.compute_reward(info["tip"][None], info["goal"][None], batched)
+        assert again[0] == reward
+    with pytest.raises(ValueError, match="needs info"):
+        task.compute_reward(np.zeros(3), np.zeros(3), None)

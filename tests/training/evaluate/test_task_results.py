@@ -1,0 +1,108 @@
+"""training.task_results: collects task evaluations of several runs (fake runs, no training)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from training.evaluate import task_results
+
+
+def _stats(value: float) -> dict[str, float]:
+    return {"mean": value, "median": value, "p95": value, "max": 2 * value}
+
+
+def _fake_run(root: Path, name: str, task: str, seed: int, rms: float) -> Path:
+    run = root / name
+    (run / "eval").mkdir(parents=True)
+    summary = {"task": task, "episodes": 4, "success_rate": 0.75, "mean_return": -1.0}
+    summary["final_distance_mm"] = _stats(rms)
+    if task == "Track":
+        summary["tracking_rms_mm"] = _stats(rms)
+    if task == "Obstacle":
+        summary.update(collision_rate=0.25, collisions_in_successful_episodes=0)
+    condition = {"policy": summary, "oracle": {**summary, "success_rate": 1.0}}
+    ev = {
+        "task": task,
+        "env_id": f"cdcr_gym/CCKA{task}-v0",
+        "episodes": 4,
+        "seed": 1000000,
+        "model_step": 4096,
+        "command": "python -m training.evaluate RUN",
+        "conditions": {"straight_h100": condition},
+    }
+    (run / "eval.json").write_text(json.dumps(ev))
+    meta = {"name": f"ppo_ccka_{task.lower()}", "seed": seed, "total_steps": 4096}
+    meta["total_wall_time_s"] = 12.5
+    (run / "run.json").write_text(json.dumps(meta))
+    (run / "eval" / "straight_h100_paths.png").write_bytes(b"png")
+    return run
+
+
+def test_collects_runs_writes_json_copies_figures_and_prints_the_table(tmp_path, capsys):
+    runs = [
+        _fake_run(tmp_path, "a", "Track", 0, 0.5),
+        _fake_run(tmp_path, "b", "Obstacle", 2, 3.0),
+    ]
+    out, figs = tmp_path / "out" / "results.json", tmp_path / "figs"
+    code = task_results.main([*map(str, runs), "--out", str(out), "--figures", str(figs)])
+    assert code == 0
+    data = json.loads(out.read_text())
+    assert [r["seed"] for r in data["runs"]] == [0, 2]
+    assert (
+        data["runs"][0]["conditions"]["straight_100steps"]["policy"]["tracking_rms_mm"]["mean"]
+        == 0.5
+    )
+    assert data["runs"][1]["train_wall_time_s"] == 12.5
+    assert data["command"].startswith("cdcr-gym task-results ")
+    # an evaluation written before the renaming (straight_h100) reads as straight_100steps
+    assert (figs / "ppo_track_seed0_straight_100steps_paths.png").read_bytes() == b"png"
+    assert (figs / "ppo_obstacle_seed2_straight_100steps_paths.png").exists()
+    table = capsys.readouterr().out
+    assert "tracking RMS mean 0.50 mm (max 1.00)" in table
+    assert "collisions 25 % of episodes (0 in successful ones)" in table
+    rows = [line for line in table.splitlines() if line.startswith("| ")]
+    assert len(rows) == 3  # the header + one row per run and condition
+
+
+def test_a_run_without_a_task_evaluation_is_an_error(tmp_path, capsys):
+    run = _fake_run(tmp_path, "a", "Track", 0, 0.5)
+    (run / "eval.json").unlink()
+    assert task_results.main([str(run), "--out", str(tmp_path / "r.json")]) == 2
+    assert "eval.json" in capsys.readouterr().err
+    (run / "eval.json").write_text(json.dumps({"conditions": {}}))
+    with pytest.raises(task_results.ResultsError, match="not a task evaluation"):
+        task_results.collect([run])
+
+
+def test_condition_names_read_for_what_they_are_and_old_keys_still_read(tmp_path: Path) -> None:
+    """Issue 23.11: ``straight_h100`` read like a GPU; the conditions are now
+    ``straight_100steps``, and evaluations of before (docs/figures/**) read under the new names."""
+    from training.evaluate.conditions import canonical_condition, condition_name, read_eval
+
+    assert condition_name("straight", 100) == "straight_100steps"
+    assert canonical_condition("random_h200") == "random_200steps"
+    assert canonical_condition("random_200steps") == "random_200steps"
+    old = tmp_path / "eval.json"
+    old.write_text(
+        json.dumps({"headline_condition": "straight_h100", "conditions": {"straight_h100": {}}})
+    )
+    data = read_eval(old)
+    assert data["headline_condition"] == "straight_100steps"
+    assert list(data["conditions"]) == ["straight_100steps"]
+    # every condition name in the results committed under docs/figures maps to a current one
+    import re
+
+    def names(node: object) -> list[str]:
+        if isinstance(node, dict):
+            found = list(node["conditions"]) if isinstance(node.get("conditions"), dict) else []
+            return found + [n for v in node.values() for n in names(v)]
+        if isinstance(node, list):
+            return [n for v in node for n in names(v)]
+        return []
+
+    docs = Path(__file__).resolve().parents[3] / "docs" / "figures"
+    seen = [n for path in docs.rglob("*.json") for n in names(json.loads(path.read_text()))]
+    assert seen and all(re.fullmatch(r"[a-z]+_\d+steps", canonical_condition(n)) for n in seen)

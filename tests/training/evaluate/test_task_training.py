@@ -1,0 +1,85 @@
+"""The task configs train and evaluate (tiny budgets), and the oracle script runs."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+
+REPO = Path(__file__).resolve().parents[3]
+ENV = {**os.environ, "PYTHONPATH": str(REPO), "MPLBACKEND": "Agg"}
+
+
+def _run(module: str, *args: object, timeout: float = 600) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", module, *map(str, args)],
+        cwd=REPO,
+        env=ENV,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
+
+
+def _small(tmp_path: Path, name: str) -> Path:
+    data = yaml.safe_load((REPO / "configs" / f"{name}.yaml").read_text())
+    data["env"]["n_envs"] = 4
+    data["ppo"]["n_steps"] = 64
+    data["ppo"]["batch_size"] = 64
+    data["eval"].update(freq=256, n_episodes=2)
+    data["checkpoint"]["freq"] = 256
+    data["evaluate"].update(initial_states=["straight"], horizons=[20])
+    path = tmp_path / f"{name}.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "name", ["ppo_ccka_track", "ppo_ccka_pose", "ppo_ccka_obstacle", "ppo_bullet_track"]
+)
+def test_task_config_trains_and_evaluates_beside_its_oracle(tmp_path: Path, name: str) -> None:
+    run = tmp_path / "run"
+    result = _run(
+        "training.train", _small(tmp_path, name), "--total-timesteps", 512, "--run-dir", run
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    rows = (run / "eval_log.csv").read_text().splitlines()
+    assert len(rows) >= 2 and rows[0].startswith("timesteps,success_rate")
+    result = _run("training.evaluate", run, "--episodes", 2)
+    assert result.returncode == 0, result.stderr[-3000:]
+    data = json.loads((run / "eval.json").read_text())
+    assert set(data["conditions"]) == {"straight_20steps"}
+    assert "policy" in data and "oracle" in data
+    task = data["task"]
+    if task == "Track" and "CCKA" in data["env_id"]:  # on bullet the oracle runs open loop
+        assert data["oracle"]["tracking_rms_mm"]["max"] < 1.0
+        assert (run / "eval" / "straight_20steps_paths.png").stat().st_size > 0
+    if task == "Obstacle":
+        assert data["reach_ik"]["collision_rate"] > 0.0
+        assert data["oracle"]["collisions_in_successful_episodes"] == 0
+    assert task in result.stdout
+
+
+def test_oracle_script_writes_the_numbers_and_figures(tmp_path: Path) -> None:
+    result = _run(
+        "training.oracles", "--task", "track", "--episodes", 2, "--figures", 1, "--out", tmp_path
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    data = json.loads((tmp_path / "oracle_track_CCKA_paper.json").read_text())
+    assert data["oracle"]["episodes"] == 2 and data["oracle"]["tracking_rms_mm"]["max"] < 1.0
+    assert (tmp_path / "oracle_track_CCKA_paper.png").stat().st_size > 0
+
+
+def test_oracle_script_rejects_bad_arguments(tmp_path: Path) -> None:
+    result = _run("training.oracles", "--task", "track", "--episodes", 0, "--out", tmp_path)
+    assert result.returncode == 2 and "--episodes" in result.stderr
+    result = _run(
+        "training.oracles", "--task", "track", "--env-kwarg", "speed=-1", "--out", tmp_path
+    )
+    assert result.returncode == 2 and "speed" in result.stderr

@@ -1,0 +1,408 @@
+"""Training and evaluation scripts: strict configs, smoke runs as real subprocesses, resume."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+
+from training.run.config import ConfigError, config_from_dict, load_config, save_config
+
+REPO = Path(__file__).resolve().parents[3]
+CONFIGS = sorted((REPO / "configs").glob("*.yaml"))
+ENV = {**os.environ, "MPLBACKEND": "Agg", "PYTHONPATH": str(REPO)}
+
+#: A tiny experiment: 2 envs × 64 steps per rollout, small nets, evaluations every rollout.
+TINY = {
+    "name": "tiny",
+    "seed": 3,
+    "total_timesteps": 256,
+    "env": {"id": "cdcr_gym/CCKAReach-v0", "n_envs": 2},
+    "ppo": {"n_steps": 64, "batch_size": 64, "n_epochs": 2, "policy": {"net_arch": [16, 16]}},
+    "eval": {"freq": 128, "n_episodes": 4},
+    "checkpoint": {"freq": 128},
+    "evaluate": {"episodes": 3, "horizons": [100, 120], "video_episodes": 1},
+}
+
+
+def _run(module: str, *args: str, timeout: float = 120) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", module, *map(str, args)],
+        cwd=REPO,
+        env=ENV,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
+
+
+def _tiny_config(tmp_path: Path, **changes: object) -> Path:
+    data = json.loads(json.dumps(TINY))
+    data.update(changes)
+    path = tmp_path / "tiny.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def _csv_rows(path: Path) -> list[dict[str, str]]:
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+# -- configs ------------------------------------------------------------------------------------
+@pytest.mark.parametrize("path", CONFIGS, ids=[p.name for p in CONFIGS])
+def test_shipped_configs_load(path: Path) -> None:
+    config = load_config(path)
+    assert config.name == path.stem
+
+
+def test_required_configs_exist() -> None:
+    names = {p.name for p in CONFIGS}
+    assert {"ppo_ccka_reach.yaml", "ppo_bullet_reach.yaml"} <= names
+
+
+def test_misspelt_key_names_the_key() -> None:
+    with pytest.raises(ConfigError, match=r"ppo\.learnig_rate.*did you mean 'learning_rate'"):
+        config_from_dict({"ppo": {"learnig_rate": 1e-3}})
+    with pytest.raises(ConfigError, match=r"unknown config key 'totl_timesteps'"):
+        config_from_dict({"totl_timesteps": 10})
+
+
+@pytest.mark.parametrize(
+    "data, key",
+    [
+        ({"env": {"n_envs": 0}}, "env.n_envs"),
+        ({"ppo": {"gamma": 1.5}}, "ppo.gamma"),
+        ({"ppo": {"lr_schedule": "cosine"}}, "ppo.lr_schedule"),
+        ({"env": {"vec_env": "threads"}}, "env.vec_env"),
+        ({"ppo": {"batch_size": 10_000}}, "ppo.batch_size"),
+        ({"normalize": {"enabled": "yes"}}, "normalize.enabled"),
+        ({"evaluate": {"initial_states": ["upside_down"]}}, "evaluate.initial_states"),
+        ({"ppo": {"policy": {"net_arch": [64, 0]}}}, "ppo.policy.net_arch"),
+        ({"env": {"kwargs": {"goal_conditioned": True}}}, "env.kwargs.goal_conditioned"),
+        ({"env": {"kwargs": {"max_episode_steps": 5}}}, "env.max_episode_steps"),
+    ],
+)
+def test_bad_values_name_the_key(data: dict, key: str) -> None:
+    with pytest.raises(ConfigError, match=key.replace(".", r"\.")):
+        config_from_dict(data)
+
+
+def test_cli_misspelt_key_fails_with_clear_message(tmp_path: Path) -> None:
+    config = _tiny_config(tmp_path, normalise={"enabled": True})
+    result = _run("training.train", config, "--run-dir", tmp_path / "run", timeout=60)
+    assert result.returncode == 2
+    assert "unknown config key 'normalise'" in result.stderr
+    assert "did you mean 'normalize'" in result.stderr
+    assert not (tmp_path / "run").exists()
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["missing.yaml"], "does not exist"),
+        (["{cfg}", "--total-timesteps", "0"], "--total-timesteps"),
+        (["{cfg}", "--seed", "-1"], "--seed"),
+        (["{cfg}", "--resume"], "--resume needs --run-dir"),
+        (["{cfg}", "--resume", "--run-dir", "{tmp}"], "not a training run directory"),
+    ],
+)
+def test_train_cli_validates_arguments(tmp_path: Path, args: list[str], message: str) -> None:
+    cfg = _tiny_config(tmp_path)
+    args = [a.format(cfg=cfg, tmp=tmp_path) for a in args]
+    result = _run("training.train", *args, timeout=60)
+    assert result.returncode != 0
+    assert message in result.stderr
+
+
+def test_evaluate_cli_validates_arguments(tmp_path: Path) -> None:
+    result = _run("training.evaluate", tmp_path / "nope", timeout=60)
+    assert result.returncode == 2 and "RUN_DIR" in result.stderr
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--episodes", "0"], "--episodes"),
+        (["--env-id", "cdcr_gym/Nope-v0"], "--env-id"),
+        # issue 23.4: another package's env (was an AttributeError)
+        (["--env-id", "CartPole-v1"], "--env-id 'CartPole-v1' is not a cdcr_gym env"),
+        (["--env-kwarg", "gravity"], "--env-kwarg"),
+        (["--env-kwarg", "action_mode=sideways"], "action_mode"),
+        (["--model", "final"], "--model final"),
+        (["--tag", "a/b"], "--tag"),
+    ],
+)
+def test_evaluate_cli_names_the_bad_argument(tmp_path: Path, args: list[str], message: str) -> None:
+    run = tmp_path / "run"  # looks like a run directory; arguments are checked before loading
+    (run / "best_model").mkdir(parents=True)
+    (run / "best_model" / "model.zip").write_bytes(b"")
+    save_config(load_config(_tiny_config(tmp_path)), run / "config.yaml")
+    result = _run("training.evaluate", run, *args, timeout=60)
+    assert result.returncode == 2, result.stderr[-2000:]
+    assert message in result.stderr
+
+
+# -- smoke runs ---------------------------------------------------------------------------------
+EVAL_KEYS = {"success_rate", "within_1mm", "error_mm", "ik", "conditions", "headline_condition"}
+STAT_KEYS = {"mean", "median", "p95", "max"}
+
+
+def _check_eval_json(path: Path, conditions: set[str]) -> dict:
+    data = json.loads(path.read_text())
+    assert EVAL_KEYS <= data.keys()
+    assert set(data["error_mm"]) == STAT_KEYS
+    ik = data["ik"]
+    assert {
+        "success_rate",
+        "error_mm",
+        "cable_length_distance_mm",
+        "tension_distance_n",
+    } <= ik.keys()
+    assert set(ik["error_mm"]) == STAT_KEYS
+    assert set(ik["cable_length_distance_mm"]) == STAT_KEYS
+    assert set(ik["tension_distance_n"]) == STAT_KEYS
+    assert 0.0 <= data["success_rate"] <= 1.0
+    assert set(data["conditions"]) == conditions
+    # On the analytic backend the IK oracle reaches every goal.
+    if data["env_id"].endswith("CCKAReach-v0"):
+        assert ik["success_rate"] == 1.0 and ik["error_mm"]["max"] < 1e-3
+    return data
+
+
+@pytest.mark.slow  # ~25-55 s: 512 steps of the default config, then a full evaluation
+def test_train_and_evaluate_default_config_smoke(tmp_path: Path) -> None:
+    """The default config, a tiny budget: every run-directory artefact exists; evaluate works."""
+    run = tmp_path / "run"
+    result = _run(
+        "training.train",
+        "configs/ppo_ccka_reach.yaml",
+        "--total-timesteps",
+        512,
+        "--run-dir",
+        run,
+        "--seed",
+        1,
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    for name in (
+        "config.yaml",
+        "run.json",
+        "command.txt",
+        "progress.csv",
+        "eval_log.csv",
+        "vecnormalize.pkl",
+        "learning_curve.png",
+        "best_model/model.zip",
+        "best_model/vecnormalize.pkl",
+        "final_model/model.zip",
+    ):
+        assert (run / name).exists(), name
+    assert any((run / "tb").iterdir())
+    assert list((run / "checkpoints").glob("model_*_steps.zip"))
+    meta = json.loads((run / "run.json").read_text())
+    assert meta["seed"] == 1 and meta["status"] == "complete"
+    assert {"torch", "stable_baselines3", "gymnasium", "numpy", "cdcr_gym"} <= meta[
+        "versions"
+    ].keys()
+    assert load_config(run / "config.yaml").total_timesteps == 512
+    assert "--total-timesteps 512" in (run / "command.txt").read_text()
+
+    result = _run("training.evaluate", run, "--episodes", 4)
+    assert result.returncode == 0, result.stderr[-3000:]
+    data = _check_eval_json(
+        run / "eval.json",
+        {"straight_100steps", "straight_200steps", "random_100steps", "random_200steps"},
+    )
+    assert "max_error_after_train_horizon_mm" in data["conditions"]["straight_200steps"]
+    for fig in ("error_histogram.png", "workspace_errors.png", "policy_vs_ik.png"):
+        assert (run / "eval" / fig).stat().st_size > 0
+    assert "success" in result.stdout  # the printed table
+
+
+def test_train_runs_in_an_existing_dir_only_with_resume(tmp_path: Path) -> None:
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "something").write_text("x")
+    result = _run("training.train", _tiny_config(tmp_path), "--run-dir", run, timeout=60)
+    assert result.returncode == 2 and "--resume" in result.stderr
+
+
+@pytest.mark.slow
+def test_resume_continues_steps_and_logs(tmp_path: Path) -> None:
+    cfg = _tiny_config(tmp_path)
+    run = tmp_path / "run"
+    result = _run("training.train", cfg, "--run-dir", run)
+    assert result.returncode == 0, result.stderr[-3000:]
+    first = _csv_rows(run / "progress.csv")
+    assert [int(r["time/total_timesteps"]) for r in first] == [128, 256]
+    n_events = len(list((run / "tb").iterdir()))
+
+    # Resume to a larger budget: the counter continues from the checkpoint, logs are appended.
+    result = _run("training.train", cfg, "--run-dir", run, "--resume", "--total-timesteps", 512)
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert "resuming" in result.stdout and "from step 256" in result.stdout
+    rows = _csv_rows(run / "progress.csv")
+    assert [int(r["time/total_timesteps"]) for r in rows] == [128, 256, 384, 512]
+    for old, new in zip(first, rows[:2], strict=True):  # the first session's rows are kept
+        assert old["rollout/ep_rew_mean"] == new["rollout/ep_rew_mean"]
+    # 3 updates × n_epochs 2 before the last row (a row logs the previous update): continued.
+    assert int(rows[-1]["train/n_updates"]) == 6
+    evals = [int(r["timesteps"]) for r in _csv_rows(run / "eval_log.csv")]
+    assert evals == [128, 256, 384, 512]
+    assert len(list((run / "tb").iterdir())) > n_events
+    meta = json.loads((run / "run.json").read_text())
+    assert [s["status"] for s in meta["sessions"]] == ["complete", "complete"]
+    assert meta["sessions"][1]["start_steps"] == 256 and meta["total_steps"] == 512
+    assert len((run / "command.txt").read_text().splitlines()) == 2
+
+    # The resumed run evaluates, with an H.264 MP4 of its episodes.
+    result = _run("training.evaluate", run, "--episodes", 2, "--video")
+    assert result.returncode == 0, result.stderr[-3000:]
+    _check_eval_json(
+        run / "eval.json",
+        {"straight_100steps", "straight_120steps", "random_100steps", "random_120steps"},
+    )
+    from training.evaluate.video import probe_video
+
+    info = probe_video(run / "eval" / "episodes.mp4")
+    assert info.codec == "h264" and (info.width, info.height) == (320, 320)
+    assert info.n_frames > 2
+
+
+def test_resume_rejects_a_different_config(tmp_path: Path) -> None:
+    cfg = _tiny_config(tmp_path)
+    run = tmp_path / "run"
+    run.mkdir()  # a run directory as train.py leaves it (validation happens before training)
+    save_config(load_config(cfg), run / "config.yaml")
+    (run / "run.json").write_text("{}")
+    (tmp_path / "other").mkdir()
+    other = _tiny_config(tmp_path / "other", ppo={**TINY["ppo"], "n_epochs": 3})
+    result = _run("training.train", other, "--run-dir", run, "--resume", timeout=60)
+    assert result.returncode == 2 and "ppo.n_epochs" in result.stderr
+
+
+@pytest.mark.slow
+def test_train_with_the_batched_vec_env(tmp_path: Path) -> None:
+    cfg = _tiny_config(
+        tmp_path,
+        env={**TINY["env"], "vec_env": "batched", "per_env_kwargs": [{"initial_state": "random"}]},
+    )
+    result = _run("training.train", cfg, "--run-dir", tmp_path / "run")
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert (tmp_path / "run" / "best_model" / "model.zip").exists()
+
+
+# -- the fast recipes (issue 12 item 1) ---------------------------------------------------------
+@pytest.mark.slow  # 25-55 s each: one rollout of the real fast recipes (64 envs)
+@pytest.mark.parametrize("name", ["ppo_ccka_fast", "ppo_bullet_fast"])
+def test_fast_config_trains_one_rollout(tmp_path: Path, name: str) -> None:
+    """A fast recipe loads and trains its first rollout (one PPO update) end to end.
+
+    The budget is overridden down to 256 steps; PPO still collects one full rollout of
+    ``n_steps * n_envs`` steps and updates once, so the recipe's vector env, batch size and
+    network all run. Its speed and accuracy are measured by commands (docs/training.md), not here.
+    """
+    config = load_config(REPO / "configs" / f"{name}.yaml")
+    rollout = config.ppo.n_steps * config.env.n_envs
+    # The recipes evaluate at the end only (periodic evaluation would cost wall time).
+    assert config.eval.freq >= config.total_timesteps
+    run = tmp_path / "run"
+    result = _run(
+        "training.train", f"configs/{name}.yaml", "--total-timesteps", 256, "--run-dir", run
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    meta = json.loads((run / "run.json").read_text())
+    assert meta["status"] == "complete"
+    rows = _csv_rows(run / "progress.csv")
+    assert int(rows[-1]["time/total_timesteps"]) == rollout
+    assert (run / "best_model" / "model.zip").exists()
+
+
+# -- pins: the numbers a restructuring of training/ must leave unchanged ------------------------
+#: sha256 (first 16 hex digits) of every packaged config as resolved (every default filled in)
+CONFIG_DIGESTS = {
+    "ppo_bullet_fast": "425ca3953cbd4d61",
+    "ppo_bullet_friction_reach": "342e59cfcfa3abda",
+    "ppo_bullet_reach": "9593264220302609",
+    "ppo_bullet_track": "b13d45633a0eebf9",
+    "ppo_ccka_dr_reach": "29ea77b5982cf0c6",
+    "ppo_ccka_fast": "99d7030e56fb8fdd",
+    "ppo_ccka_obstacle": "0e0d18eb730402ff",
+    "ppo_ccka_pose": "247c1bc6ab08ef2c",
+    "ppo_ccka_reach": "a7c421cd60c54f36",
+    "ppo_ccka_track": "8eb6a591bbbba874",
+    "sac_bullet_reach": "c15cfa464ef5b6fb",
+    "sac_ccka_obstacle": "a33dd57415df159f",
+    "sac_ccka_pose": "0397922d895ec273",
+    "sac_ccka_reach": "c07184d8bd3601ef",
+    "sac_ccka_track": "89a0d8255bef4170",
+    "td3_bullet_reach": "389e0b7404094fc3",
+    "td3_ccka_obstacle": "f7fcc4d871aa56c8",
+    "td3_ccka_pose": "02461dcfb670dd06",
+    "td3_ccka_reach": "f1b25efbdbc2b672",
+    "td3_ccka_track": "d51b7a8c87c4e976",
+    "tqc_bullet_reach": "b8b4b2082cb2d4eb",
+    "tqc_ccka_obstacle": "2a62b2cd0336af24",
+    "tqc_ccka_pose": "9262955216f039b0",
+    "tqc_ccka_reach": "ce60ff6cc40c6484",
+    "tqc_ccka_track": "65d31bc7002529f1",
+    "tqc_her_ccka_goalreach": "6b44b99c99165e10",
+}
+
+
+def test_pinned_config_resolution() -> None:
+    import hashlib
+
+    from training.run.config import config_to_dict
+
+    digests = {}
+    for path in CONFIGS:
+        data = json.dumps(config_to_dict(load_config(path)), sort_keys=True, default=str)
+        digests[path.stem] = hashlib.sha256(data.encode()).hexdigest()[:16]
+    assert digests == CONFIG_DIGESTS
+
+
+#: eval_log.csv of the tiny run below (seed 3, 256 steps): (timesteps, mean_error_mm, mean_reward)
+PINNED_EVAL_LOG = [(128, 228.553791, -22.681192), (256, 229.84247, -22.750727)]
+
+
+def test_pinned_tiny_training_run(tmp_path: Path) -> None:
+    """A tiny PPO run on a fixed seed: its periodic evaluations, to the last printed digit."""
+    run = tmp_path / "run"
+    result = _run("training.run.train", _tiny_config(tmp_path), "--run-dir", run, timeout=120)
+    assert result.returncode == 0, result.stderr[-3000:]
+    rows = [
+        (
+            int(r["timesteps"]),
+            round(float(r["mean_error_mm"]), 6),
+            round(float(r["mean_reward"]), 6),
+        )
+        for r in _csv_rows(run / "eval_log.csv")
+    ]
+    assert rows == PINNED_EVAL_LOG
+
+
+@pytest.mark.slow  # two tiny trainings: 8-25 s
+def test_train_prints_a_progress_bar_and_a_summary_and_tables_only_when_verbose(
+    tmp_path: Path,
+) -> None:
+    """Issue 23.12: SB3's table of every rollout (~6 500 lines in a one-minute run) only with
+    ``--verbose``; by default the progress bar and a few lines of summary."""
+    quiet = _run("training.run.train", _tiny_config(tmp_path), "--run-dir", tmp_path / "q")
+    assert quiet.returncode == 0, quiet.stderr[-3000:]
+    assert "rollout/" not in quiet.stdout and "| time/" not in quiet.stdout
+    assert len(quiet.stdout.splitlines()) <= 10, quiet.stdout
+    assert "done: 256 steps" in quiet.stdout and "last evaluation (step 256)" in quiet.stdout
+    assert "cdcr-gym evaluate" in quiet.stdout
+    loud = _run(
+        "training.run.train", _tiny_config(tmp_path), "--run-dir", tmp_path / "v", "--verbose"
+    )
+    assert loud.returncode == 0, loud.stderr[-3000:]
+    assert "rollout/" in loud.stdout and "time/" in loud.stdout

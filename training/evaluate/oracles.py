@@ -1,0 +1,176 @@
+"""The task oracles' numbers on fixed-seed episodes (the baselines of README/docs).
+
+Usage::
+
+    python -m training.oracles --task track --episodes 200 [--backend CCKA] [--robot paper]
+                               [--seed 1000000] [--out DIR] [--figures N] [--env-kwarg K=V ...]
+
+Runs the task's oracle (``training.task_metrics.oracle_for``: tracking IK, pose IK, the
+RRT-Connect planner) for ``--episodes`` episodes reset with seeds ``seed + i`` and prints and
+writes its task metrics (``DIR/oracle_<task>_<backend>_<robot>.json``). For the Obstacle task
+the plain reach IK controller runs on the same episodes too (``reach_ik``: how often the direct
+route collides). On the pybullet backend the oracles are open loop (they command the model's
+solution). ``--figures N`` draws the first N episodes: target vs tip paths (Track), scenes with
+the robot's tip path (Obstacle).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from training.evaluate.metrics import oracle_for, run_task_episodes, summarize_task
+from training.evaluate.rollout import parse_env_kwarg
+
+__all__ = ["main", "run_oracle"]
+
+TASKS = {"track": "Track", "pose": "Pose", "obstacle": "Obstacle", "reach": "Reach"}
+
+
+def run_oracle(
+    task: str,
+    episodes: int,
+    backend: str = "CCKA",
+    robot: str | None = None,
+    seed: int = 1_000_000,
+    env_kwargs: dict[str, Any] | None = None,
+    record: int = 0,
+) -> dict[str, Any]:
+    """Summaries of the oracle (and, for Obstacle, the reach IK) on the same episodes."""
+    import gymnasium as gym
+
+    import cdcr_gym  # noqa: F401
+
+    env_id = f"cdcr_gym/{backend}{TASKS[task]}-v0"
+    kwargs = dict(env_kwargs or {})
+    if robot is not None:
+        kwargs["robot"] = robot
+    if backend == "Bullet":
+        kwargs.setdefault("gravity", False)
+
+    def env_fn() -> Any:
+        return gym.make(env_id, **kwargs)
+
+    probe = env_fn()
+    robot_name = robot or ("tdcr2" if probe.unwrapped.params.n_sections == 2 else "paper")
+    probe.close()
+    out: dict[str, Any] = {
+        "env_id": env_id,
+        "robot": robot_name,
+        "env_kwargs": {k: v for k, v in kwargs.items() if k != "robot"},
+        "seed": seed,
+    }
+    t0 = time.perf_counter()
+    metrics = run_task_episodes(env_fn, None, episodes, seed, record=record)
+    out["oracle"] = summarize_task(metrics)
+    out["oracle"]["wall_time_s"] = time.perf_counter() - t0
+    paths = {"oracle": metrics.get("paths", [])}
+    if TASKS[task] == "Obstacle":
+        paths = {"planner": paths["oracle"]}
+    if TASKS[task] == "Obstacle":
+        env = env_fn()
+        ik = oracle_for(env, "reach_ik")
+        env.close()
+        base = run_task_episodes(env_fn, ik, episodes, seed, record=record)
+        out["reach_ik"] = summarize_task(base)
+        paths["reach_ik"] = base.get("paths", [])
+    out["_paths"] = paths
+    return out
+
+
+def plot_paths(task: str, runs: dict[str, list[dict[str, Any]]], path: Path) -> None:
+    """Target vs tip paths (Track) or scenes with tip paths (Obstacle), one panel per episode;
+    ``runs`` maps a policy name to its recorded episodes (``run_task_episodes(record=N)``), the
+    first drawn solid, the others dashed, on the same episodes."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = list(runs)
+    n = min(len(v) for v in runs.values()) if runs else 0
+    if n == 0 or task not in ("Track", "Obstacle"):
+        return
+    colours = ["g", "r", "b", "m"]
+    fig = plt.figure(figsize=(4 * n, 4))
+    for i in range(n):
+        ax = fig.add_subplot(1, n, i + 1, projection="3d")
+        first = runs[names[0]][i]
+        if task == "Track":
+            ax.plot(*first["target"].T * 1e3, "c-", lw=3, alpha=0.6, label="target")
+        else:
+            u, v = np.mgrid[0 : 2 * np.pi : 16j, 0 : np.pi : 9j]
+            for x, y, z, r in first["obstacles"]:
+                if r <= 0:
+                    continue
+                ax.plot_wireframe(
+                    1e3 * (x + r * np.cos(u) * np.sin(v)),
+                    1e3 * (y + r * np.sin(u) * np.sin(v)),
+                    1e3 * (z + r * np.cos(v)),
+                    color="saddlebrown",
+                    alpha=0.3,
+                    lw=0.5,
+                )
+            ax.scatter(*first["goal"] * 1e3, color="purple", s=30, label="goal")
+        for k, name in enumerate(names):
+            style = "-" if k == 0 else "--"
+            tip = runs[name][i]["tip"]
+            ax.plot(*tip.T * 1e3, style, color=colours[k % 4], lw=1.5, label=f"tip ({name})")
+        ax.set_xlabel("x (mm)")
+        ax.set_ylabel("y (mm)")
+        ax.set_zlabel("z (mm)")
+        ax.set_title(f"episode {i}")
+        if i == 0:
+            ax.legend(fontsize=7)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="cdcr-gym oracles", description=__doc__)
+    parser.add_argument("--task", required=True, choices=sorted(TASKS))
+    parser.add_argument("--episodes", type=int, default=200)
+    parser.add_argument("--backend", default="CCKA", choices=["CCKA", "Bullet"])
+    parser.add_argument("--robot", default=None, help="robot preset (default: the id's)")
+    parser.add_argument("--seed", type=int, default=1_000_000)
+    parser.add_argument("--out", type=Path, default=Path("docs/figures/tasks"))
+    parser.add_argument("--figures", type=int, default=0, help="episodes to draw")
+    parser.add_argument("--env-kwarg", action="append", default=[], metavar="KEY=VALUE")
+    args = parser.parse_args(argv)
+    if args.episodes < 1:
+        parser.error(f"--episodes must be >= 1, got {args.episodes}")
+    try:
+        env_kwargs = dict(parse_env_kwarg(t) for t in args.env_kwarg)
+        result = run_oracle(
+            args.task,
+            args.episodes,
+            args.backend,
+            args.robot,
+            args.seed,
+            env_kwargs,
+            record=args.figures,
+        )
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    stem = f"oracle_{args.task}_{args.backend}_{result['robot']}"
+    if args.figures:
+        plot_paths(result["oracle"]["task"], result["_paths"], args.out / f"{stem}.png")
+    result.pop("_paths")
+    result["command"] = "cdcr-gym oracles " + " ".join(argv if argv is not None else sys.argv[1:])
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / f"{stem}.json").write_text(json.dumps(result, indent=2) + "\n")
+    print(json.dumps(result, indent=2))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

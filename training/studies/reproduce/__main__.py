@@ -1,0 +1,8 @@
+"""``python -m training.reproduce``: run the study (see :mod:`training.reproduce.study`)."""
+
+import sys
+
+from training.studies.reproduce.cli import main
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
