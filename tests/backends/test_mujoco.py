@@ -547,6 +547,33 @@ def test_vector_env_rows_equal_single_envs_with_randomised_robots_and_friction()
         e.close()
 
 
+def test_pickled_and_copied_backends_step_like_the_original_and_independently():
+    import copy
+    import pickle
+
+    b = MuJoCoBackend(num_robots=2, friction_coefficient=0.1, threads=1)
+    b.set_randomized(np.array([1]), {"youngs_modulus": np.array([30e9])})
+    t = np.array([[40.0, 0.0, 10.0], [0.0, 60.0, 0.0]])
+    for _ in range(5):
+        b.apply_tensions(t)
+    twins = [pickle.loads(pickle.dumps(b)), copy.deepcopy(b)]
+    for _ in range(5):
+        b.apply_tensions(t)
+    for twin in twins:
+        assert twin._models[0] is twin.model and twin._models[1] is not twin.model
+        before = twin.read().tip.copy()
+        assert not np.array_equal(before, b.read().tip)  # not moved by the original
+        for _ in range(5):
+            twin.apply_tensions(t)
+        np.testing.assert_array_equal(twin.read().tip, b.read().tip)
+        np.testing.assert_array_equal(twin.read().anchor_tensions, b.read().anchor_tensions)
+    env = gym.make("cdcr_gym/MuJoCoReach-v0")
+    env.reset(seed=0)
+    clone = pickle.loads(pickle.dumps(env.unwrapped))
+    a = np.array([0.3, -0.2, 0.1], np.float32)
+    np.testing.assert_array_equal(env.unwrapped.step(a)[0], clone.step(a)[0])
+
+
 def test_same_seed_same_trajectory():
     def run():
         env = gym.make("cdcr_gym/MuJoCoReach-v0", initial_state="random")

@@ -805,8 +805,19 @@ class MuJoCoBackend(Backend):
         self._datas = []
         self._models = []
 
+    # -- copies -------------------------------------------------------------------------------
     def __getstate__(self) -> dict:
-        """Refuse pickling (the MuJoCo data are not copied with it); build a new env instead."""
-        raise TypeError(
-            "MuJoCoBackend cannot be pickled or copied; build a new backend (or env) instead"
-        )
+        """Pickling and deep copies carry the whole simulation (``MjModel`` and ``MjData``
+        pickle by value; unlike a pybullet client, nothing lives outside the process): a copy
+        steps exactly like the original, independently of it. Not carried: the mujoco module,
+        the rollout threads and the cached array views (rebuilt on unpickling)."""
+        state = self.__dict__.copy()
+        for key in ("_mj", "_rollout", "_thread_datas", "_views"):
+            state.pop(key, None)
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._mj = _mujoco()
+        self._rollout = None
+        self._make_views()
