@@ -96,7 +96,9 @@ __all__ = [
     "REFERENCE_PATH",
 ]
 
-REFERENCE_PATH = Path(__file__).resolve().parents[1] / "docs/figures/physics/cosserat_reference.json"
+REFERENCE_PATH = (
+    Path(__file__).resolve().parents[1] / "docs/figures/physics/cosserat_reference.json"
+)
 
 #: PyElastica's shear correction factor (``CosseratRod.straight_rod``), used by both solvers.
 SHEAR_FACTOR = 27.0 / 28.0
@@ -388,7 +390,12 @@ def _solve(model, seg_t, extensible, rtol, tol, max_iter, guess) -> StaticSoluti
         if np.max(np.abs(r0)) < tol:
             zz = x[:6]
             return StaticSolution(
-                centres[0, -1].copy(), centres[0], rots[0], zz[:3].copy(), zz[3:].copy(), it,
+                centres[0, -1].copy(),
+                centres[0],
+                rots[0],
+                zz[:3].copy(),
+                zz[3:].copy(),
+                it,
                 float(np.max(np.abs(r0))),
             )
         jac = ((res[1:] - r0) / h[:, None]).T
@@ -414,15 +421,25 @@ def _solve(model, seg_t, extensible, rtol, tol, max_iter, guess) -> StaticSoluti
         else:  # no descent: the residual is at the noise floor of the ODE tolerance
             if np.max(np.abs(r0)) < 1e3 * tol:
                 return StaticSolution(
-                    centres[0, -1].copy(), centres[0], rots[0], x[:3].copy(), x[3:6].copy(),
-                    it, float(np.max(np.abs(r0))),
+                    centres[0, -1].copy(),
+                    centres[0],
+                    rots[0],
+                    x[:3].copy(),
+                    x[3:6].copy(),
+                    it,
+                    float(np.max(np.abs(r0))),
                 )
             raise RuntimeError(f"solve_static: stalled at residual {np.max(np.abs(r0)):.3g}")
         x = x - step
         if np.max(np.abs(step / scale)) < 1e-13:
             res, centres, rots = residual(x[None])
             return StaticSolution(
-                centres[0, -1].copy(), centres[0], rots[0], x[:3].copy(), x[3:6].copy(), it,
+                centres[0, -1].copy(),
+                centres[0],
+                rots[0],
+                x[:3].copy(),
+                x[3:6].copy(),
+                it,
                 float(np.max(np.abs(res[0]))),
             )
     raise RuntimeError(f"solve_static: no convergence in {max_iter} iterations")
@@ -554,9 +571,7 @@ def solve_pyelastica(
             ext += node_gravity
             ext[:, disk_elems[1:]] += 0.5 * total[1:].T
             ext[:, disk_elems[1:] + 1] += 0.5 * total[1:].T
-            system.external_torques[:, disk_elems[1:]] += np.einsum(
-                "kij,kj->ik", q[1:], couple[1:]
-            )
+            system.external_torques[:, disk_elems[1:]] += np.einsum("kij,kj->ik", q[1:], couple[1:])
 
     sim.add_forcing_to(rod).using(Cables)
     sim.dampen(rod).using(ea.AnalyticalLinearDamper, uniform_damping_constant=damping, time_step=dt)
@@ -578,11 +593,7 @@ def solve_pyelastica(
             raise RuntimeError(f"PyElastica diverged at t = {t} s")
         if verbose and steps % 100000 == 0:
             print(f"  t={t:.3f} s tip={tip * 1e3} mm v={speed:.2e}", file=sys.stderr)
-        if (
-            speed < velocity_tol
-            and last_tip is not None
-            and np.max(np.abs(tip - last_tip)) < 1e-9
-        ):
+        if speed < velocity_tol and last_tip is not None and np.max(np.abs(tip - last_tip)) < 1e-9:
             break
         last_tip = tip.copy()
     x = rod.position_collection
@@ -623,7 +634,9 @@ PYELASTICA_CASES: tuple[tuple[str, bool], ...] = (
 )
 PYELASTICA_MESHES = (4, 8)
 
-GENERATOR = "python -m training.cosserat_reference --write docs/figures/physics/cosserat_reference.json"
+GENERATOR = (
+    "python -m training.cosserat_reference --write docs/figures/physics/cosserat_reference.json"
+)
 
 
 def reference_cases() -> list[dict]:
