@@ -18,12 +18,13 @@ Two independent solvers of that problem:
     ``v = e3 + K_se⁻¹ Rᵀ n`` (shear and extension as in PyElastica; ``extensible=False``: a
     Kirchhoff rod, v = e3), integrated disk span by disk span with ``scipy.integrate.solve_ivp``
     (DOP853, rtol 1e-11); the point loads of the disks are jumps of the internal force n and
-    moment m. Unknowns n(0), m(0) (6), found by Newton on the free-tip conditions n(ℓ⁺) =
-    m(ℓ⁺) = 0 with a finite-difference Jacobian (the 7 shots stacked in one ``solve_ivp``
-    call). The cable's *outgoing* segment direction at a disk depends on the next disk, not yet
-    reached when shooting, so it is frozen (in that disk's frame) from the previous shape and updated by fixed-point
-    iteration until the tip moves < 1e-10 m. No mesh: its discretisation error is the ODE
-    tolerance (checked by halving it).
+    moment m. The cable's *outgoing* segment at a disk depends on the next disk, not yet
+    reached when shooting, so its direction in that disk's frame is an unknown too: Newton on
+    n(0), m(0) and the two transverse components of every loaded segment's direction, with
+    residuals the free-tip conditions n(ℓ⁺) = m(ℓ⁺) = 0 and the mismatch between assumed and
+    shot directions (finite-difference Jacobian, all shots stacked in one ``solve_ivp`` call;
+    trust region, backtracking, load continuation from the straight rod). No mesh: its
+    discretisation error is the ODE tolerance (checked by dividing it by 100).
 
 :func:`solve_pyelastica`
     PyElastica 1.0 (``CosseratRod`` with dynamic relaxation: an ``AnalyticalLinearDamper`` to a
@@ -95,7 +96,9 @@ __all__ = [
     "REFERENCE_PATH",
 ]
 
-REFERENCE_PATH = Path(__file__).resolve().parents[1] / "docs/figures/physics/cosserat_reference.json"
+REFERENCE_PATH = (
+    Path(__file__).resolve().parents[1] / "docs/figures/physics/cosserat_reference.json"
+)
 
 #: PyElastica's shear correction factor (``CosseratRod.straight_rod``), used by both solvers.
 SHEAR_FACTOR = 27.0 / 28.0
@@ -281,7 +284,7 @@ def _shoot(
         t_in = seg_t[k - 1]  # (C,)
         t_out = seg_t[k] if k < d else np.zeros_like(t_in)
         if k < d:  # outgoing: frozen in the disk's frame
-            outgoing = np.einsum("kij,cj->kci", r, out_dirs[k])
+            outgoing = np.einsum("kij,kcj->kci", r, out_dirs[:, k])
         else:
             outgoing = np.zeros_like(incoming)
         force = t_out[None, :, None] * outgoing - t_in[None, :, None] * incoming  # (copies, C, 3)
@@ -324,7 +327,7 @@ def solve_static(
         gravity: rod and disk weights along −Z0 (base upright).
         extensible: shear and extension as in PyElastica (``False``: inextensible Kirchhoff rod,
             like the bullet chain).
-        rtol: ODE tolerance; tol: tip change (m) that ends the fixed-point iteration.
+        rtol: ODE tolerance; tol: largest residual (N; moments over ℓ; direction mismatch).
         guess: a previous solution to start from.
 
     Raises:
@@ -334,70 +337,119 @@ def solve_static(
     seg_t = model.segment_tensions(tensions)
     if guess is None:
         # load continuation: Newton from the straight rod converges for moderate bends only
-        steps = max(1, math.ceil(float(np.max(seg_t, initial=0.0)) / (0.25 * params.max_tension)))
+        steps = max(1, math.ceil(float(np.max(seg_t, initial=0.0)) / (0.1 * params.max_tension)))
         for j in range(1, steps):
             guess = _solve(model, seg_t * (j / steps), extensible, rtol, 1e-6, max_iter, guess)
     return _solve(model, seg_t, extensible, rtol, tol, max_iter, guess)
 
 
 def _solve(model, seg_t, extensible, rtol, tol, max_iter, guess) -> StaticSolution:
+    """Newton on x = (n(0), m(0), the transverse components (a, b) of every loaded segment's
+    direction in the frame of the disk it leaves): residuals the free-tip conditions and the
+    mismatch between the assumed and the shot directions. Finite-difference Jacobian, all
+    1 + len(x) shots stacked in one ``solve_ivp`` call; trust region and backtracking."""
     d, c = model.n_disks, len(model.anchors)
+    active = np.argwhere(seg_t > 0.0)  # (n_act, 2): (segment, cable)
     if guess is None:
-        out_dirs = np.broadcast_to(np.array([0.0, 0.0, 1.0]), (d, c, 3)).copy()
+        ab = np.zeros((d, c, 2))
         z = np.zeros(6)
     else:
         pins0 = guess.disk_centres[:, None, :] + np.einsum(
             "kij,cj->kci", guess.disk_rotations, model.pinholes
         )
-        out_dirs = _directions(pins0, guess.disk_rotations)
+        dirs0 = _directions(pins0, guess.disk_rotations)
+        ab = dirs0[..., :2] / dirs0[..., 2:3]
         z = np.concatenate([guess.base_force, guess.base_moment])
     length = model.stations[-1]
-    scale = np.array([1.0, 1.0, 1.0, length, length, length])
-    last_tip = None
+    scale = np.concatenate([[1.0, 1.0, 1.0, length, length, length], np.ones(2 * len(active))])
+
+    def unpack(x):  # (copies, n) -> z (copies, 6), directions (copies, D, C, 3)
+        copies = x.shape[0]
+        full = np.zeros((copies, d, c, 3))
+        full[..., 2] = 1.0
+        full[:, active[:, 0], active[:, 1], :2] = x[:, 6:].reshape(copies, -1, 2)
+        full /= np.linalg.norm(full, axis=-1, keepdims=True)
+        return x[:, :6], full
+
+    def residual(x):
+        zz, dirs = unpack(x)
+        res, centres, rots, pins = _shoot(model, zz, seg_t, dirs, extensible, rtol)
+        shot = _directions_batch(pins, rots)
+        shot_ab = shot[:, active[:, 0], active[:, 1], :2] / shot[:, active[:, 0], active[:, 1], 2:3]
+        mismatch = (shot_ab - x[:, 6:].reshape(x.shape[0], -1, 2)).reshape(x.shape[0], -1)
+        return np.concatenate([res, mismatch], axis=1), centres, rots
+
+    x = np.concatenate([z, ab[active[:, 0], active[:, 1]].reshape(-1)])
+    n = x.size
     for it in range(1, max_iter + 1):
-        # Newton on n(0), m(0) with the directions frozen: 7 stacked shots per iteration
-        for _newton in range(8):
-            h = 1e-7 * np.maximum(1.0, np.abs(z / scale)) * scale
-            zs = np.tile(z, (7, 1))
-            zs[1:] += np.diag(h)
-            res = _shoot(model, zs, seg_t, out_dirs, extensible, rtol)[0]
-            if np.max(np.abs(res[0])) < 1e-10:  # N (moments over ℓ)
-                break
-            jac = ((res[1:] - res[0]) / h[:, None]).T
-            step = np.linalg.solve(jac, res[0])
-            # trust region: a step may change the bend it causes by at most 0.5 rad
-            bend = max(
-                np.max(np.abs(step[3:])) * length / model.k_bt[0],
-                np.max(np.abs(step[:3])) * length**2 / model.k_bt[0],
-            )
-            if bend > 0.5:
-                step *= 0.5 / bend
-            # backtracking: halve the step while the residual grows (or the shot fails)
-            norm0 = np.linalg.norm(res[0])
-            for _ in range(30):
-                try:
-                    trial = _shoot(model, (z - step)[None], seg_t, out_dirs, extensible, rtol)[0]
-                    if np.linalg.norm(trial[0]) < norm0:
-                        break
-                except RuntimeError:
-                    pass
-                step = 0.5 * step
-            z = z - step
-        res, centres, rots, pins = _shoot(model, z[None], seg_t, out_dirs, extensible, rtol)
-        out_dirs = _directions(pins[0], rots[0])
-        tip = centres[0, -1]
-        if last_tip is not None and np.max(np.abs(tip - last_tip)) < tol:
+        h = 1e-7 * np.maximum(1.0, np.abs(x / scale)) * scale
+        xs = np.tile(x, (n + 1, 1))
+        xs[1:] += np.diag(h)
+        res, centres, rots = residual(xs)
+        r0 = res[0]
+        if np.max(np.abs(r0)) < tol:
+            zz = x[:6]
             return StaticSolution(
-                tip.copy(),
+                centres[0, -1].copy(),
                 centres[0],
                 rots[0],
-                z[:3].copy(),
-                z[3:].copy(),
+                zz[:3].copy(),
+                zz[3:].copy(),
+                it,
+                float(np.max(np.abs(r0))),
+            )
+        jac = ((res[1:] - r0) / h[:, None]).T
+        step = np.linalg.solve(jac, r0)
+        # trust region: a step may change the bend it causes by at most 0.5 rad and a
+        # segment direction by at most 0.1
+        bend = max(
+            np.max(np.abs(step[3:6])) * length / model.k_bt[0],
+            np.max(np.abs(step[:3])) * length**2 / model.k_bt[0],
+            10.0 * np.max(np.abs(step[6:]), initial=0.0),
+        )
+        if bend > 0.5:
+            step *= 0.5 / bend
+        norm0 = np.linalg.norm(r0 / scale)
+        for _ in range(30):
+            try:
+                trial = residual((x - step)[None])[0][0]
+                if np.linalg.norm(trial / scale) < norm0:
+                    break
+            except RuntimeError:
+                pass
+            step = 0.5 * step
+        else:  # no descent: the residual is at the noise floor of the ODE tolerance
+            if np.max(np.abs(r0)) < 1e3 * tol:
+                return StaticSolution(
+                    centres[0, -1].copy(),
+                    centres[0],
+                    rots[0],
+                    x[:3].copy(),
+                    x[3:6].copy(),
+                    it,
+                    float(np.max(np.abs(r0))),
+                )
+            raise RuntimeError(f"solve_static: stalled at residual {np.max(np.abs(r0)):.3g}")
+        x = x - step
+        if np.max(np.abs(step / scale)) < 1e-13:
+            res, centres, rots = residual(x[None])
+            return StaticSolution(
+                centres[0, -1].copy(),
+                centres[0],
+                rots[0],
+                x[:3].copy(),
+                x[3:6].copy(),
                 it,
                 float(np.max(np.abs(res[0]))),
             )
-        last_tip = tip.copy()
     raise RuntimeError(f"solve_static: no convergence in {max_iter} iterations")
+
+
+def _directions_batch(pins: np.ndarray, rots: np.ndarray) -> np.ndarray:
+    """:func:`_directions` over a leading batch axis."""
+    seg = np.diff(pins, axis=1)
+    seg /= np.linalg.norm(seg, axis=-1, keepdims=True)
+    return np.einsum("bkji,bkcj->bkci", rots[:, :-1], seg)
 
 
 # ------------------------------------------------------------------------------- PyElastica
@@ -519,9 +571,7 @@ def solve_pyelastica(
             ext += node_gravity
             ext[:, disk_elems[1:]] += 0.5 * total[1:].T
             ext[:, disk_elems[1:] + 1] += 0.5 * total[1:].T
-            system.external_torques[:, disk_elems[1:]] += np.einsum(
-                "kij,kj->ik", q[1:], couple[1:]
-            )
+            system.external_torques[:, disk_elems[1:]] += np.einsum("kij,kj->ik", q[1:], couple[1:])
 
     sim.add_forcing_to(rod).using(Cables)
     sim.dampen(rod).using(ea.AnalyticalLinearDamper, uniform_damping_constant=damping, time_step=dt)
@@ -543,11 +593,7 @@ def solve_pyelastica(
             raise RuntimeError(f"PyElastica diverged at t = {t} s")
         if verbose and steps % 100000 == 0:
             print(f"  t={t:.3f} s tip={tip * 1e3} mm v={speed:.2e}", file=sys.stderr)
-        if (
-            speed < velocity_tol
-            and last_tip is not None
-            and np.max(np.abs(tip - last_tip)) < 1e-9
-        ):
+        if speed < velocity_tol and last_tip is not None and np.max(np.abs(tip - last_tip)) < 1e-9:
             break
         last_tip = tip.copy()
     x = rod.position_collection
@@ -588,7 +634,9 @@ PYELASTICA_CASES: tuple[tuple[str, bool], ...] = (
 )
 PYELASTICA_MESHES = (4, 8)
 
-GENERATOR = "python -m training.cosserat_reference --write docs/figures/physics/cosserat_reference.json"
+GENERATOR = (
+    "python -m training.cosserat_reference --write docs/figures/physics/cosserat_reference.json"
+)
 
 
 def reference_cases() -> list[dict]:
@@ -785,3 +833,51 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 if __name__ == "__main__":
     raise SystemExit(main())
+
+
+# ------------------------------------------------------------------------- capstan friction
+def capstan_segment_tensions(
+    params: RobotParams, solution: StaticSolution, tensions, mu: float, slip: float = 1.0
+) -> np.ndarray:
+    """Capstan-decayed segment tensions (D, C) N on a solved shape, computed here from the
+    rod's own pinholes (independently of ``cdcr_gym.model.friction`` and the bullet chain).
+
+    The wrap at the base disk is the angle between +Z0 (where the cable arrives from the
+    actuator) and the first segment; at disk k between segments k − 1 and k.
+    Segment k carries ``T·exp(−slip·μ·Σ_{j≤k} α_j)`` (slip +1: pulled, the tension falls towards
+    the anchor; −1: released).
+    """
+    model = RodModel.of(params, gravity=False)
+    pins = solution.disk_centres[:, None, :] + np.einsum(
+        "kij,cj->kci", solution.disk_rotations, model.pinholes
+    )
+    seg = np.diff(pins, axis=0)
+    u = seg / np.linalg.norm(seg, axis=-1, keepdims=True)  # (D, C, 3)
+    incoming = np.concatenate([np.broadcast_to([0.0, 0.0, 1.0], u[:1].shape), u[:-1]], axis=0)
+    cosines = np.clip(np.sum(incoming * u, axis=-1), -1.0, 1.0)
+    wraps = np.arccos(cosines)  # (D, C)
+    t = np.asarray(tensions, dtype=np.float64)
+    return t[None, :] * np.exp(-slip * mu * np.cumsum(wraps, axis=0))
+
+
+def solve_static_capstan(
+    params: RobotParams,
+    tensions,
+    mu: float,
+    gravity: bool = False,
+    slip: float = 1.0,
+    *,
+    tol: float = 1e-9,
+    max_iter: int = 50,
+) -> tuple[StaticSolution, np.ndarray]:
+    """Static shape with capstan-decayed cable tensions: the segment tensions of
+    :func:`capstan_segment_tensions` on the shape they produce (fixed point from the
+    frictionless shape). Returns the solution and the segment tensions (D, C) N."""
+    sol = solve_static(params, tensions, gravity, rtol=1e-9)
+    for _ in range(max_iter):
+        seg_t = capstan_segment_tensions(params, sol, tensions, mu, slip)
+        new = solve_static(params, seg_t, gravity, rtol=1e-9, guess=sol)
+        if np.max(np.abs(new.tip - sol.tip)) < tol:
+            return new, seg_t
+        sol = new
+    raise RuntimeError("solve_static_capstan: no convergence")
