@@ -1,4 +1,4 @@
-"""What `pip install cdcr-gym` promises: the envs with numpy, gymnasium and pybullet only; the
+"""What `pip install cdcr-gym` promises: the envs with numpy, gymnasium, pybullet, mujoco and scipy only; the
 configs inside the wheel; extras for the rest. (.ci/run also installs the built wheel into a
 fresh virtual environment without torch and makes every id there.)"""
 

@@ -156,6 +156,8 @@ class ImplicitIntegrator:
         #: Slip state s (C,) of every cable (+1 pulled, −1 released, between: stick).
         self.slip = np.zeros(chain.pinhole_local.shape[0])
         self._last_lengths: np.ndarray | None = None
+        #: Sliding (C,) m of each cable in its last step that moved (its sign: the direction).
+        self._last_sliding = np.zeros_like(self.slip)
         self._entry = np.ascontiguousarray(chain.base_rotation[:, 2])
 
     def set_stiffness(self, stiffness: np.ndarray, damping_time: float) -> None:
@@ -176,6 +178,7 @@ class ImplicitIntegrator:
         """Neutral slip state (s = 0) and no sliding history: after a reset to rest."""
         self.slip = np.zeros_like(self.slip)
         self._last_lengths = None
+        self._last_sliding = np.zeros_like(self.slip)
 
     def segment_tensions(self, q: np.ndarray, tensions: np.ndarray) -> np.ndarray:
         """Tensions (n_disks, C) N of every cable's segment k (row k: from disk k to k + 1)
@@ -184,12 +187,52 @@ class ImplicitIntegrator:
         wraps = friction.wrap_angles(pins.transpose(1, 0, 2), self._entry)  # (C, n_disks)
         return friction.tension_profile(tensions, wraps, self.friction_coefficient, self.slip).T
 
+    def _friction_loads(
+        self, q: np.ndarray, tensions: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Cable loads τ (2n,) N·m and lengths (C,) m with the capstan profile at the current
+        slip, and the stiffness G (2n, 2n) of the slip law: ∂τ/∂q through s.
+
+        In stick the Dahl law makes the friction a stiff spring in the cable's sliding
+        coordinate: s moves by (1 − s·σ)/x_s per metre slid (σ the sliding direction), and the
+        segment tensions T_k = T·e^(−s·μ·A_k) (A_k the wrap accumulated up to segment k) move
+        with s. Linearised over one step, τ(q + Δq, s + Δs) ≈ τ − G·Δq with
+        G = Σ_i (∂τ/∂s_i)·(ds_i/dx)·(∂l_i/∂q) (sliding x = −Δl). Treated explicitly, this
+        stiffness (≈ μ·α·T/x_s along the cable) makes the step flip the slip state back and
+        forth (a limit cycle that ends each control step at a random point of the cycle); the
+        integrator adds G to the backward-Euler system like K.
+        """
+        chain = self.chain
+        _, pins = chain.stations_and_pinholes(q)
+        wraps = friction.wrap_angles(pins.transpose(1, 0, 2), self._entry)  # (C, n_disks)
+        seg_t = friction.tension_profile(tensions, wraps, self.friction_coefficient, self.slip).T
+        tau, lengths = chain.cable_loads(q, seg_t)
+        # dT_k/ds = −μ·A_k·T_k; ds/dx for the last sliding direction (both, before any motion)
+        dtds = -self.friction_coefficient * np.cumsum(wraps, axis=-1).T * seg_t  # (n_disks, C)
+        sigma = np.sign(self._last_sliding)
+        dsdx = np.where(sigma != 0.0, 1.0 - self.slip * sigma, 1.0 + np.abs(self.slip))
+        dsdx = dsdx / self.slip_length
+        n_cables = tensions.shape[0]
+        stiffness = np.zeros((q.size, q.size))
+        for i in range(n_cables):
+            if tensions[i] == 0.0 or dsdx[i] == 0.0:
+                continue
+            unit = np.zeros((chain.n_disks, n_cables))
+            unit[:, i] = 1.0
+            dl_dq = -chain.cable_loads(q, unit)[0]  # τ of a unit tension is −∂l/∂q
+            only = np.zeros_like(dtds)
+            only[:, i] = dtds[:, i]
+            dtau_ds = chain.cable_loads(q, only)[0]
+            # τ(s + Δs) with Δs = dsdx·(−Δl) = −dsdx·(∂l/∂q)·Δq: G = dtau_ds ⊗ dsdx·dl_dq
+            stiffness += np.outer(dtau_ds, dsdx[i] * dl_dq)
+        return tau, lengths, stiffness
+
     def _slide(self, lengths: np.ndarray) -> None:
         """Advance the slip state by the sliding since the last call (lengths (C,) m)."""
         if self._last_lengths is not None:
-            self.slip = friction.update_slip(
-                self.slip, self._last_lengths - lengths, self.slip_length
-            )
+            sliding = self._last_lengths - lengths
+            self.slip = friction.update_slip(self.slip, sliding, self.slip_length)
+            self._last_sliding = np.where(sliding != 0.0, sliding, self._last_sliding)
         self._last_lengths = lengths
 
     # -- state -----------------------------------------------------------------------------------
@@ -274,8 +317,9 @@ class ImplicitIntegrator:
         for _ in range(n_steps):
             q, qd = self.state()
             ql = q.tolist()
+            friction_stiffness = None
             if rough:
-                tau_c, lengths = cable_loads(q, self.segment_tensions(q, tensions))
+                tau_c, lengths, friction_stiffness = self._friction_loads(q, tensions)
                 self._slide(lengths)
             else:
                 tau_c, _ = cable_loads(q, tensions)
@@ -287,8 +331,14 @@ class ImplicitIntegrator:
             )
             bias = self.bias(ql, qd.tolist())
             mass.reshape(-1)[:: n2 + 1] += self._A_diag  # the diagonal (a view): M + hD + h²K
-            qd_new = qd + np.linalg.solve(mass, h * (tau_c - bias - K * q - D_plus_hK * qd))
+            rhs = tau_c - bias - K * q - D_plus_hK * qd
+            if friction_stiffness is not None:  # the slip's stick stiffness, implicit
+                mass += (h * h) * friction_stiffness
+                rhs -= h * (friction_stiffness @ qd)
+            qd_new = qd + np.linalg.solve(mass, h * rhs)
             torque = tau_c - K * (q + h * qd_new) - D * qd_new
+            if friction_stiffness is not None:
+                torque -= h * (friction_stiffness @ qd_new)
             # TORQUE_CONTROL torques accumulate until the next step: exactly one call per step
             pb.setJointMotorControlArray(
                 body, ids, torque_mode, forces=torque.tolist(), physicsClientId=cid

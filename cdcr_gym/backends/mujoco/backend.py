@@ -32,7 +32,7 @@ from cdcr_gym.backends.bullet.integrator import (
     SimulationDivergedError,
     bending_modes,
 )
-from cdcr_gym.backends.mujoco.mjcf import JOINTS, ROUTINGS, MJCFModel, build_mjcf
+from cdcr_gym.backends.mujoco.mjcf import JOINTS, PARKED, ROUTINGS, MJCFModel, build_mjcf
 from cdcr_gym.model import friction
 from cdcr_gym.model.params import STANDARD_GRAVITY, RobotParams
 
@@ -57,24 +57,25 @@ class MuJoCoBackend(Backend):
         params: the robot (:class:`~cdcr_gym.params.RobotParams`; default: the paper's), any
             number of sections. Rejected (``ValueError``) if its disk spans buckle with every
             cable at ``max_tension`` (``cdcr_gym.backends.bullet.chain.check_span_buckling``).
-        num_robots: robots N stepped together (>= 1); one ``MjModel``, N ``MjData``.
+        num_robots: robots N stepped together (default 1, >= 1); one ``MjModel``, N ``MjData``.
         gravity: ``True`` (default) applies −9.81 m/s² along −Z_world; ``False`` none.
         links_per_span: rigid links per disk span, m >= 1 (default 1). No joint cap.
-        joint: ``"ball"`` (default: a spherical joint, rotation-vector stiffness EI/Δ in every
-            direction, so bending in any plane adds no spurious twist) or ``"cardan"`` (bullet's
-            two hinges Rx(a)·Ry(b), no twist degree of freedom; its coordinates couple a
-            bend out of the x and y planes into a twist of ≈ a·b/2 per joint, which costs up
-            to 1 % of ℓ at one link per span).
-        routing: ``"corrected"`` (default: cable via-sites ∓Δ/(3m) from every disk along its
-            link, which cancels the one-link-per-span moment-arm excess, ``mjcf``) or
-            ``"disk"`` (straight from pinhole to pinhole: bullet's model).
+        joint: (default ``"ball"``) a spherical joint, rotation-vector stiffness EI/Δ in every
+            direction (also in twist, where the rod has GJ/Δ ≈ EI/(1.3Δ)), so that bending in
+            any plane adds no spurious twist; or ``"cardan"``, bullet's two hinges Rx(a)·Ry(b)
+            without a twist coordinate, whose composition twists by ≈ a·b/2 per joint when the
+            bend is out of the x and y planes (1–2.6 % of ℓ at one link per span).
+        routing: (default ``"corrected"``) cable via-sites ∓Δ/(3m) from every disk along its
+            link, which cancels the discretisation's moment-arm excess at every joint (``mjcf``);
+            or ``"disk"``, straight from pinhole to pinhole (bullet's model).
         control_timestep: simulated time (s) of one :meth:`apply_tensions` (default 0.02 s).
         physics_timestep: MuJoCo's timestep h (s), must divide ``control_timestep`` (default
             0.02 s: one physics step per control step). Stable because the damping D = β·K is
             stiffness-proportional and MuJoCo's Euler integrator treats it implicitly: long
             random-tension runs stay stable up to h = 0.1 s at ζ = 0.7 and 0.04 s at ζ = 0.3
             (``docs/mujoco_backend.md``). h changes the transient, never the settled state.
-        base_orientation: unit quaternion (x, y, z, w) of R0 in the world (default upright).
+        base_orientation: unit quaternion (x, y, z, w) of R0 in the world (default
+            ``(0.0, 0.0, 0.0, 1.0)``: upright).
         tip_payload: point mass (kg, >= 0) at the tip disk centre (default 0.0).
         damping_ratio: damping ratio ζ > 0 of the first bending mode (default 0.7): D = β·K,
             β = 2ζ/ω₁.
@@ -82,12 +83,15 @@ class MuJoCoBackend(Backend):
             plain MuJoCo path, bit-identical to a model without friction). μ > 0: every cable
             segment carries the capstan tension of ``cdcr_gym.model.friction`` (as on bullet),
             set before every physics step.
-        friction_slip_length: slip length x_s (m, > 0; default 1e-4) of the slip law.
+        friction_slip_length: slip length x_s of the slip law (default 1e-4 m, > 0).
         integrator: MuJoCo integrator (default ``"Euler"``: semi-implicit, damping implicit).
-        threads: ``None`` (default): the N robots are stepped one after the other in the
+        threads: (default ``None``) the N robots are stepped one after the other in the
             calling thread, one MuJoCo call sequence per robot and control step; an integer k:
             by ``mujoco.rollout`` in k persistent threads that release the GIL (worth it when
             cores are free; measured in ``docs/mujoco_backend.md``).
+        solid_obstacles: (default ``False``) whether the spheres placed by
+            :meth:`set_obstacles` push the robot back (MuJoCo contacts as constraints); with
+            ``False`` they are detected (:attr:`obstacle_clearance`) but exert no force.
 
     Raises:
         ValueError: naming the argument and the value, for any invalid argument.
@@ -114,6 +118,7 @@ class MuJoCoBackend(Backend):
         friction_slip_length: float = 1e-4,
         integrator: str = "Euler",
         threads: int | None = None,
+        solid_obstacles: bool = False,
     ) -> None:
         if not isinstance(params, RobotParams):
             raise ValueError(f"params must be a cdcr_gym.params.RobotParams, got {params!r}")
@@ -153,6 +158,8 @@ class MuJoCoBackend(Backend):
         if threads is not None:
             threads = validation.integer(threads, "threads", 1)
         self.threads = threads
+        self.solid_obstacles = validation.flag(solid_obstacles, "solid_obstacles")
+        self.n_obstacles = 0
         check_span_buckling(params, self.links_per_span)
         self._base_rot = quat_to_matrix(np.asarray(self.base_orientation))
         #: Gravity (m/s²) in R0, the model's world frame.
@@ -162,6 +169,7 @@ class MuJoCoBackend(Backend):
         self._rollout: Any = None
         self._build(segment_tendons=self.friction_coefficient > 0.0)
         self._report_anchors = self.friction_coefficient > 0.0
+        self._rough = self.friction_coefficient > 0.0  # any robot with μ > 0
         #: Per-robot friction coefficient μ (N,) and slip state s (N, C).
         self._mu = np.full(self.num_robots, self.friction_coefficient)
         self.slip = np.zeros((self.num_robots, params.n_cables))
@@ -170,7 +178,7 @@ class MuJoCoBackend(Backend):
         self.reset(np.zeros((self.num_robots, params.n_cables)))
 
     # -- model ----------------------------------------------------------------------------------
-    def _build(self, segment_tendons: bool) -> None:
+    def _build(self, segment_tendons: bool, obstacles: int = 0) -> None:
         """Build the MJCF model, the N data and the index arrays (also after a change that
         needs new tendons, e.g. friction switched on by randomisation)."""
         mj = self._mj
@@ -185,7 +193,10 @@ class MuJoCoBackend(Backend):
             timestep=self.physics_timestep,
             integrator=self.integrator,
             segment_tendons=segment_tendons,
+            obstacles=obstacles,
+            solid_obstacles=self.solid_obstacles,
         )
+        self.n_obstacles = obstacles
         model = mj.MjModel.from_xml_string(self.mjcf.xml)
         self.n_links = self.mjcf.n_links
         self.n_dof = model.nv
@@ -208,7 +219,6 @@ class MuJoCoBackend(Backend):
             tuple(bare.link_inertias[-1]),
         )
         self._nominal_stiffness = model.jnt_stiffness.copy()
-        self._nominal_gravity = model.opt.gravity.copy()
         self._models = [model] * self.num_robots
         self._datas = [mj.MjData(model) for _ in range(self.num_robots)]
         self._scratch = mj.MjData(model)
@@ -216,6 +226,10 @@ class MuJoCoBackend(Backend):
         site, tendon = mj.mjtObj.mjOBJ_SITE, mj.mjtObj.mjOBJ_TENDON
         self._station_ids = np.array([name(model, site, s) for s in self.mjcf.station_sites])
         self._tip_id = int(self._station_ids[-1])
+        self._tip_body = int(model.site_bodyid[self._tip_id])
+        geom = mj.mjtObj.mjOBJ_GEOM
+        self._sphere_geoms = [name(model, geom, f"obstacle{k}") for k in range(obstacles)]
+        self._robot_geoms = np.flatnonzero(model.geom_contype == 1).tolist()
         self._disk_site_ids = self._station_ids[np.asarray(self.mjcf.disk_links) - 1]
         self._pin_ids = np.array(
             [[name(model, site, s) for s in row] for row in self.mjcf.pinhole_sites]
@@ -234,12 +248,15 @@ class MuJoCoBackend(Backend):
             if self.mjcf.segment_tendons[k][i] is not None
         ]
         self._has_segments = bool(self._segment_order)
-        self._rollout = None
+        if self._rollout is not None:  # its thread data belong to the previous model
+            self._rollout.close()
+            self._rollout = None
         self._tensions = np.zeros((self.num_robots, c))
         self._tip = np.zeros((self.num_robots, 3))
         self._direction = np.zeros((self.num_robots, 3))
         self._lengths = np.zeros((self.num_robots, c))
         self._nstate = mj.mj_stateSize(model, mj.mjtState.mjSTATE_FULLPHYSICS)
+        self._make_views()
 
     def _own_model(self, i: int) -> Any:
         """Robot i's own MjModel (a copy of the shared one, made on its first change)."""
@@ -268,10 +285,15 @@ class MuJoCoBackend(Backend):
         return np.array(t)
 
     def _fast_tensions(self, tensions: Any) -> np.ndarray:
-        """:meth:`_check_tensions` of (N, C) tensions, cheap for a float array (every step)."""
+        """:meth:`_check_tensions` of (N, C) tensions, cheap for a float array (every step;
+        a few values are checked as Python floats, cheaper than numpy reductions)."""
         if type(tensions) is np.ndarray and tensions.shape == self._tensions.shape:
             t = tensions.astype(np.float64)  # a copy
-            if t.min() >= 0.0 and t.max() <= self.params.max_tension:  # NaN fails
+            high = self.params.max_tension
+            if t.size <= 16:
+                if all(0.0 <= x <= high for x in t.ravel().tolist()):  # NaN fails
+                    return t
+            elif 0.0 <= t.min() and t.max() <= high:
                 return t
         return self._check_tensions(tensions, self.num_robots)
 
@@ -331,14 +353,17 @@ class MuJoCoBackend(Backend):
     # -- Backend API ----------------------------------------------------------------------------
     def reset(self, tensions: np.ndarray, mask: np.ndarray | None = None) -> None:
         """Rest every robot of ``mask`` (all if None) in its static equilibrium under its row of
-        ``tensions`` (N, C) N; time 0, neutral friction slip. Deterministic."""
+        ``tensions`` (N, C) N; time 0, neutral friction slip. Deterministic. Placed spheres
+        stay; the static solve ignores them (the unobstructed equilibrium)."""
         self._check_open()
         n = self.num_robots
         t = self._check_tensions(tensions, n)
         rows = range(n) if mask is None else np.flatnonzero(np.asarray(mask).reshape(n)).tolist()
         for i in rows:
             data, model = self._datas[i], self._models[i]
+            spheres = data.mocap_pos.copy()  # the scene stays (set_obstacles)
             self._mj.mj_resetData(model, data)
+            data.mocap_pos[:] = spheres
             if not self._solve_static(model, data, t[i]):
                 raise self._diverged("no static equilibrium found", data, t[i], 0.0)
             data.time = 0.0
@@ -359,26 +384,31 @@ class MuJoCoBackend(Backend):
         t = self._fast_tensions(tensions)
         self._tensions = t
         n_pull = self._n_pull
-        rough = bool(np.any(self._mu > 0.0))
-        if rough:
+        self.time += self.control_timestep
+        if self._rough:
             self._step_with_friction(t)
+            for i in range(self.num_robots):
+                self._check_state(i)
         elif self.threads is None:
-            advance = self._advance
+            advance, check, sense, n_sub = (
+                self._advance,
+                self._check_state,
+                self._sense,
+                self.n_substeps,
+            )
+            views = self._views
             for i, data in enumerate(self._datas):
-                data.ctrl[:n_pull] = t[i]
-                advance(self._models[i], data, self.n_substeps)
+                views[i][6][:n_pull] = t[i]
+                advance(self._models[i], data, n_sub)
+                check(i)
+                sense(i)
         else:
             for data, row in zip(self._datas, t):
                 data.ctrl[:n_pull] = row
             self._rollout_step()
-        self.time += self.control_timestep
-        if not rough:
             for i in range(self.num_robots):
                 self._check_state(i)
                 self._sense(i)
-        else:
-            for i in range(self.num_robots):
-                self._check_state(i)
 
     def _advance(self, model: Any, data: Any, n_steps: int) -> None:
         """``n_steps`` MuJoCo steps of one robot, leaving ``data`` with the position and
@@ -483,31 +513,49 @@ class MuJoCoBackend(Backend):
     def _sense(self, i: int) -> None:
         """Robot i's tip, tip direction and cable lengths (tendon lengths) from its data, which
         holds the position stage of its current state (:meth:`_advance`)."""
-        data = self._datas[i]
+        xpos, xmat, lengths = self._views[i][3:6]
         tid = self._tip_id
-        self._tip[i] = data.site_xpos[tid]
-        self._direction[i] = data.site_xmat[tid, 2::3]
-        self._lengths[i] = data.ten_length[self._cable_ids]
+        self._tip[i] = xpos[tid]
+        self._direction[i] = xmat[tid, 2::3]
+        self._lengths[i] = lengths[self._cable_ids]
+
+    def _make_views(self) -> None:
+        """Per robot: numpy views of the ``MjData`` arrays read every step (a view stays valid
+        for the data's life; taking one through the binding costs more than the read)."""
+        warn = _BADQACC
+        self._views = [
+            (d.qpos, d.qvel, d.warning[warn], d.site_xpos, d.site_xmat, d.ten_length, d.ctrl)
+            for d in self._datas
+        ]
 
     def _check_state(self, i: int) -> None:
-        data = self._datas[i]
-        rate = np.abs(data.qvel).max()
+        """Raise :class:`SimulationDivergedError` if robot i's state is non-finite, a joint is
+        bent beyond ``MAX_JOINT_ANGLE``, the joint-rate vector is longer than
+        ``MAX_JOINT_RATE``, or MuJoCo reported a bad acceleration (it then resets the data)."""
+        qpos, qvel, warning = self._views[i][:3]
+        rate2 = qvel.dot(qvel)  # NaN fails the comparisons below
         if (
-            data.warning[_BADQACC].number > 0
-            or not rate <= MAX_JOINT_RATE
-            or not self._max_joint_angle(data) <= MAX_JOINT_ANGLE
+            warning.number > 0
+            or not rate2 <= MAX_JOINT_RATE * MAX_JOINT_RATE
+            or not self._max_joint_angle(qpos) <= MAX_JOINT_ANGLE
         ):
+            data = self._datas[i]
             raise self._diverged(
                 "the simulation diverged", data, self._tensions[i], float(self.time[i])
             )
 
-    def _max_joint_angle(self, data: Any) -> float:
-        """Largest joint angle (rad): the ball joints' rotation angles, the hinges' angles
-        (inf for a non-finite state)."""
-        q = data.qpos
+    def _max_joint_angle(self, q: np.ndarray) -> float:
+        """Largest joint angle (rad) of joint positions ``q``: the ball joints' rotation angles,
+        the hinges' angles (inf for a non-finite state); a cheap bound first (sum of squares)."""
         if self.joint == "ball":
-            w = float(np.abs(q[0::4]).min())
-            return 2.0 * math.acos(min(w, 1.0)) if math.isfinite(w) else math.inf
+            w = q[0::4]
+            # Σ sin²(angle/2) = n − Σ w² <= 1/2 bounds every angle by 90°
+            if self.n_links - w.dot(w) <= 0.5:
+                return 0.0
+            w_min = float(np.abs(w).min())
+            return 2.0 * math.acos(min(w_min, 1.0)) if math.isfinite(w_min) else math.inf
+        if q.dot(q) <= MAX_JOINT_ANGLE * MAX_JOINT_ANGLE:
+            return 0.0
         return float(np.abs(q).max())
 
     def _diverged(
@@ -537,14 +585,16 @@ class MuJoCoBackend(Backend):
         )
 
     def equilibrium(self, tensions: np.ndarray) -> Readings:
-        """Static equilibria under ``tensions`` (M, C) N of the nominal robot (robot 0's model),
-        without changing the state."""
+        """Static equilibria under ``tensions`` (M, C) N of the nominal robot (the constructor's
+        parameters, not a randomised robot's: the interface has no robot index, and so the
+        goals of N batched envs are those of N single envs, as on the analytic backend),
+        without changing the state. The placed spheres are ignored."""
         self._check_open()
         t_all = self._check_tensions(tensions)
         m = t_all.shape[0]
         tip, direction = np.empty((m, 3)), np.empty((m, 3))
         lengths = np.empty((m, self.params.n_cables))
-        data, model = self._scratch, self._models[0]
+        data, model = self._scratch, self.model
         for j, t in enumerate(t_all):
             if not self._solve_static(model, data, t):
                 raise self._diverged("no static equilibrium found", data, t, 0.0)
@@ -590,28 +640,38 @@ class MuJoCoBackend(Backend):
             if np.any(mu < 0.0) or np.any(mu > 1.0):
                 raise ValueError(f"friction_coefficient must be in [0, 1], got {mu!r}")
             if np.any(mu > 0.0) and not self._has_segments:
-                self._rebuild_with_segments()
+                self._rebuild(True, self.n_obstacles)
             self._mu[idx] = mu
+            self._rough = bool(np.any(self._mu > 0.0))
             self._report_anchors = True
         for j, i in enumerate(idx):
-            model = None
-            if "youngs_modulus" in values:
-                ratio = float(values["youngs_modulus"][j]) / self.params.youngs_modulus
-                model = self._own_model(i)
-                model.jnt_stiffness[:] = self._nominal_stiffness * ratio
-                k = model.jnt_stiffness[model.dof_jntid]
-                model.dof_damping[:] = self.damping_time / math.sqrt(ratio) * k
             if "gravity" in values:
                 on = bool(values["gravity"][j] > 0.5)
+                self._own_model(i).opt.gravity[:] = self.gravity_in_base if on else 0.0
+            if "youngs_modulus" in values or "tip_payload" in values:
                 model = self._own_model(i)
-                model.opt.gravity[:] = self.gravity_in_base if on else 0.0
-            if "tip_payload" in values:
-                model = self._own_model(i)
-                self._set_payload(model, float(values["tip_payload"][j]))
+                if "youngs_modulus" in values:
+                    ratio = float(values["youngs_modulus"][j]) / self.params.youngs_modulus
+                    model.jnt_stiffness[:] = self._nominal_stiffness * ratio
+                if "tip_payload" in values:
+                    self._set_payload(model, float(values["tip_payload"][j]))
+                self._tune_damping(model)
+
+    def _tune_damping(self, model: Any) -> None:
+        """D = β·K with β = 2ζ/ω₁ of ``model``'s own first bending mode (its stiffness and
+        masses), so that every randomised robot keeps the damping ratio ζ."""
+        mj, data = self._mj, self._scratch
+        mj.mj_resetData(model, data)
+        mj.mj_forward(model, data)
+        mass = np.zeros((model.nv, model.nv))
+        mj.mj_fullM(model, data, mass)
+        k = model.jnt_stiffness[model.dof_jntid]
+        first, _ = bending_modes(mass, k)
+        model.dof_damping[:] = 2.0 * self.damping_ratio / first * k
 
     def _set_payload(self, model: Any, payload: float) -> None:
         """The tip link's mass, COM and inertia with ``payload`` kg at the tip disk centre."""
-        body = model.nbody - 1
+        body = self._tip_body
         bare = self._bare_tip  # (mass, COM offset, inertias) of the tip link without payload
         z_tip = 0.5 * float(self.mjcf.chain.segment_lengths[-1])
         mass = bare[0] + payload
@@ -623,12 +683,116 @@ class MuJoCoBackend(Backend):
         model.body_inertia[body] = inertia
         self._mj.mj_setConst(model, self._scratch)
 
-    def _rebuild_with_segments(self) -> None:
+    def _rebuild(self, segment_tendons: bool, obstacles: int) -> None:
+        """A new model with friction segments and/or ``obstacles`` sphere geoms (more tendons or
+        geoms, the same joints); every robot keeps its state (joint positions and rates,
+        tensions, time), its randomised stiffness, damping, gravity and payload, and its
+        placed spheres."""
+        mj = self._mj
+        old_shared, old_models, old_datas = self.model, self._models, self._datas
+        old_spheres = self._sphere_geoms
         tensions = self._tensions.copy()
-        models = self._models
-        self._build(segment_tendons=True)
-        del models
+        self._build(segment_tendons=segment_tendons, obstacles=obstacles)
         self._tensions = tensions
+        tip = self._tip_body  # the chain's bodies come first in both models
+        for i, (old_model, old_data) in enumerate(zip(old_models, old_datas)):
+            if old_model is not old_shared:  # randomised or with spheres: its own model
+                model = self._own_model(i)
+                model.jnt_stiffness[:] = old_model.jnt_stiffness
+                model.dof_damping[:] = old_model.dof_damping
+                model.opt.gravity[:] = old_model.opt.gravity
+                for field in ("body_mass", "body_ipos", "body_inertia"):
+                    getattr(model, field)[tip] = getattr(old_model, field)[tip]
+                for old_g, new_g in zip(old_spheres, self._sphere_geoms):
+                    for field in ("geom_size", "geom_rbound", "geom_aabb"):
+                        getattr(model, field)[new_g] = getattr(old_model, field)[old_g]
+                    node = model.body_bvhadr[model.geom_bodyid[new_g]]
+                    model.bvh_aabb[node] = old_model.bvh_aabb[
+                        old_model.body_bvhadr[old_model.geom_bodyid[old_g]]
+                    ]
+            model = self._models[i]
+            data = self._datas[i]
+            data.qpos[:] = old_data.qpos
+            data.qvel[:] = old_data.qvel
+            data.ctrl[: self._n_pull] = tensions[i]
+            data.time = old_data.time
+            k = min(old_data.mocap_pos.shape[0], data.mocap_pos.shape[0])
+            data.mocap_pos[:k] = old_data.mocap_pos[:k]
+            mj.mj_forward(model, data)
+            self._sense(i)
+
+    # -- obstacles ------------------------------------------------------------------------------
+    def set_obstacles(self, index: np.ndarray, spheres: np.ndarray) -> None:
+        """Place spheres ``spheres`` (M, K, 4) rows (x, y, z, radius) m in R0 for robots
+        ``index`` (M,); a row of radius 0 is no sphere. The first call with K spheres builds
+        them into the model (MuJoCo geoms on mocap bodies; the robot's links and disks become
+        capsule and cylinder geoms), keeping every robot's state. Collisions are then MuJoCo's
+        contacts: :attr:`obstacle_clearance`, and with ``solid_obstacles`` the spheres push
+        back (:attr:`contact_forces`)."""
+        self._check_open()
+        idx = np.asarray(index).reshape(-1).tolist()
+        rows = validation.real_array(spheres, "spheres")
+        if rows.ndim != 3 or rows.shape[0] != len(idx) or rows.shape[2] != 4:
+            raise ValueError(
+                f"spheres must have shape ({len(idx)}, K, 4) (x, y, z, radius m), got {rows.shape}"
+            )
+        if np.any(rows[..., 3] < 0.0):
+            raise ValueError(f"spheres: radii must be >= 0 m, got {rows[..., 3]!r}")
+        k = rows.shape[1]
+        if k > self.n_obstacles:
+            self._rebuild(self._has_segments, k)
+        mj = self._mj
+        for row, i in zip(rows, idx):
+            model = self._own_model(i)
+            data = self._datas[i]
+            for j, g in enumerate(self._sphere_geoms):
+                present = j < k and row[j, 3] > 0.0
+                radius = row[j, 3] if present else 1e-3
+                # the sphere's size, bounding radius and boxes: the geom's and its body's
+                # bounding-volume node (compiled once; a stale one hides the contacts)
+                model.geom_size[g, 0] = radius
+                model.geom_rbound[g] = radius
+                model.geom_aabb[g, 3:] = radius
+                model.bvh_aabb[model.body_bvhadr[model.geom_bodyid[g]], 3:] = radius
+                parked = (PARKED * (j + 1), PARKED, PARKED)
+                data.mocap_pos[j] = row[j, :3] if present else parked
+            mj.mj_forward(model, data)  # the contacts of the new scene
+            self._sense(i)
+
+    @property
+    def obstacle_clearance(self) -> np.ndarray:
+        """Smallest distance (N,) m between every robot's geoms (links as capsules of the rod's
+        radius, disks as cylinders) and its spheres, by MuJoCo's ``mj_geomDistance``
+        (negative: penetration; inf without spheres, or with none within ℓ)."""
+        mj = self._mj
+        out = np.full(self.num_robots, np.inf)
+        fromto = np.zeros(6)
+        reach = self.params.length
+        for i, (model, data) in enumerate(zip(self._models, self._datas)):
+            for g in self._sphere_geoms:
+                if data.mocap_pos[model.body_mocapid[model.geom_bodyid[g]], 0] >= PARKED:
+                    continue
+                for r in self._robot_geoms:
+                    out[i] = min(out[i], mj.mj_geomDistance(model, data, r, g, reach, fromto))
+        return out
+
+    @property
+    def contact_forces(self) -> np.ndarray:
+        """Total normal force (N,) N the spheres exert on every robot in its current state (0
+        unless ``solid_obstacles``)."""
+        out = np.zeros(self.num_robots)
+        if not self.solid_obstacles or not self.n_obstacles:
+            return out
+        force = np.zeros(6)
+        for i, (model, data) in enumerate(zip(self._models, self._datas)):
+            # the constraint forces of the current state (the stepping leaves only its
+            # position and velocity stages computed); mj_forward changes no state
+            self._mj.mj_forward(model, data)
+            for c in range(data.ncon):
+                if data.contact.efc_address[c] >= 0:
+                    self._mj.mj_contactForce(model, data, c, force)
+                    out[i] += force[0]
+        return out
 
     def close(self) -> None:
         """Release the MuJoCo data and the rollout threads. Safe to call more than once."""
@@ -641,8 +805,19 @@ class MuJoCoBackend(Backend):
         self._datas = []
         self._models = []
 
+    # -- copies -------------------------------------------------------------------------------
     def __getstate__(self) -> dict:
-        """Refuse pickling (the MuJoCo data are not copied with it); build a new env instead."""
-        raise TypeError(
-            "MuJoCoBackend cannot be pickled or copied; build a new backend (or env) instead"
-        )
+        """Pickling and deep copies carry the whole simulation (``MjModel`` and ``MjData``
+        pickle by value; unlike a pybullet client, nothing lives outside the process): a copy
+        steps exactly like the original, independently of it. Not carried: the mujoco module,
+        the rollout threads and the cached array views (rebuilt on unpickling)."""
+        state = self.__dict__.copy()
+        for key in ("_mj", "_rollout", "_thread_datas", "_views"):
+            state.pop(key, None)
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._mj = _mujoco()
+        self._rollout = None
+        self._make_views()

@@ -10,10 +10,11 @@ Bodies and joints
     ``<inertial>`` from the chain model, a site ``station{j}`` at its rod station (the disk
     centre on a disk link; ``tip`` on the last link) and, on a disk link, one site per pinhole.
     ``joint="cardan"``: two hinges, about x then about the resulting y (R = Rx(a)·Ry(b), bullet's
-    joint, no twist), each of stiffness EI/Δ. ``joint="ball"``: three hinges x, y, z, the third
-    a twist of stiffness GJ/Δ (G = E/(2(1 + ν)), ν = :data:`POISSON_RATIO`, J = 2I). Stiffness
-    and damping are MuJoCo joint attributes, integrated by MuJoCo (its Euler integrator treats
-    the damping implicitly).
+    joint, no twist coordinate), each of stiffness EI/Δ. ``joint="ball"``: a MuJoCo ball joint,
+    whose stiffness EI/Δ acts on the rotation vector (isotropic: the twist stiffness is EI/Δ
+    too, where the rod's is GJ/Δ = EI/((1 + ν)Δ)); a bend in any plane adds no twist, unlike
+    the Cardan pair's a·b/2 (``docs/mujoco_backend.md``). Stiffness and damping are MuJoCo joint
+    attributes, integrated by MuJoCo (its Euler integrator treats the damping implicitly).
 
 Cables: one spatial tendon per cable
     Cable i's tendon starts at its pinhole in the base disk and runs through the sites of every
@@ -45,9 +46,12 @@ Friction segments (``segment_tendons=True``)
 
 Obstacles (``obstacles`` > 0)
     Capsule geoms along the links (radius d/2) and a disk cylinder per disk, and ``obstacles``
-    sphere geoms in the world (``obstacle0`` …), parked far away until placed. Contacts are
-    between robot and spheres only. Without obstacles the model has no collision geometry and
-    MuJoCo's contact and constraint stages are disabled.
+    sphere geoms on mocap bodies (``obstacle0`` …: positions in ``MjData.mocap_pos``, per
+    robot; radii in the model), parked far away until placed. Contacts are
+    between robot and spheres only (``contype``/``conaffinity``). With ``solid_obstacles`` the
+    contact and constraint stages run (penetrating contacts push back); without, they stay
+    disabled and the backend measures clearances on demand (``mj_geomDistance``). Without
+    obstacles the model has no collision geometry.
 
 Frames: the MJCF world frame *is* the base frame R0 (backbone along +z, cable β = 0 at +x); a
 turned base is modelled by turning gravity into R0 (``gravity``).
@@ -63,15 +67,12 @@ import numpy as np
 from cdcr_gym.backends.bullet.chain import DiscreteBackbone
 from cdcr_gym.model.params import RobotParams
 
-__all__ = ["JOINTS", "ROUTINGS", "POISSON_RATIO", "MJCFModel", "build_mjcf", "via_offset"]
+__all__ = ["JOINTS", "ROUTINGS", "PARKED", "MJCFModel", "build_mjcf", "via_offset"]
 
-#: Joint types: two hinges without twist (bullet's), or three hinges with a torsional one.
-JOINTS = ("cardan", "ball")
+#: Joint types: a ball joint (rotation-vector stiffness), or bullet's two hinges.
+JOINTS = ("ball", "cardan")
 #: Cable routings (module docstring).
 ROUTINGS = ("corrected", "disk")
-#: Poisson's ratio of the backbone for the torsional stiffness GJ of ``joint="ball"`` (a
-#: glass-fibre composite, ≈ 0.25–0.3; not in the paper).
-POISSON_RATIO = 0.3
 #: Where obstacles wait until they are placed (m, far outside any robot).
 PARKED = 1.0e3
 
@@ -93,7 +94,7 @@ class MJCFModel:
         xml: the MJCF text.
         chain: the discretised backbone it was built from (geometry, masses, routing).
         n_links: links n (= Σ n_disks·m).
-        dof_per_joint: 2 (cardan) or 3 (ball).
+        dof_per_joint: degrees of freedom per joint, 2 (cardan) or 3 (ball).
         station_sites: site names of the stations 1..n (the last is ``"tip"``).
         disk_links: 1-based link index of every spacer disk (n_disks,).
         pinhole_sites: [disk k (0 = base)][cable i] site name of cable i's pinhole position on
@@ -124,7 +125,7 @@ def build_mjcf(
     params: RobotParams,
     *,
     links_per_span: int = 1,
-    joint: str = "cardan",
+    joint: str = "ball",
     routing: str = "corrected",
     gravity: np.ndarray | tuple[float, float, float] = (0.0, 0.0, -9.81),
     tip_payload: float = 0.0,
@@ -133,6 +134,7 @@ def build_mjcf(
     integrator: str = "Euler",
     segment_tendons: bool = False,
     obstacles: int = 0,
+    solid_obstacles: bool = False,
 ) -> MJCFModel:
     """The MJCF model of ``params`` (module docstring).
 
@@ -149,6 +151,7 @@ def build_mjcf(
         integrator: MuJoCo integrator name (``"Euler"``, ``"implicitfast"``, ``"RK4"``, ...).
         segment_tendons: add the per-span friction tendons and their actuators.
         obstacles: number of sphere obstacles (0: no collision geometry at all).
+        solid_obstacles: whether contacts with the spheres push back (constraint stage on).
 
     The caller (``MuJoCoBackend``) validates the arguments.
     """
@@ -186,7 +189,7 @@ def build_mjcf(
         gravity=_fmt(gravity),
         integrator=integrator,
     )
-    if obstacles == 0:
+    if obstacles == 0 or not solid_obstacles:
         ET.SubElement(option, "flag", contact="disable", constraint="disable")
     ET.SubElement(root, "size", memory="1M")
     world = ET.SubElement(root, "worldbody")
@@ -303,13 +306,19 @@ def build_mjcf(
                 )
         parent = body
 
-    for k in range(obstacles):
-        ET.SubElement(
+    for k in range(obstacles):  # mocap bodies: their positions are per-data (per robot)
+        holder = ET.SubElement(
             world,
+            "body",
+            name=f"obstacle{k}",
+            mocap="true",
+            pos=_fmt((PARKED * (k + 1), PARKED, PARKED)),
+        )
+        ET.SubElement(
+            holder,
             "geom",
             name=f"obstacle{k}",
             type="sphere",
-            pos=_fmt((PARKED * (k + 1), PARKED, PARKED)),
             size="0.01",
             contype="0",
             conaffinity="1",
@@ -363,8 +372,3 @@ def build_mjcf(
         segment_tendons=tuple(tuple(row) for row in segments),
         obstacles=obstacles,
     )
-
-
-def torsional_stiffness(params: RobotParams) -> float:
-    """G·J (N·m²) of the solid backbone with Poisson's ratio :data:`POISSON_RATIO`."""
-    return params.bending_stiffness / (1.0 + POISSON_RATIO)

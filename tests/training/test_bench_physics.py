@@ -1,0 +1,42 @@
+"""Smoke runs of ``python -m training.bench_physics`` (speed and accuracy modes, tiny sizes)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from training import bench_physics
+
+
+def test_speed_table_has_every_row_and_ratios_to_bullet(capsys):
+    bench_physics.main(["--repeats", "1", "--steps", "4"])
+    out = capsys.readouterr().out
+    for row in (
+        "BulletReach-v0(links_per_span=1)",
+        "MuJoCoReach-v0 (default)",
+        "MuJoCo, bullet's discretisation",
+        "MuJoCo vector env, 64 envs",
+    ):
+        assert row in out
+    assert "| 1.00× |" in out  # bullet is the reference of the ratios
+
+
+def test_accuracy_table_reads_a_reference_json(tmp_path):
+    from cdcr_gym.backends.mujoco import MuJoCoBackend
+    from cdcr_gym.params import RobotParams
+
+    # a reference that is the default model itself: zero error in its row
+    tensions = [[40.0, 0.0, 0.0], [0.0, 20.0, 60.0]]
+    tips = MuJoCoBackend(RobotParams(), gravity=False).equilibrium(np.array(tensions)).tip
+    cases = [
+        {"robot": "paper", "gravity": False, "tensions": t, "tip": tip.tolist()}
+        for t, tip in zip(tensions, tips)
+    ]
+    path = tmp_path / "ref.json"
+    path.write_text(json.dumps({"cases": cases}))
+    name, rows = bench_physics.accuracy_table(quick=True, repeats=1, steps=3, reference=path)
+    assert str(path) in name
+    by_config = {(r["joint"], r["routing"], r["links_per_span"]): r for r in rows}
+    assert by_config["ball", "corrected", 1]["paper g=off"][0] < 1e-12
+    assert by_config["cardan", "disk", 1]["paper g=off"][0] > 0.005  # bullet's model is off
