@@ -46,6 +46,7 @@ MOVED: dict[str, tuple[str, str]] = {
     "training.reproduce.plots": ("training.studies.reproduce.plots", ""),
     "training.reproduce.report": ("training.studies.reproduce.report", ""),
     "training.calibrate": ("training.studies.calibrate", "calibrate"),
+    "training.bench_physics": ("training.studies.bench_physics", "bench-physics"),
 }
 
 

@@ -1,4 +1,4 @@
-"""Smoke runs of ``python -m training.bench_physics`` (speed and accuracy modes, tiny sizes)."""
+"""Smoke runs of ``cdcr-gym bench-physics`` (speed and accuracy modes, tiny sizes)."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 
-from training import bench_physics
+from training.studies import bench_physics
 
 
 def test_speed_table_has_every_row_and_ratios_to_bullet(capsys):
