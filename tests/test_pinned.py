@@ -37,7 +37,13 @@ def test_pinned_v1_covers_every_registered_id(current_v1):
     import pinned_trajectories_v1
 
     pinned = np.load(pinned_trajectories_v1.PATH)
-    assert sorted(pinned.files) == sorted(current_v1)
+    assert set(pinned.files) <= set(current_v1), "a pinned quantity is gone"
+    # added since the pin: the Obstacle task's contact force (0 without simulated obstacles)
+    added = set(current_v1) - set(pinned.files)
+    # (and the vector env's presence masks of it, ``info._contact_force``)
+    assert all(key.endswith(("info.contact_force", "._contact_force")) for key in added)
+    forces = [key for key in added if key.endswith("info.contact_force")]
+    assert forces and all(not np.nansum(np.abs(current_v1[key])) for key in forces)
     rollouts = {key.split("|")[0] for key in pinned.files}
     for backend in ("CCKA", "Bullet"):
         for task in ("Reach", "Track", "Pose", "Obstacle"):
@@ -68,4 +74,28 @@ def test_pinned_v1_is_reproduced_bit_for_bit(current_v1):
                 bad.append(key)
         elif not np.array_equal(got, want, equal_nan=True):
             bad.append(key)
+    assert not bad, f"{len(bad)} pinned quantities differ, e.g. {bad[:10]}"
+
+
+# -- MuJoCo: every MuJoCo id, bit for bit --------------------------------------------------------
+@pytest.fixture(scope="module")
+def current_mujoco():
+    import pinned_trajectories_mujoco
+
+    return pinned_trajectories_mujoco.trajectories()
+
+
+def test_pinned_mujoco_covers_every_mujoco_id_and_is_reproduced_bit_for_bit(current_mujoco):
+    import pinned_trajectories_mujoco
+
+    pinned = np.load(pinned_trajectories_mujoco.PATH)
+    assert sorted(pinned.files) == sorted(current_mujoco)
+    rollouts = {key.split("|")[0] for key in pinned.files}
+    for task in ("Reach", "Track", "Pose", "Obstacle"):
+        assert any(r.startswith(f"MuJoCo{task}/") for r in rollouts), task
+    bad = [
+        key
+        for key in pinned.files
+        if not np.array_equal(current_mujoco[key], pinned[key], equal_nan=True)
+    ]
     assert not bad, f"{len(bad)} pinned quantities differ, e.g. {bad[:10]}"

@@ -59,6 +59,9 @@ class Backend(abc.ABC):
     #: Names of the randomised parameters (``cdcr_gym.randomization.RANDOMIZABLE``) that
     #: :meth:`set_randomized` applies; the others are drawn and reported but not modelled.
     randomizable: frozenset[str] = frozenset()
+    #: Whether the backend simulates obstacle spheres itself (:meth:`set_obstacles`, and the
+    #: ``obstacle_clearance`` and ``contact_forces`` properties, (N,) m and N).
+    supports_obstacles: bool = False
 
     @property
     def n_cables(self) -> int:
@@ -125,6 +128,23 @@ class Backend(abc.ABC):
         Applies the names in :attr:`randomizable` and ignores the others; the default applies
         nothing.
         """
+
+    def set_obstacles(self, index: np.ndarray, spheres: np.ndarray) -> None:
+        """Place spheres ``spheres`` (M, K, 4) rows (x, y, z, radius m, in R0; radius 0: none)
+        for robots ``index`` (M,). Only backends with :attr:`supports_obstacles` implement it."""
+        raise NotImplementedError(f"{type(self).__name__} does not simulate obstacles")
+
+    @property
+    def obstacle_clearance(self) -> np.ndarray:
+        """Smallest robot–sphere distance (N,) m (negative: penetration); backends with
+        :attr:`supports_obstacles` only."""
+        raise NotImplementedError(f"{type(self).__name__} does not simulate obstacles")
+
+    @property
+    def contact_forces(self) -> np.ndarray:
+        """Total normal force (N,) N of the spheres on each robot; backends with
+        :attr:`supports_obstacles` only."""
+        raise NotImplementedError(f"{type(self).__name__} does not simulate obstacles")
 
     def close(self) -> None:
         """Release any resource (simulator client, window). Safe to call more than once."""

@@ -78,7 +78,14 @@ class Obstacle(GoalTask):
     **Success**: distance <= ``distance_threshold`` and no collision so far in the episode.
     **info**: ``distance`` (m), ``is_success``, ``goal`` (m), ``collision`` (in collision now),
     ``collided`` (at any step of the episode so far), ``min_clearance`` (m, unclipped; negative
-    = penetration), ``obstacles`` ((max_obstacles, 4) rows x, y, z, radius m; zero rows pad).
+    = penetration), ``obstacles`` ((max_obstacles, 4) rows x, y, z, radius m; zero rows pad),
+    ``contact_force`` (N: the spheres' total normal force on the robot; 0 unless the backend
+    makes them solid, ``MuJoCoObstacle-v0(solid_obstacles=True)``).
+
+    **Collisions**: on a backend that simulates obstacles (``Backend.supports_obstacles``:
+    MuJoCo) the spheres are placed into its scene at reset and the clearance is the simulator's
+    own (MuJoCo's geom distances of the link capsules and disk cylinders); elsewhere it is
+    measured geometrically on the backend's backbone and disks (``cdcr_gym.tasks.collision``).
 
     **Starting state**: the env's (straight by default). **Episode end**: truncation; a
     collision ends the episode with ``terminate_on_collision=True``; success with the env's
@@ -148,6 +155,7 @@ class Obstacle(GoalTask):
         self.min_clearance = np.full(n, np.inf)
         self.collision = np.zeros(n, dtype=bool)
         self.collided = np.zeros(n, dtype=bool)
+        self.contact_force = np.zeros(n)
         ell = params.length
         self.radii = self.radius_range or (0.06 * ell, 0.12 * ell)
         self._rod = 0.5 * params.backbone_diameter
@@ -249,11 +257,18 @@ class Obstacle(GoalTask):
         start = backend.read().tensions
         for i, rng in zip(idx.tolist(), rngs):
             self.goal[i], self.obstacles[i] = self.make_scene(rng, start[i], backend)
+        if backend.supports_obstacles:  # the spheres become the simulator's own geometry
+            backend.set_obstacles(idx, self.obstacles[idx])
         self.collided[idx] = False
         self._check(backend, idx)
 
     def _check(self, backend: Backend, idx: np.ndarray | None = None) -> None:
-        gap = clearance(backend_geometry(backend), self.obstacles, self._rod, self._disk).min(1)
+        if backend.supports_obstacles:  # the simulator's collision detection
+            gap = np.asarray(backend.obstacle_clearance, dtype=np.float64)
+            self.contact_force = np.asarray(backend.contact_forces, dtype=np.float64)
+        else:
+            geometry = backend_geometry(backend)
+            gap = clearance(geometry, self.obstacles, self._rod, self._disk).min(1)
         hit = gap < 0.0
         if idx is None:
             self.min_clearance, self.collision = gap, hit
@@ -291,6 +306,7 @@ class Obstacle(GoalTask):
             "collided": self.collided.copy(),
             "min_clearance": self.min_clearance.copy(),
             "obstacles": self.obstacles.copy(),
+            "contact_force": self.contact_force.copy(),
         }
         return self.penalised(self.reward_from_success(distance, success), info), success, info
 
@@ -332,6 +348,7 @@ class Obstacle(GoalTask):
             "collided",
             "min_clearance",
             "obstacles",
+            "contact_force",
         )
 
     def render_markers(self, index: int = 0) -> dict[str, Any]:

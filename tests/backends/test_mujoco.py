@@ -647,3 +647,26 @@ def test_pose_defaults_to_tdcr2_and_bad_keywords_are_named():
     env.close()
     with pytest.raises(ValueError, match="links_per_sapn"):
         gym.make("cdcr_gym/MuJoCoReach-v0", links_per_sapn=2)
+
+
+def test_the_obstacle_task_places_its_spheres_in_the_mujoco_scene_and_reads_its_contacts():
+    """MuJoCoObstacle-v0: the task's spheres become MuJoCo geoms at reset (the clearance is
+    MuJoCo's, close to the task's geometric one), and a solid sphere's push is in info."""
+    from cdcr_gym.tasks.collision import backend_geometry, clearance
+
+    for solid in (False, True):
+        env = gym.make("cdcr_gym/MuJoCoObstacle-v0", solid_obstacles=solid)
+        _, info = env.reset(seed=3)
+        task, backend = env.unwrapped.task, env.unwrapped.backend
+        placed = backend._datas[0].mocap_pos[: task.max_obstacles]
+        present = task.obstacles[0, :, 3] > 0
+        np.testing.assert_allclose(placed[present], task.obstacles[0, present, :3])
+        geometric = clearance(backend_geometry(backend), task.obstacles, task._rod, task._disk).min(
+            1
+        )
+        assert info["min_clearance"] == pytest.approx(geometric[0], abs=2e-3)
+        assert info["contact_force"] == 0.0  # the start is free
+        for _ in range(5):
+            _, _, _, _, info = env.step(env.action_space.sample())
+        assert np.isfinite(info["min_clearance"]) and info["contact_force"] >= 0.0
+        env.close()

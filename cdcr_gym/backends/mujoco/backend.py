@@ -99,6 +99,7 @@ class MuJoCoBackend(Backend):
     """
 
     supports_length_control = False
+    supports_obstacles = True
     randomizable = frozenset({"youngs_modulus", "friction_coefficient", "gravity", "tip_payload"})
 
     def __init__(
