@@ -7,9 +7,12 @@
 * :class:`PoseIKController` (Pose): pose IK (``cdcr_gym.model.ik.solve_pose_ik``) on the goal
   position and tip direction, cached per goal (the LM solve costs milliseconds).
 
-Both are :class:`~cdcr_gym.controllers.ik.AnalyticIKController` s with another goal: they command
-the IK tensions (or cable lengths) from the current state in the env's action mode, closed loop on
-the model only (open loop on another backend).
+Both are :class:`~cdcr_gym.controllers.ik.AnalyticIKController` s with another goal: open loop
+(the default) they command the IK tensions (or cable lengths) from the current state in the env's
+action mode, closed loop on the model only (open loop on another backend). With ``feedback=True``
+they correct from the measured tip (and, for Pose, the measured tip direction) by the resolved-rate
+law of :mod:`cdcr_gym.controllers.ik`; Track adds the target's motion over the step as a
+feed-forward, J⁺·(target_velocity·dt), so the integrator need not lag a moving target.
 """
 
 from __future__ import annotations
@@ -19,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from cdcr_gym import validation
-from cdcr_gym.controllers.ik import AnalyticIKController
+from cdcr_gym.controllers.ik import FEEDBACK_GAIN, AnalyticIKController
 from cdcr_gym.envs.observation import ObservationSpec
 from cdcr_gym.model.ik import solve_pose_ik
 from cdcr_gym.model.params import RobotParams
@@ -38,6 +41,9 @@ class TrackingIKController(AnalyticIKController):
         tension_step: the env's ``tension_step`` (fraction of max_tension per step).
         length_step: the env's ``length_step`` (m per step).
         timestep: the time (s) the target moves per step (``Track.step_time``), > 0.
+        feedback: False: open loop; True: closed loop on the measured tip, with the target's
+            motion over the step as feed-forward.
+        gain: integrator gain per control step of the closed loop, in (0, 1].
     """
 
     def __init__(
@@ -48,12 +54,16 @@ class TrackingIKController(AnalyticIKController):
         tension_step: float = 0.05,
         length_step: float = 0.002,
         timestep: float = 0.02,
+        feedback: bool = False,
+        gain: float = FEEDBACK_GAIN,
     ) -> None:
-        super().__init__(params, spec, action_mode, tension_step, length_step)
+        super().__init__(params, spec, action_mode, tension_step, length_step, feedback, gain)
         self.timestep = validation.positive(timestep, "timestep")
 
     @classmethod
-    def from_env(cls, env: Any) -> TrackingIKController:
+    def from_env(
+        cls, env: Any, feedback: bool = False, gain: float = FEEDBACK_GAIN
+    ) -> TrackingIKController:
         """A controller matched to a Track ``env`` (single or batched, possibly wrapped)."""
         env = env.unwrapped
         return cls(
@@ -63,7 +73,15 @@ class TrackingIKController(AnalyticIKController):
             env.tension_step,
             env.length_step,
             env.task.step_time(env.core.backend),
+            feedback,
+            gain,
         )
+
+    def _feedback_terms(self, obs: Any) -> tuple[np.ndarray, np.ndarray, Any, np.ndarray]:
+        spec = self.spec
+        forward = self.timestep * spec.decode(obs, "target_velocity")
+        ahead = spec.decode(obs, "target") + forward
+        return ahead - spec.decode(obs, "tip"), forward, obs, ahead
 
     def _unpack(self, obs: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         spec = self.spec
@@ -77,12 +95,42 @@ class PoseIKController(AnalyticIKController):
     """Pose IK (position and tip direction) as a policy for the Pose task (flat or Dict).
 
     The goal is read from ``goal`` and ``goal_direction`` (flat) or ``desired_goal`` (Dict: the
-    position then the direction); solutions are cached per goal.
+    position then the direction); solutions are cached per goal. Arguments as
+    :class:`~cdcr_gym.controllers.ik.AnalyticIKController`; closed loop, the features nulled are
+    the tip (m) and ℓ·(tip direction) (ℓ the robot's length, the weight ``solve_pose_ik`` gives
+    the direction), measured from ``tip`` and ``tip_direction`` (flat) or ``achieved_goal``.
     """
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         self._cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+
+    def features(self, w: np.ndarray) -> np.ndarray:
+        """Tip (m) and ℓ·(tip direction) (m), (..., 6), of the model shapes w (..., S, 2)."""
+        tip, direction = self._model.tip_and_direction_from_bending(w)
+        return np.concatenate([tip, self.params.length * direction], axis=-1)
+
+    def _goal_features(self, goal: np.ndarray) -> np.ndarray:
+        goal = np.array(goal, dtype=np.float64)
+        goal[..., 3:] *= self.params.length
+        return goal
+
+    def _feedback_terms(self, obs: Any) -> tuple[np.ndarray, np.ndarray, Any, np.ndarray]:
+        if isinstance(obs, dict):
+            goal = np.asarray(obs["desired_goal"], dtype=np.float64)
+            measured = np.asarray(obs["achieved_goal"], dtype=np.float64)
+            state = obs["observation"]
+        else:
+            spec, state = self.spec, obs
+            goal = np.concatenate(
+                [spec.decode(obs, "goal"), spec.decode(obs, "goal_direction")], -1
+            )
+            measured = np.concatenate(
+                [spec.decode(obs, "tip"), spec.decode(obs, "tip_direction")], -1
+            )
+        error = goal - measured
+        error[..., 3:] *= self.params.length
+        return error, np.zeros_like(error), state, goal
 
     def targets(self, goal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Pose-IK solution for goals (..., 6) (position m, direction): (tensions N, lengths m)."""
