@@ -47,7 +47,7 @@ from cdcr_gym.model.statics import minimal_tensions, reachable_scale
 __all__ = ["AnalyticIKController", "FEEDBACK_GAIN"]
 
 #: Default integrator gain (per control step) of the closed-loop mode.
-FEEDBACK_GAIN = 0.05
+FEEDBACK_GAIN = 0.08
 #: Beyond ANCHOR_FRACTION·ℓ of feature error the closed loop blends towards the model's IK solution
 #: (fully at twice that); below, it is pure feedback.
 ANCHOR_FRACTION = 0.75

@@ -80,8 +80,11 @@ class TrackingIKController(AnalyticIKController):
     def _feedback_terms(self, obs: Any) -> tuple[np.ndarray, np.ndarray, Any, np.ndarray]:
         spec = self.spec
         forward = self.timestep * spec.decode(obs, "target_velocity")
-        ahead = spec.decode(obs, "target") + forward
-        return ahead - spec.decode(obs, "tip"), forward, obs, ahead
+        target = spec.decode(obs, "target")
+        # the error of this step, the motion of the target over the step fed forward: at a
+        # steady pace the tip then sits on the target (an error on the target one step ahead
+        # would leave it one step, speed·dt, behind)
+        return target - spec.decode(obs, "tip"), forward, obs, target + forward
 
     def _unpack(self, obs: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         spec = self.spec
