@@ -12,22 +12,33 @@ observation by field name through the env's ``ObservationSpec`` and runs in one 
 * **Closed loop** (``feedback=True``): resolved-rate correction from the *measured* tip. Every
   step it takes the shape the held command stands for on the model (w = the bending of the held
   tensions, or of the held cable lengths in ``length_delta`` mode), the model Jacobian
-  J = ∂f/∂w of the task's goal features f (the tip; the tip and its direction for Pose), and the
-  error e between the goal's and the measured features, and commands
+  J = ∂f/∂w of the task's goal features f (the tip; for Pose the tip and ℓ·tip direction), and
+  the error e between the goal's and the measured features, and commands
 
       w_cmd = s·(w + J⁺·(ff + gain·e)),   J⁺ = (JᵀJ + λI)⁻¹Jᵀ (damped least squares),
 
   with s <= 1 the factor that keeps the shape within the tension limits
-  (``statics.reachable_scale``) and ``ff`` a feed-forward of the goal's motion over the step
-  (Track; zero for fixed goals). The held command is the integrator, so the law is stateless:
-  it converges wherever the robot ends up for a held command (gravity, discrete disks,
-  friction) as long as the model Jacobian is right to within a factor of about 2, and the
-  commands are the model's minimal tensions of ``w_cmd`` (clipped to [0, max_tension]), sent in
-  the env's action mode as the open-loop commands are. The physics robot responds with a lag
-  (≈ 0.3 s to settle on the paper robot at the 0.02 s control step) and overshoots, so ``gain``
-  is a pure integrator's gain per step: 0.05 (the default) converges without oscillating on
-  bullet (paper robot and tdcr2, gravity on) within ≈ 50–70 steps; 0.1 is faster but rings, and
-  0.2 oscillates for most of an episode (``docs/tasks.md``).
+  (``statics.reachable_scale``: no wind-up against them) and ``ff`` the goal's motion over the
+  step (Track; zero for fixed goals). The commands are the model's minimal tensions of ``w_cmd``
+  (so within [0, max_tension]) or its cable lengths, sent in the env's action mode as the
+  open-loop commands are (increments scaled so the largest is one step). The held command is
+  the integrator, so the law is stateless (any batch, any episode boundary) and its fixed point
+  is e = 0 wherever the robot really ends up for a command: gravity, discrete disks, friction
+  only change how many steps it takes.
+
+  Far from the goal *on the model* — a model feature error |f(w) − goal| above
+  ``ANCHOR_FRACTION``·ℓ = 0.75ℓ, more than the model–physics mismatch — ``w_cmd`` is blended
+  towards the model's IK solution of the goal (fully at 1.5ℓ): from a straight start the local
+  law alone settles in a wrong branch of a redundant robot (tdcr2 poses: 75 % success on bullet
+  without the blend, 100 % with it, 20 episodes), and the model's global IK knows the branch.
+
+  ``gain`` is a pure integrator's gain per control step. The physics robot responds with a lag
+  (≈ 0.3 s to settle on the paper robot at the 0.02 s control step) and overshoots, which bounds
+  it: on bullet with gravity 0.05 converges without overshoot but slowly (Track: still 30 mm off
+  after the 25-step settling window), 0.08 (the default) reaches Reach goals to < 0.02 mm and
+  tracks the moving target to ≈ 2 mm RMS, 0.1 rings and 0.2 oscillates through most of an
+  episode (``docs/tasks.md``). On the quasi-static analytic backend the same law converges
+  geometrically (1 − gain per step); there the open-loop mode is exact.
 """
 
 from __future__ import annotations
