@@ -4,10 +4,12 @@ Importing the package registers one id per (backend × task) (cheap: string entr
 
 * ``cdcr_gym/CCKAReach-v0`` — tip reaching on the analytic piecewise-constant-curvature model;
 * ``cdcr_gym/BulletReach-v0`` — tip reaching on a pybullet multibody backbone;
-* ``cdcr_gym/{CCKA,Bullet}Track-v0`` — follow a moving target (``cdcr_gym.tasks.track``);
-* ``cdcr_gym/{CCKA,Bullet}Pose-v0`` — reach a tip position and direction (default robot
+* ``cdcr_gym/MuJoCoReach-v0`` — tip reaching on a MuJoCo chain with one tendon per cable
+  (batched: ``gymnasium.make_vec(..., vectorization_mode="vector_entry_point")``);
+* ``cdcr_gym/{CCKA,Bullet,MuJoCo}Track-v0`` — follow a moving target (``cdcr_gym.tasks.track``);
+* ``cdcr_gym/{CCKA,Bullet,MuJoCo}Pose-v0`` — reach a tip position and direction (default robot
   ``tdcr2``; ``cdcr_gym.tasks.pose``);
-* ``cdcr_gym/{CCKA,Bullet}Obstacle-v0`` — reach a goal around spheres (``cdcr_gym.tasks.obstacle``).
+* ``cdcr_gym/{CCKA,Bullet,MuJoCo}Obstacle-v0`` — reach a goal around spheres (``cdcr_gym.tasks.obstacle``).
 
 The short ids (``CCKAReach-v0``, ...) are registered as well, so that Gymnasium's
 ``"module:id"`` form, ``gymnasium.make("cdcr_gym:CCKAReach-v0")``, works in a fresh interpreter
@@ -25,7 +27,7 @@ __version__ = "0.2.0"
 MAX_EPISODE_STEPS = 100
 
 #: Backends (id prefix) and whether they have a batched vector entry point.
-_BACKENDS = {"CCKA": True, "Bullet": False}
+_BACKENDS = {"CCKA": True, "Bullet": False, "MuJoCo": True}
 #: Tasks (id infix).
 _TASKS = ("Reach", "Track", "Pose", "Obstacle")
 

@@ -1,4 +1,4 @@
-"""What `pip install cdcr-gym` promises: the envs with numpy, gymnasium and pybullet only; the
+"""What `pip install cdcr-gym` promises: the envs with numpy, gymnasium, pybullet and mujoco only; the
 configs inside the wheel; extras for the rest. (.ci/run also installs the built wheel into a
 fresh virtual environment without torch and makes every id there.)"""
 
@@ -23,7 +23,12 @@ def _names(requirements):
 
 
 def test_core_dependencies_are_the_env_stack_only():
-    assert _names(PYPROJECT["project"]["dependencies"]) == {"numpy", "gymnasium", "pybullet"}
+    assert _names(PYPROJECT["project"]["dependencies"]) == {
+        "numpy",
+        "gymnasium",
+        "pybullet",
+        "mujoco",
+    }
 
 
 def test_extras():

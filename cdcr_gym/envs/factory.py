@@ -35,6 +35,7 @@ __all__ = [
 BACKENDS = {
     "CCKA": "cdcr_gym.backends.analytic:AnalyticBackend",
     "Bullet": "cdcr_gym.backends.bullet:BulletBackend",
+    "MuJoCo": "cdcr_gym.backends.mujoco:MuJoCoBackend",
 }
 #: Task name (id infix) → class, as "module:attribute".
 TASKS = {
@@ -46,7 +47,11 @@ TASKS = {
 #: The robot preset of a (backend, task) when neither ``robot`` nor ``params`` is given (else
 #: "paper"). Pose defaults to the two-section robot (a one-section tip direction is fixed by its
 #: position) on every backend that models several sections.
-DEFAULT_ROBOTS = {("CCKA", "Pose"): "tdcr2", ("Bullet", "Pose"): "tdcr2"}
+DEFAULT_ROBOTS = {
+    ("CCKA", "Pose"): "tdcr2",
+    ("Bullet", "Pose"): "tdcr2",
+    ("MuJoCo", "Pose"): "tdcr2",
+}
 
 
 def _load(table: dict[str, str], name: Any, what: str) -> Any:

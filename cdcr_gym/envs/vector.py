@@ -52,7 +52,7 @@ class CDCRVectorEnv(VectorEnv):
     Args:
         num_envs: number of envs (>= 1).
         max_episode_steps: episode length (>= 1) or ``None`` for no truncation.
-        backend: ``"CCKA"`` (the only batched backend).
+        backend: a batched backend, ``"CCKA"`` or ``"MuJoCo"`` (N robots in one backend).
         task: task name (``"Reach"``, ...; see ``cdcr_gym.envs.factory.TASKS``).
         goal_conditioned: Dict observations (Gymnasium-Robotics convention).
         autoreset_mode: ``AutoresetMode.NEXT_STEP`` (default) or ``SAME_STEP`` (or their
@@ -93,8 +93,6 @@ class CDCRVectorEnv(VectorEnv):
                 f"render_mode={render_mode!r}: the batched env does not render; use "
                 f"gymnasium.make_vec(..., vectorization_mode='sync') or a single env to render"
             )
-        if backend != "CCKA":
-            raise ValueError(f"backend must be 'CCKA' for the batched env, got {backend!r}")
         self.autoreset_mode = mode
         self.num_envs = n
         self.max_episode_steps = max_episode_steps
@@ -108,6 +106,11 @@ class CDCRVectorEnv(VectorEnv):
         backend_class, backend_kw, task_class, task_kw, env_kw = factory.split_kwargs(
             backend, task, kwargs
         )
+        if "num_robots" not in factory.keyword_names(backend_class):
+            raise ValueError(
+                f"backend {backend!r} holds one robot: the batched env needs a backend with "
+                f"num_robots (CCKA, MuJoCo); use gymnasium.make_vec(..., vectorization_mode='sync')"
+            )
         for key in ("render_width", "render_height"):
             env_kw.pop(key, None)
         self.terminate_on_success = validation.flag(

@@ -1,0 +1,663 @@
+"""The MuJoCo backend: N robots as MJCF chains with one spatial tendon per cable.
+
+The model (``mjcf``) is data; MuJoCo integrates it. Python touches the simulation once per
+control step per robot (``mj_step`` with ``nstep`` physics steps, or one ``mujoco.rollout`` call
+for all N robots), never per physics step — except with cable friction (μ > 0), whose capstan
+segment tensions depend on the current wrap angles and are set before every physics step.
+
+Frames: MuJoCo's world frame is the base frame R0 (backbone along +z); a turned base
+(``base_orientation``) turns gravity into R0 instead of turning the robot, so every reading is
+already in R0.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from cdcr_gym import validation
+from cdcr_gym.backends.base import Backend, Readings
+from cdcr_gym.backends.bullet.chain import (
+    DiscreteBackbone,
+    check_span_buckling,
+    quat_to_matrix,
+)
+from cdcr_gym.backends.bullet.integrator import (
+    MAX_JOINT_ANGLE,
+    MAX_JOINT_RATE,
+    SimulationDivergedError,
+    bending_modes,
+)
+from cdcr_gym.backends.mujoco.mjcf import JOINTS, ROUTINGS, MJCFModel, build_mjcf
+from cdcr_gym.model import friction
+from cdcr_gym.model.params import STANDARD_GRAVITY, RobotParams
+
+__all__ = ["MuJoCoBackend", "SimulationDivergedError", "INTEGRATORS"]
+
+#: MuJoCo's warning of a non-finite acceleration (it then resets the data silently).
+_BADQACC = 5  # mujoco.mjtWarning.mjWARN_BADQACC (a test checks the value)
+#: MuJoCo integrators accepted by ``integrator``.
+INTEGRATORS = ("Euler", "implicitfast", "implicit", "RK4")
+
+
+def _mujoco() -> Any:
+    import mujoco
+
+    return mujoco
+
+
+class MuJoCoBackend(Backend):
+    """``num_robots`` CDCRs simulated by MuJoCo (see the module docstring and ``mjcf``).
+
+    Args:
+        params: the robot (:class:`~cdcr_gym.params.RobotParams`; default: the paper's), any
+            number of sections. Rejected (``ValueError``) if its disk spans buckle with every
+            cable at ``max_tension`` (``cdcr_gym.backends.bullet.chain.check_span_buckling``).
+        num_robots: robots N stepped together (>= 1); one ``MjModel``, N ``MjData``.
+        gravity: ``True`` (default) applies −9.81 m/s² along −Z_world; ``False`` none.
+        links_per_span: rigid links per disk span, m >= 1 (default 1). No joint cap.
+        joint: ``"ball"`` (default: a spherical joint, rotation-vector stiffness EI/Δ in every
+            direction, so bending in any plane adds no spurious twist) or ``"cardan"`` (bullet's
+            two hinges Rx(a)·Ry(b), no twist degree of freedom; its coordinates couple a
+            bend out of the x and y planes into a twist of ≈ a·b/2 per joint, which costs up
+            to 1 % of ℓ at one link per span).
+        routing: ``"corrected"`` (default: cable via-sites ∓Δ/(3m) from every disk along its
+            link, which cancels the one-link-per-span moment-arm excess, ``mjcf``) or
+            ``"disk"`` (straight from pinhole to pinhole: bullet's model).
+        control_timestep: simulated time (s) of one :meth:`apply_tensions` (default 0.02 s).
+        physics_timestep: MuJoCo's timestep h (s), must divide ``control_timestep`` (default
+            0.02 s: one physics step per control step). Stable because the damping D = β·K is
+            stiffness-proportional and MuJoCo's Euler integrator treats it implicitly: long
+            random-tension runs stay stable up to h = 0.1 s at ζ = 0.7 and 0.04 s at ζ = 0.3
+            (``docs/mujoco_backend.md``). h changes the transient, never the settled state.
+        base_orientation: unit quaternion (x, y, z, w) of R0 in the world (default upright).
+        tip_payload: point mass (kg, >= 0) at the tip disk centre (default 0.0).
+        damping_ratio: damping ratio ζ > 0 of the first bending mode (default 0.7): D = β·K,
+            β = 2ζ/ω₁.
+        friction_coefficient: cable–disk capstan μ in [0, 1] (default 0.0: frictionless, the
+            plain MuJoCo path, bit-identical to a model without friction). μ > 0: every cable
+            segment carries the capstan tension of ``cdcr_gym.model.friction`` (as on bullet),
+            set before every physics step.
+        friction_slip_length: slip length x_s (m, > 0; default 1e-4) of the slip law.
+        integrator: MuJoCo integrator (default ``"Euler"``: semi-implicit, damping implicit).
+        threads: ``None`` (default): the N robots are stepped one after the other in the
+            calling thread, one MuJoCo call sequence per robot and control step; an integer k:
+            by ``mujoco.rollout`` in k persistent threads that release the GIL (worth it when
+            cores are free; measured in ``docs/mujoco_backend.md``).
+
+    Raises:
+        ValueError: naming the argument and the value, for any invalid argument.
+    """
+
+    supports_length_control = False
+    randomizable = frozenset({"youngs_modulus", "friction_coefficient", "gravity", "tip_payload"})
+
+    def __init__(
+        self,
+        params: RobotParams = RobotParams(),  # noqa: B008 (frozen, immutable)
+        *,
+        num_robots: int = 1,
+        gravity: bool = True,
+        links_per_span: int = 1,
+        joint: str = "ball",
+        routing: str = "corrected",
+        control_timestep: float = 0.02,
+        physics_timestep: float = 0.02,
+        base_orientation: Sequence[float] = (0.0, 0.0, 0.0, 1.0),
+        tip_payload: float = 0.0,
+        damping_ratio: float = 0.7,
+        friction_coefficient: float = 0.0,
+        friction_slip_length: float = 1e-4,
+        integrator: str = "Euler",
+        threads: int | None = None,
+    ) -> None:
+        if not isinstance(params, RobotParams):
+            raise ValueError(f"params must be a cdcr_gym.params.RobotParams, got {params!r}")
+        self.params = params
+        self.num_robots = validation.integer(num_robots, "num_robots", 1)
+        self.gravity = validation.flag(gravity, "gravity")
+        self.links_per_span = validation.integer(links_per_span, "links_per_span", 1)
+        self.joint = validation.choice(joint, "joint", JOINTS)
+        self.routing = validation.choice(routing, "routing", ROUTINGS)
+        self.control_timestep = validation.positive(control_timestep, "control_timestep")
+        self.physics_timestep = validation.positive(physics_timestep, "physics_timestep")
+        ratio = self.control_timestep / self.physics_timestep
+        n_sub = round(ratio)
+        if n_sub < 1 or abs(ratio - n_sub) > 1e-9 * max(1.0, ratio):
+            raise ValueError(
+                f"physics_timestep ({physics_timestep!r} s) must divide control_timestep "
+                f"({control_timestep!r} s) into a whole number of steps"
+            )
+        self.n_substeps = int(n_sub)
+        quat = validation.real_array(base_orientation, "base_orientation")
+        if quat.shape != (4,) or abs(np.linalg.norm(quat) - 1.0) > 1e-6:
+            raise ValueError(
+                "base_orientation must be a finite unit quaternion (x, y, z, w) with norm 1 "
+                f"(±1e-6), got {base_orientation!r}"
+            )
+        self.base_orientation = tuple(float(v) for v in quat / np.linalg.norm(quat))
+        self.tip_payload = validation.positive(tip_payload, "tip_payload", allow_zero=True)
+        self.damping_ratio = validation.positive(damping_ratio, "damping_ratio")
+        self.friction_coefficient = validation.positive(
+            friction_coefficient, "friction_coefficient", 1.0, allow_zero=True
+        )
+        self.friction_slip_length = validation.positive(
+            friction_slip_length, "friction_slip_length"
+        )
+        self.integrator = validation.choice(integrator, "integrator", INTEGRATORS)
+        self._splittable = self.integrator != "RK4"
+        if threads is not None:
+            threads = validation.integer(threads, "threads", 1)
+        self.threads = threads
+        check_span_buckling(params, self.links_per_span)
+        self._base_rot = quat_to_matrix(np.asarray(self.base_orientation))
+        #: Gravity (m/s²) in R0, the model's world frame.
+        self.gravity_in_base = self._base_rot.T @ np.array([0.0, 0.0, -STANDARD_GRAVITY])
+        self._mj = _mujoco()
+        self._closed = False
+        self._rollout: Any = None
+        self._build(segment_tendons=self.friction_coefficient > 0.0)
+        self._report_anchors = self.friction_coefficient > 0.0
+        self._rough = self.friction_coefficient > 0.0  # any robot with μ > 0
+        #: Per-robot friction coefficient μ (N,) and slip state s (N, C).
+        self._mu = np.full(self.num_robots, self.friction_coefficient)
+        self.slip = np.zeros((self.num_robots, params.n_cables))
+        self._prev_lengths: list[np.ndarray | None] = [None] * self.num_robots
+        self.time = np.zeros(self.num_robots)
+        self.reset(np.zeros((self.num_robots, params.n_cables)))
+
+    # -- model ----------------------------------------------------------------------------------
+    def _build(self, segment_tendons: bool) -> None:
+        """Build the MJCF model, the N data and the index arrays (also after a change that
+        needs new tendons, e.g. friction switched on by randomisation)."""
+        mj = self._mj
+        p = self.params
+        self.mjcf: MJCFModel = build_mjcf(
+            p,
+            links_per_span=self.links_per_span,
+            joint=self.joint,
+            routing=self.routing,
+            gravity=self.gravity_in_base if self.gravity else (0.0, 0.0, 0.0),
+            tip_payload=self.tip_payload,
+            timestep=self.physics_timestep,
+            integrator=self.integrator,
+            segment_tendons=segment_tendons,
+        )
+        model = mj.MjModel.from_xml_string(self.mjcf.xml)
+        self.n_links = self.mjcf.n_links
+        self.n_dof = model.nv
+        self._stiffness = np.array(model.jnt_stiffness[model.dof_jntid])  # (nv,) K per dof
+        data = mj.MjData(model)
+        mj.mj_forward(model, data)
+        mass = np.zeros((model.nv, model.nv))
+        mj.mj_fullM(model, data, mass)
+        #: ω₁ and ω_max (rad/s) of the straight chain; β = 2ζ/ω₁ (s), D = β·K.
+        self.first_mode_frequency, self.highest_mode_frequency = bending_modes(
+            mass, self._stiffness
+        )
+        self.damping_time = 2.0 * self.damping_ratio / self.first_mode_frequency
+        model.dof_damping[:] = self.damping_time * self._stiffness
+        self.model = model
+        bare = DiscreteBackbone(p, self.links_per_span)
+        self._bare_tip = (
+            float(bare.link_masses[-1]),
+            float(bare.link_com_offsets[-1]),
+            tuple(bare.link_inertias[-1]),
+        )
+        self._nominal_stiffness = model.jnt_stiffness.copy()
+        self._nominal_gravity = model.opt.gravity.copy()
+        self._models = [model] * self.num_robots
+        self._datas = [mj.MjData(model) for _ in range(self.num_robots)]
+        self._scratch = mj.MjData(model)
+        name = mj.mj_name2id
+        site, tendon = mj.mjtObj.mjOBJ_SITE, mj.mjtObj.mjOBJ_TENDON
+        self._station_ids = np.array([name(model, site, s) for s in self.mjcf.station_sites])
+        self._tip_id = int(self._station_ids[-1])
+        self._disk_site_ids = self._station_ids[np.asarray(self.mjcf.disk_links) - 1]
+        self._pin_ids = np.array(
+            [[name(model, site, s) for s in row] for row in self.mjcf.pinhole_sites]
+        )
+        c = p.n_cables
+        self._cable_ids = np.array([name(model, tendon, f"cable{i}") for i in range(c)])
+        self._n_pull = c
+        chain = self.mjcf.chain
+        self.routed = chain.routed  # (n_disks, C)
+        self._last_span = self.routed.sum(axis=0) - 1
+        # the friction actuators follow the cables' pull actuators, cable-major (``mjcf``)
+        self._segment_order = [
+            (k, i)
+            for i in range(c)
+            for k in range(len(self.mjcf.segment_tendons))
+            if self.mjcf.segment_tendons[k][i] is not None
+        ]
+        self._has_segments = bool(self._segment_order)
+        self._rollout = None
+        self._tensions = np.zeros((self.num_robots, c))
+        self._tip = np.zeros((self.num_robots, 3))
+        self._direction = np.zeros((self.num_robots, 3))
+        self._lengths = np.zeros((self.num_robots, c))
+        self._nstate = mj.mj_stateSize(model, mj.mjtState.mjSTATE_FULLPHYSICS)
+
+    def _own_model(self, i: int) -> Any:
+        """Robot i's own MjModel (a copy of the shared one, made on its first change)."""
+        if self._models[i] is self.model:
+            self._models[i] = copy.copy(self.model)
+        return self._models[i]
+
+    # -- validation -----------------------------------------------------------------------------
+    def _check_open(self) -> None:
+        if self._closed:
+            raise RuntimeError("this MuJoCoBackend is closed")
+
+    def _check_tensions(self, tensions: Any, rows: int | None = None) -> np.ndarray:
+        c = self.params.n_cables
+        t = validation.real_array(tensions, "tensions")
+        if t.ndim == 1:
+            t = t[None]
+        if t.ndim != 2 or t.shape[1] != c or (rows is not None and t.shape[0] != rows):
+            want = f"({rows if rows is not None else 'M'}, {c})"
+            raise ValueError(f"tensions must have shape {want} (N, one per cable), got {t.shape}")
+        if t.min() < 0.0 or t.max() > self.params.max_tension:
+            raise ValueError(
+                f"tensions must be in [0, max_tension={self.params.max_tension}] N, "
+                f"got {tensions!r}"
+            )
+        return np.array(t)
+
+    def _fast_tensions(self, tensions: Any) -> np.ndarray:
+        """:meth:`_check_tensions` of (N, C) tensions, cheap for a float array (every step)."""
+        if type(tensions) is np.ndarray and tensions.shape == self._tensions.shape:
+            t = tensions.astype(np.float64)  # a copy
+            if 0.0 <= t.min() and t.max() <= self.params.max_tension:  # NaN fails
+                return t
+        return self._check_tensions(tensions, self.num_robots)
+
+    # -- statics --------------------------------------------------------------------------------
+    def _solve_static(
+        self, model: Any, data: Any, tensions: np.ndarray, tol: float = 1e-13, max_iter: int = 1000
+    ) -> bool:
+        """Put ``data`` at the static equilibrium of ``model`` under ``tensions`` (C,) N.
+
+        The fixed point q ← q ⊕ K⁻¹·(τ_cable(q) + τ_passive(q) − τ_gravity(q)) from the straight
+        pose (bullet's iteration, in MuJoCo's generalized forces; ⊕ MuJoCo's position
+        integration, which handles the ball joints' quaternions), to max |Δq| < ``tol`` rad. It
+        converges because the cable and gravity load stiffnesses are a fraction of K; the limit
+        is the state the dynamics settle to. Returns whether it converged.
+        """
+        mj = self._mj
+        data.qpos[:] = model.qpos0
+        data.qvel[:] = 0.0
+        data.act[:] = 0.0
+        data.ctrl[:] = 0.0
+        data.ctrl[: self._n_pull] = tensions
+        k_inv = 1.0 / model.jnt_stiffness[model.dof_jntid]
+        step = np.empty(model.nv)
+        for _ in range(max_iter):
+            mj.mj_forward(model, data)
+            np.subtract(data.qfrc_actuator + data.qfrc_passive, data.qfrc_bias, out=step)
+            step *= k_inv
+            mj.mj_integratePos(model, data.qpos, step, 1.0)
+            size = np.max(np.abs(step))
+            if not size <= MAX_JOINT_ANGLE:  # NaN too
+                return False
+            if size < tol:
+                mj.mj_forward(model, data)
+                return True
+        return False
+
+    def static_equilibrium(self, tensions: np.ndarray, index: int = 0) -> np.ndarray:
+        """Joint positions ``qpos`` of robot ``index``'s static equilibrium under ``tensions``
+        (C,) N (MuJoCo's qpos layout: 4 per ball joint, 2 per Cardan joint).
+
+        Raises:
+            SimulationDivergedError: if no equilibrium is found.
+        """
+        t = self._check_tensions(tensions, 1)[0]
+        data = self._scratch
+        model = self._models[index]
+        if not self._solve_static(model, data, t):
+            raise self._diverged(
+                "no static equilibrium found: the cables' destabilising load stiffness exceeds "
+                "the joint stiffness; use more disks, more links_per_span or lower tensions",
+                data,
+                t,
+                0.0,
+            )
+        return data.qpos.copy()
+
+    # -- Backend API ----------------------------------------------------------------------------
+    def reset(self, tensions: np.ndarray, mask: np.ndarray | None = None) -> None:
+        """Rest every robot of ``mask`` (all if None) in its static equilibrium under its row of
+        ``tensions`` (N, C) N; time 0, neutral friction slip. Deterministic."""
+        self._check_open()
+        n = self.num_robots
+        t = self._check_tensions(tensions, n)
+        rows = range(n) if mask is None else np.flatnonzero(np.asarray(mask).reshape(n)).tolist()
+        for i in rows:
+            data, model = self._datas[i], self._models[i]
+            self._mj.mj_resetData(model, data)
+            if not self._solve_static(model, data, t[i]):
+                raise self._diverged("no static equilibrium found", data, t[i], 0.0)
+            data.time = 0.0
+            self._tensions[i] = t[i]
+            self.slip[i] = 0.0
+            self.time[i] = 0.0
+            self._prev_lengths[i] = None
+            self._sense(i)
+
+    def apply_tensions(self, tensions: np.ndarray) -> None:
+        """Hold ``tensions`` (N, C) N for one control step (``n_substeps`` MuJoCo steps).
+
+        Raises:
+            SimulationDivergedError: if a state becomes non-finite, a joint bends beyond 90° or
+                turns faster than 1000 rad/s, or MuJoCo reports a bad acceleration.
+        """
+        self._check_open()
+        t = self._fast_tensions(tensions)
+        self._tensions = t
+        n_pull = self._n_pull
+        self.time += self.control_timestep
+        if self._rough:
+            self._step_with_friction(t)
+            for i in range(self.num_robots):
+                self._check_state(i)
+        elif self.threads is None:
+            advance, check, sense, n_sub = (
+                self._advance,
+                self._check_state,
+                self._sense,
+                self.n_substeps,
+            )
+            for i, data in enumerate(self._datas):
+                data.ctrl[:n_pull] = t[i]
+                advance(self._models[i], data, n_sub)
+                check(i)
+                sense(i)
+        else:
+            for data, row in zip(self._datas, t):
+                data.ctrl[:n_pull] = row
+            self._rollout_step()
+            for i in range(self.num_robots):
+                self._check_state(i)
+                self._sense(i)
+
+    def _advance(self, model: Any, data: Any, n_steps: int) -> None:
+        """``n_steps`` MuJoCo steps of one robot, leaving ``data`` with the position and
+        velocity stages (``mj_step1``) of the new state computed: what the readings and the next
+        step's ``mj_step2`` use, so that no stage is computed twice. (``mj_step`` computes them
+        for the state it starts from; ``mj_step1`` + ``mj_step2`` = ``mj_step``.) RK4 cannot be
+        split: full steps, then ``mj_step1``."""
+        mj = self._mj
+        if self._splittable:
+            mj.mj_step2(model, data)
+            if n_steps > 1:
+                mj.mj_step(model, data, n_steps - 1)
+        else:
+            mj.mj_step(model, data, n_steps)
+        mj.mj_step1(model, data)
+
+    def _rollout_step(self) -> None:
+        """All N robots for ``n_substeps`` steps in one ``mujoco.rollout`` call (threads that
+        release the GIL)."""
+        mj = self._mj
+        from mujoco import rollout
+
+        if self._rollout is None:
+            nthread = min(self.num_robots, self.threads or 1)
+            self._rollout = rollout.Rollout(nthread=nthread)
+            self._thread_datas = [mj.MjData(self.model) for _ in range(nthread)]
+            self._state_buf = np.empty((self.num_robots, self._nstate))
+            self._ctrl_buf = np.empty((self.num_robots, self.n_substeps, self.model.nu))
+            self._out_buf = np.empty((self.num_robots, self.n_substeps, self._nstate))
+            self._sensor_buf = np.empty((self.num_robots, self.n_substeps, self.model.nsensordata))
+        spec = mj.mjtState.mjSTATE_FULLPHYSICS
+        for i, data in enumerate(self._datas):
+            mj.mj_getState(self._models[i], data, self._state_buf[i], spec)
+            self._ctrl_buf[i] = data.ctrl
+        warn = mj.mjtWarning.mjWARN_BADQACC
+        for data in self._thread_datas:
+            data.warning[warn].number = 0
+        self._rollout.rollout(
+            self._models,
+            self._thread_datas,
+            self._state_buf,
+            self._ctrl_buf,
+            skip_checks=True,
+            nstep=self.n_substeps,
+            state=self._out_buf,
+            sensordata=self._sensor_buf,
+        )
+        if any(data.warning[warn].number > 0 for data in self._thread_datas):
+            raise self._diverged(
+                "the simulation diverged (MuJoCo: bad acceleration in a rollout)",
+                self._thread_datas[0],
+                self._tensions[0],
+                float(self.time.max()),
+            )
+        final = self._out_buf[:, -1]
+        for i, data in enumerate(self._datas):
+            mj.mj_setState(self._models[i], data, final[i], spec)
+            mj.mj_step1(self._models[i], data)
+
+    # -- friction -------------------------------------------------------------------------------
+    def _step_with_friction(self, t: np.ndarray) -> None:
+        """Physics step by physics step: the capstan segment tensions at the current wrap
+        angles and slip, then one MuJoCo step (the loads explicit, as on bullet)."""
+        if not self._has_segments:
+            raise RuntimeError("internal: friction without segment tendons")
+        n_pull = self._n_pull
+        for _ in range(self.n_substeps):
+            for i, (model, data) in enumerate(zip(self._models, self._datas)):
+                data.ctrl[:n_pull] = t[i]
+                if self._mu[i] > 0.0:
+                    lengths = self._lengths[i].copy()
+                    if self._prev_lengths[i] is not None:
+                        self.slip[i] = friction.update_slip(
+                            self.slip[i], self._prev_lengths[i] - lengths, self.friction_slip_length
+                        )
+                    self._prev_lengths[i] = lengths
+                    seg = self._segment_tensions(i, t[i])  # (n_disks, C)
+                    data.ctrl[n_pull:] = [seg[k, c] - t[i, c] for k, c in self._segment_order]
+                else:
+                    data.ctrl[n_pull:] = 0.0
+                self._advance(model, data, 1)
+                self._sense(i)
+
+    def _segment_tensions(self, i: int, t: np.ndarray) -> np.ndarray:
+        """Capstan tensions (n_disks, C) N of robot i's cable segments (row k: disk k → k+1)
+        at its current pinholes and slip state."""
+        pins = self._datas[i].site_xpos[self._pin_ids]  # (n_disks + 1, C, 3)
+        wraps = friction.wrap_angles(pins.transpose(1, 0, 2))  # (C, n_disks), entry +z of R0
+        return friction.tension_profile(t, wraps, self._mu[i], self.slip[i]).T
+
+    @property
+    def anchor_tensions(self) -> np.ndarray:
+        """Tension (N, C) N in each cable's last segment (= the actuator's without friction)."""
+        out = self._tensions.copy()
+        for i in range(self.num_robots):
+            if self._mu[i] > 0.0:
+                seg = self._segment_tensions(i, self._tensions[i])
+                out[i] = seg[self._last_span, np.arange(self.params.n_cables)]
+        return out
+
+    # -- reading --------------------------------------------------------------------------------
+    def _sense(self, i: int) -> None:
+        """Robot i's tip, tip direction and cable lengths (tendon lengths) from its data, which
+        holds the position stage of its current state (:meth:`_advance`)."""
+        data = self._datas[i]
+        tid = self._tip_id
+        self._tip[i] = data.site_xpos[tid]
+        self._direction[i] = data.site_xmat[tid, 2::3]
+        self._lengths[i] = data.ten_length[self._cable_ids]
+
+    def _check_state(self, i: int) -> None:
+        data = self._datas[i]
+        rate = np.abs(data.qvel).max()
+        if (
+            data.warning[_BADQACC].number > 0
+            or not rate <= MAX_JOINT_RATE
+            or not self._max_joint_angle(data) <= MAX_JOINT_ANGLE
+        ):
+            raise self._diverged(
+                "the simulation diverged", data, self._tensions[i], float(self.time[i])
+            )
+
+    def _max_joint_angle(self, data: Any) -> float:
+        """Largest joint angle (rad): the ball joints' rotation angles, the hinges' angles
+        (inf for a non-finite state)."""
+        q = data.qpos
+        if self.joint == "ball":
+            w = float(np.abs(q[0::4]).min())
+            return 2.0 * math.acos(min(w, 1.0)) if math.isfinite(w) else math.inf
+        return float(np.abs(q).max())
+
+    def _diverged(
+        self, message: str, data: Any, tensions: np.ndarray, time: float
+    ) -> SimulationDivergedError:
+        state = {
+            "joint_positions": np.array(data.qpos),
+            "joint_velocities": np.array(data.qvel),
+            "tensions": np.array(tensions),
+            "time": time,
+        }
+        return SimulationDivergedError(
+            f"{message} (t = {time:.4f} s, tensions {np.asarray(tensions).tolist()} N, "
+            f"max |q̇| = {np.max(np.abs(data.qvel))} rad/s)",
+            state,
+        )
+
+    def read(self) -> Readings:
+        self._check_open()
+        anchors = self.anchor_tensions if self._report_anchors else None
+        return Readings(
+            self._tip.copy(),
+            self._direction.copy(),
+            self._lengths.copy(),
+            self._tensions.copy(),
+            anchors,
+        )
+
+    def equilibrium(self, tensions: np.ndarray) -> Readings:
+        """Static equilibria under ``tensions`` (M, C) N of the nominal robot (robot 0's model),
+        without changing the state."""
+        self._check_open()
+        t_all = self._check_tensions(tensions)
+        m = t_all.shape[0]
+        tip, direction = np.empty((m, 3)), np.empty((m, 3))
+        lengths = np.empty((m, self.params.n_cables))
+        data, model = self._scratch, self._models[0]
+        for j, t in enumerate(t_all):
+            if not self._solve_static(model, data, t):
+                raise self._diverged("no static equilibrium found", data, t, 0.0)
+            tip[j] = data.site_xpos[self._tip_id]
+            direction[j] = data.site_xmat[self._tip_id, 2::3]
+            lengths[j] = data.ten_length[self._cable_ids]
+        return Readings(tip, direction, lengths, t_all.copy())
+
+    def backbone_points(self, index: int = 0) -> np.ndarray:
+        """Backbone polyline (2n+1, 3) m in R0: base, then per link its joint and its station
+        (every disk centre), tip last."""
+        self._check_open()
+        data = self._datas[index]
+        pts = np.zeros((2 * self.n_links + 1, 3))
+        pts[1::2] = data.xpos[1 + 1 : 1 + 1 + self.n_links]  # link bodies follow world, base
+        pts[2::2] = data.site_xpos[self._station_ids]
+        return pts
+
+    def disk_frames(self, index: int = 0) -> tuple[np.ndarray, np.ndarray]:
+        self._check_open()
+        data = self._datas[index]
+        ids = self._disk_site_ids
+        centres = np.zeros((ids.size + 1, 3))
+        centres[1:] = data.site_xpos[ids]
+        rots = np.empty((ids.size + 1, 3, 3))
+        rots[0] = np.eye(3)
+        rots[1:] = data.site_xmat[ids].reshape(-1, 3, 3)
+        return centres, rots
+
+    @property
+    def tensions(self) -> np.ndarray:
+        """Cable tensions (N, C) N currently held."""
+        return self._tensions.copy()
+
+    def set_randomized(self, index: np.ndarray, values: dict[str, np.ndarray]) -> None:
+        """Give robots ``index`` their drawn ``youngs_modulus`` (joint stiffness and damping,
+        ζ kept), ``friction_coefficient``, ``gravity`` (1.0 on, 0.0 off) and ``tip_payload``
+        (the tip link's mass and inertia). Each robot with a changed parameter gets its own
+        copy of the MjModel; the rest are ignored (reported only)."""
+        idx = np.asarray(index).reshape(-1).tolist()
+        if "friction_coefficient" in values:
+            mu = validation.real_array(values["friction_coefficient"], "friction_coefficient")
+            if np.any(mu < 0.0) or np.any(mu > 1.0):
+                raise ValueError(f"friction_coefficient must be in [0, 1], got {mu!r}")
+            if np.any(mu > 0.0) and not self._has_segments:
+                self._rebuild_with_segments()
+            self._mu[idx] = mu
+            self._rough = bool(np.any(self._mu > 0.0))
+            self._report_anchors = True
+        for j, i in enumerate(idx):
+            if "gravity" in values:
+                on = bool(values["gravity"][j] > 0.5)
+                self._own_model(i).opt.gravity[:] = self.gravity_in_base if on else 0.0
+            if "youngs_modulus" in values or "tip_payload" in values:
+                model = self._own_model(i)
+                if "youngs_modulus" in values:
+                    ratio = float(values["youngs_modulus"][j]) / self.params.youngs_modulus
+                    model.jnt_stiffness[:] = self._nominal_stiffness * ratio
+                if "tip_payload" in values:
+                    self._set_payload(model, float(values["tip_payload"][j]))
+                self._tune_damping(model)
+
+    def _tune_damping(self, model: Any) -> None:
+        """D = β·K with β = 2ζ/ω₁ of ``model``'s own first bending mode (its stiffness and
+        masses), so that every randomised robot keeps the damping ratio ζ."""
+        mj, data = self._mj, self._scratch
+        mj.mj_resetData(model, data)
+        mj.mj_forward(model, data)
+        mass = np.zeros((model.nv, model.nv))
+        mj.mj_fullM(model, data, mass)
+        k = model.jnt_stiffness[model.dof_jntid]
+        first, _ = bending_modes(mass, k)
+        model.dof_damping[:] = 2.0 * self.damping_ratio / first * k
+
+    def _set_payload(self, model: Any, payload: float) -> None:
+        """The tip link's mass, COM and inertia with ``payload`` kg at the tip disk centre."""
+        body = model.nbody - 1
+        bare = self._bare_tip  # (mass, COM offset, inertias) of the tip link without payload
+        z_tip = 0.5 * float(self.mjcf.chain.segment_lengths[-1])
+        mass = bare[0] + payload
+        com = (bare[0] * bare[1] + payload * z_tip) / mass
+        inertia = np.array(bare[2], dtype=float)
+        inertia[:2] += bare[0] * (bare[1] - com) ** 2 + payload * (z_tip - com) ** 2
+        model.body_mass[body] = mass
+        model.body_ipos[body] = (0.0, 0.0, com)
+        model.body_inertia[body] = inertia
+        self._mj.mj_setConst(model, self._scratch)
+
+    def _rebuild_with_segments(self) -> None:
+        tensions = self._tensions.copy()
+        models = self._models
+        self._build(segment_tendons=True)
+        del models
+        self._tensions = tensions
+
+    def close(self) -> None:
+        """Release the MuJoCo data and the rollout threads. Safe to call more than once."""
+        if self._closed:
+            return
+        self._closed = True
+        if self._rollout is not None:
+            self._rollout.close()
+            self._rollout = None
+        self._datas = []
+        self._models = []
+
+    def __getstate__(self) -> dict:
+        """Refuse pickling (the MuJoCo data are not copied with it); build a new env instead."""
+        raise TypeError(
+            "MuJoCoBackend cannot be pickled or copied; build a new backend (or env) instead"
+        )
