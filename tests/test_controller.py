@@ -115,6 +115,23 @@ def test_feedback_planner_on_bullet_ends_on_the_goal():
     assert closed["is_success"] and not closed["collided"]
 
 
+@pytest.mark.parametrize(
+    "env_id, cls",
+    [
+        ("cdcr_gym/MuJoCoReach-v0", AnalyticIKController),
+        ("cdcr_gym/MuJoCoPose-v0", PoseIKController),
+    ],
+)
+def test_feedback_reaches_mujoco_goals_with_gravity(env_id, cls):
+    env = gym.make(env_id, gravity=True)
+    closed = _final_info(env, cls.from_env(env, feedback=True), FIXED_SEEDS[0])
+    opened = _final_info(env, cls.from_env(env), FIXED_SEEDS[0])
+    env.close()
+    assert closed["is_success"] and closed["distance"] < 0.005
+    assert closed["distance"] < opened["distance"]
+    assert opened["distance"] > 0.01  # the open-loop row: centimetres off
+
+
 @pytest.mark.parametrize("mode", ["tension", "tension_delta", "length_delta"])
 def test_feedback_converges_on_the_analytic_backend_in_every_action_mode(mode):
     env = gym.make(ENV_ID, action_mode=mode, initial_state="random")
