@@ -4,13 +4,15 @@ Usage::
 
     python -m training.oracle_feedback [--backend Bullet CCKA] [--task reach pose track obstacle]
                                        [--episodes 100] [--seed 1000000] [--gain 0.08]
-                                       [--no-gravity] [--out docs/figures/tasks]
+                                       [--no-gravity] [--modes open closed]
+                                       [--out docs/figures/tasks]
 
 For every backend and task it runs the task's oracle (``cdcr_gym.controllers``: reach IK on
 Reach, tracking IK on Track, pose IK on Pose, the RRT-Connect planner on Obstacle) twice on the
 same episodes — reset seeds ``seed + i``, so the same goals, paths and scenes — once open loop
 (``feedback=False``: the model's solution commanded as is) and once closed loop
-(``feedback=True``: resolved-rate correction from the measured tip, ``gain`` per step). Robots:
+(``feedback=True``: resolved-rate correction from the measured tip, ``gain`` per step;
+``--modes`` runs only one of the two). Robots:
 each id's default (Reach, Track, Obstacle: the paper robot; Pose: tdcr2). Physics backends run
 with gravity on unless ``--no-gravity``. Every episode is the env's full 100 steps from the
 straight start.
@@ -117,8 +119,10 @@ def run_study(
     seed: int = 1_000_000,
     gain: float | None = None,
     gravity: bool = True,
+    modes: tuple[str, ...] = ("open", "closed"),
 ) -> list[dict[str, Any]]:
-    """One result row per (backend, task, open/closed loop), on the same episodes."""
+    """One result row per (backend, task, mode in ``modes``: "open" and/or "closed" loop), on
+    the same episodes."""
     import gymnasium as gym
 
     import cdcr_gym  # noqa: F401  (registers the ids)
@@ -136,7 +140,7 @@ def run_study(
             env = gym.make(env_id, **kwargs)
             params = env.unwrapped.params  # type: ignore[attr-defined]
             robot = "tdcr2" if params.n_sections == 2 else "paper"
-            for feedback in (False, True):
+            for feedback in [m == "closed" for m in modes]:
                 policy = _controller(env, task, feedback, gain)
                 t0 = time.perf_counter()
                 metrics = run_episodes(env, policy, episodes, seed)
@@ -212,6 +216,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--no-gravity", action="store_true", help="physics backends without gravity"
     )
+    parser.add_argument(
+        "--modes", nargs="+", default=["open", "closed"], choices=["open", "closed"]
+    )
     parser.add_argument("--out", type=Path, default=Path("docs/figures/tasks"))
     args = parser.parse_args(argv)
     from gymnasium import error as gym_error
@@ -220,7 +227,13 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"--episodes must be >= 1, got {args.episodes}")
     try:
         results = run_study(
-            args.backend, args.task, args.episodes, args.seed, args.gain, not args.no_gravity
+            args.backend,
+            args.task,
+            args.episodes,
+            args.seed,
+            args.gain,
+            not args.no_gravity,
+            tuple(args.modes),
         )
     except (ValueError, gym_error.Error) as exc:
         print(f"error: {exc}", file=sys.stderr)
