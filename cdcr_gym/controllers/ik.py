@@ -27,10 +27,12 @@ observation by field name through the env's ``ObservationSpec`` and runs in one 
   only change how many steps it takes.
 
   Far from the goal *on the model* — a model feature error |f(w) − goal| above
-  ``ANCHOR_FRACTION``·ℓ = 0.75ℓ, more than the model–physics mismatch — ``w_cmd`` is blended
-  towards the model's IK solution of the goal (fully at 1.5ℓ): from a straight start the local
-  law alone settles in a wrong branch of a redundant robot (tdcr2 poses: 75 % success on bullet
-  without the blend, 100 % with it, 20 episodes), and the model's global IK knows the branch.
+  ``ANCHOR_FRACTION``·ℓ = ℓ (ℓ the robot's length), more than the model–physics mismatch at the
+  solution (≤ 0.69ℓ on bullet tdcr2 with gravity) — ``w_cmd`` is blended towards the model's
+  IK solution of the goal (fully at 2ℓ); below, the law is pure feedback and its fixed point
+  unchanged. From a straight start the local law alone settles in a wrong branch of a redundant
+  robot (tdcr2 poses: 75 % success on bullet without the blend, 100 % with it, 20 episodes),
+  and the model's global IK knows the branch.
 
   ``gain`` is a pure integrator's gain per control step. The physics robot responds with a lag
   (≈ 0.3 s to settle on the paper robot at the 0.02 s control step) and overshoots, which bounds
@@ -61,7 +63,7 @@ __all__ = ["AnalyticIKController", "FEEDBACK_GAIN"]
 FEEDBACK_GAIN = 0.08
 #: Beyond ANCHOR_FRACTION·ℓ of feature error the closed loop blends towards the model's IK solution
 #: (fully at twice that); below, it is pure feedback.
-ANCHOR_FRACTION = 0.75
+ANCHOR_FRACTION = 1.0
 _JACOBIAN_STEP = 1e-6  # rad, central differences of the model features in w
 _DAMPING = 1e-6  # λ of the damped least squares, relative to the mean of diag(JᵀJ)
 
