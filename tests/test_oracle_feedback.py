@@ -17,7 +17,7 @@ def test_study_writes_json_and_table(tmp_path):
     open_loop, closed_loop = rows
     assert closed_loop["within_5mm"] == 1.0
     assert closed_loop["final_distance_mm"]["max"] < open_loop["final_distance_mm"]["max"]
-    table = (tmp_path / "oracle_feedback_Bullet.md").read_text()
+    table = (tmp_path / "oracle_feedback_Bullet_table.txt").read_text()
     assert payload["command"] in table and "| closed loop |" in table
 
 

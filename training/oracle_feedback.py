@@ -22,8 +22,8 @@ needs 5°, Obstacle no collision in the episode), the fraction of episodes whose
 within 5 mm of the goal, the final distance (median, p95, max, mm), and per task the final angle
 (Pose), the tracking RMS over the steps after the settling window (Track) and the collision rate
 and smallest clearance (Obstacle). It writes ``OUT/oracle_feedback_<backends>.json`` (every
-number, the command, the environment arguments) and ``OUT/oracle_feedback_<backends>.md`` (the
-table) and prints the table.
+number, the command, the environment arguments) and ``OUT/oracle_feedback_<backends>_table.txt``
+(the command and the Markdown table) and prints the table.
 """
 
 from __future__ import annotations
@@ -246,7 +246,8 @@ def main(argv: list[str] | None = None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     payload = {"command": command, "results": results}
     (args.out / f"{stem}.json").write_text(json.dumps(payload, indent=2) + "\n")
-    (args.out / f"{stem}.md").write_text(f"Command: `{command}`\n\n{table}")
+    # .txt, not .md: under docs/ a .md file would be a (navless) page of the mkdocs site
+    (args.out / f"{stem}_table.txt").write_text(f"Command: `{command}`\n\n{table}")
     print(table)
     return 0
 
