@@ -34,13 +34,14 @@ observation by field name through the env's ``ObservationSpec`` and runs in one 
   robot (tdcr2 poses: 75 % success on bullet without the blend, 100 % with it, 20 episodes),
   and the model's global IK knows the branch.
 
-  ``gain`` is a pure integrator's gain per control step. The physics robot responds with a lag
-  (≈ 0.3 s to settle on the paper robot at the 0.02 s control step) and overshoots, which bounds
-  it: on bullet with gravity 0.05 converges without overshoot but slowly (Track: still 30 mm off
-  after the 25-step settling window), 0.08 (the default) reaches Reach goals to < 0.02 mm and
-  tracks the moving target to ≈ 2 mm RMS, 0.1 rings and 0.2 oscillates through most of an
-  episode (``docs/tasks.md``). On the quasi-static analytic backend the same law converges
-  geometrically (1 − gain per step); there the open-loop mode is exact.
+  ``gain`` is a pure integrator's gain per control step. The physics robot answers a step
+  command in ≈ 0.3 s (15 steps of 0.02 s, paper robot on bullet), overshoots and settles by
+  ≈ 0.6 s, which bounds it. On bullet with gravity (gain sweep in ``docs/tasks.md``): 0.05
+  converges without overshoot but slowly (Track: the approach is not over when the 25-step
+  settling window ends), 0.08 (the default) reaches Reach goals to < 0.02 mm and Pose goals to
+  < 0.5 mm, 0.12 rings and 0.2 oscillates through much of an episode. On the quasi-static
+  analytic backend the same law converges geometrically (1 − gain per step); there the
+  open-loop mode is exact.
 """
 
 from __future__ import annotations
