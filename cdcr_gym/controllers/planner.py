@@ -11,7 +11,14 @@ generator of a plan is seeded from the scene, so the controller is deterministic
 
 **Tracking**: in ``tension_delta`` mode the action moves the held tensions straight towards the
 next waypoint (scaled so the largest entry is ±1, as the reach IK controller does), so the
-robot follows exactly the checked segments on the model. On another backend it is open loop.
+robot follows exactly the checked segments on the model. On another backend this is open loop.
+
+**Closed loop** (``feedback=True``): the plan is followed as above up to its last waypoint (the
+model's IK tensions of the goal); from there the reach IK controller's closed-loop law
+(:mod:`cdcr_gym.controllers.ik`: resolved-rate correction from the measured tip) takes the tip
+onto the goal. The correction is not collision-checked: it moves the tip from where the open-loop
+plan ends (centimetres off on the physics robot) to the goal, whose shape the scenes keep
+clear of every sphere.
 """
 
 from __future__ import annotations
@@ -22,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from cdcr_gym import validation
+from cdcr_gym.controllers.ik import FEEDBACK_GAIN, AnalyticIKController
 from cdcr_gym.envs.observation import ObservationSpec
 from cdcr_gym.model.ik import solve_ik
 from cdcr_gym.model.params import RobotParams
@@ -127,6 +135,9 @@ class ObstaclePlanner:
         resolution: spacing of the edge checks (unit tension box, L∞).
         iterations: most RRT-Connect extension rounds.
         seed: base seed of the plans' generators.
+        feedback: False: open loop; True: closed loop on the measured tip once the plan's last
+            waypoint is commanded (module docstring).
+        gain: integrator gain per control step of the closed loop, in (0, 1].
     """
 
     def __init__(
@@ -139,6 +150,8 @@ class ObstaclePlanner:
         resolution: float = 0.005,
         iterations: int = 2000,
         seed: int = 0,
+        feedback: bool = False,
+        gain: float = FEEDBACK_GAIN,
     ) -> None:
         self.params = params
         self.spec = spec
@@ -148,9 +161,16 @@ class ObstaclePlanner:
         self.resolution = validation.positive(resolution, "resolution")
         self.iterations = validation.integer(iterations, "iterations", 1)
         self.seed = validation.integer(seed, "seed", 0)
+        self.feedback = validation.flag(feedback, "feedback")
+        self.gain = validation.positive(gain, "gain", upper=1.0)
+        #: the closed-loop reach law used after the plan (feedback mode)
+        self.reach = AnalyticIKController(
+            params, spec, "tension_delta", self.tension_step, feedback=True, gain=self.gain
+        )
         self._model = cached_model(params)
         self._plans: dict[bytes, list[np.ndarray]] = {}
         self._progress: dict[bytes, int] = {}
+        self._closing: dict[bytes, bool] = {}
         #: whether the last plan made was found (False: the direct route is commanded)
         self.last_plan_found = True
 
@@ -163,6 +183,11 @@ class ObstaclePlanner:
                 f"ObstaclePlanner needs action_mode='tension_delta', got {env.action_mode!r}"
             )
         return cls(env.params, env.observation_spec, env.tension_step, **kwargs)
+
+    @property
+    def mode(self) -> str:
+        """``"closed_loop"`` or ``"open_loop"`` (the label of this planner's results)."""
+        return "closed_loop" if self.feedback else "open_loop"
 
     def free(self, unit: np.ndarray, spheres: np.ndarray) -> np.ndarray:
         """(M,) bool: configurations ``unit`` (M, C) (tensions / max_tension) keep ``margin``
@@ -208,15 +233,22 @@ class ObstaclePlanner:
             if len(self._plans) > 1024:
                 self._plans.clear()
                 self._progress.clear()
+                self._closing.clear()
             self._plans[key] = self.plan(unit * self.params.max_tension, goal, spheres)
             self._progress[key] = 1
         path = self._plans[key]
         k = self._progress[key]
         if np.max(np.abs(path[0] - unit)) < 1e-5:  # at the start: a (new) episode on this scene
             k = 1
+            self._closing[key] = False
         while k < len(path) - 1 and np.max(np.abs(path[k] - unit)) < 1e-5:
             k += 1
         self._progress[key] = k
+        if self.feedback:
+            if k == len(path) - 1 and np.max(np.abs(path[k] - unit)) < 1e-5:
+                self._closing[key] = True
+            if self._closing.get(key, False):
+                return self.reach.action(obs[None])[0].astype(np.float64)
         action = (path[k] - unit) / self.tension_step
         return action / max(1.0, float(np.max(np.abs(action))))
 
