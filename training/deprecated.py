@@ -47,6 +47,7 @@ MOVED: dict[str, tuple[str, str]] = {
     "training.reproduce.report": ("training.studies.reproduce.report", ""),
     "training.calibrate": ("training.studies.calibrate", "calibrate"),
     "training.bench_physics": ("training.studies.bench_physics", "bench-physics"),
+    "training.oracle_feedback": ("training.evaluate.oracle_feedback", "oracle-feedback"),
 }
 
 

@@ -52,11 +52,11 @@ import numpy as np
 
 from cdcr_gym import validation
 from cdcr_gym.envs.actuation import ACTION_MODES
-from cdcr_gym.envs.observation import ObservationSpec
 from cdcr_gym.model.chain import PCCModel
 from cdcr_gym.model.ik import solve_ik
 from cdcr_gym.model.params import RobotParams
 from cdcr_gym.model.statics import minimal_tensions, reachable_scale
+from cdcr_gym.tasks.observation import ObservationSpec
 
 __all__ = ["AnalyticIKController", "FEEDBACK_GAIN"]
 

@@ -30,11 +30,11 @@ import numpy as np
 
 from cdcr_gym import validation
 from cdcr_gym.controllers.ik import FEEDBACK_GAIN, AnalyticIKController
-from cdcr_gym.envs.observation import ObservationSpec
 from cdcr_gym.model.ik import solve_ik
 from cdcr_gym.model.params import RobotParams
 from cdcr_gym.model.statics import cached_model
 from cdcr_gym.tasks.collision import clearance, model_geometry
+from cdcr_gym.tasks.observation import ObservationSpec
 
 __all__ = ["ObstaclePlanner", "rrt_connect"]
 

@@ -28,9 +28,9 @@ import numpy as np
 
 from cdcr_gym import validation
 from cdcr_gym.controllers.ik import FEEDBACK_GAIN, AnalyticIKController
-from cdcr_gym.envs.observation import ObservationSpec
 from cdcr_gym.model.ik import solve_pose_ik
 from cdcr_gym.model.params import RobotParams
+from cdcr_gym.tasks.observation import ObservationSpec
 
 __all__ = ["TrackingIKController", "PoseIKController"]
 
