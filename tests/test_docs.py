@@ -73,3 +73,13 @@ def test_bullet_backend_documented_defaults_match_the_signature(name):
     stated = next(g for g in match.groups() if g is not None)
     stated = re.sub(r"\s*s$", "", stated.strip())  # drop a unit
     assert _literal(stated) == inspect.signature(BulletBackend.__init__).parameters[name].default
+
+
+@pytest.mark.parametrize("owner", [CDCREnv, Reach])
+def test_docstring_tables_have_no_continuation_rows(owner):
+    """Markdown tables have no multi-line rows: a row with an empty first cell renders as a row
+    of its own (the docs page showed such split rows)."""
+    doc = inspect.getdoc(owner)
+    rows = [line.strip() for line in doc.splitlines() if line.strip().startswith("|")]
+    split = [row for row in rows if re.match(r"^\|\s+\|", row)]
+    assert not split, split

@@ -41,9 +41,7 @@ class CDCREnv(gym.Env):
     |-------------------|----------------------------------------------------------------------|
     | ``tension``       | T_i = max_tension·(a_i + 1)/2 (N), absolute                          |
     | ``tension_delta`` | T_i ← clip(T_i + a_i·tension_step·max_tension, 0, max_tension) (N)   |
-    | ``length_delta``  | l_i ← l_i + a_i·length_step (m), projected onto the lengths of an    |
-    |                   | inextensible PCC shape, then scaled into the tension-reachable set.  |
-    |                   | Backends with length control only (the analytic one).                |
+    | ``length_delta`` | l_i ← l_i + a_i·length_step (m), projected onto the lengths of an inextensible PCC shape, then scaled into the tension-reachable set. Backends with length control only (the analytic one). |
 
     ## Observation Space
     A flat ``Box(float32)`` whose fields the task declares (an ``ObservationSpec``:
@@ -97,10 +95,8 @@ class CDCREnv(gym.Env):
     | ``render_mode``        | None              | ``rgb_array`` or ``human``                       |
     | ``render_width``       | 480               | image width (px)                                 |
     | ``render_height``      | 480               | image height (px)                                |
-    | ``randomize``          | None              | per-episode parameter ranges (domain              |
-    |                        |                   | randomisation, ``cdcr_gym.randomization``)        |
-    | ``imperfections``      | None              | sensor noise/bias, action delay, tension rate     |
-    |                        |                   | limit, actuator noise (``cdcr_gym.randomization``)|
+    | ``randomize`` | None | per-episode parameter ranges (domain randomisation, ``cdcr_gym.randomization``) |
+    | ``imperfections`` | None | sensor noise/bias, action delay, tension rate limit, actuator noise (``cdcr_gym.randomization``) |
 
     ## Version History
     * v0: initial release (one-section reach); the n-section core keeps its layout and results.
