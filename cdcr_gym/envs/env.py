@@ -191,7 +191,7 @@ class CDCREnv(gym.Env):
         return obs, info
 
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
-        self.core.step(validation.clipped_action(action, self._action_shape)[None])
+        self.core.step(np.array([validation.clipped_action_values(action, self._action_shape)]))
         obs, reward, terminated, info = self._observe()
         if self.render_mode == "human":
             self.render()

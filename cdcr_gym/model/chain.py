@@ -103,6 +103,8 @@ class PCCModel:
         self.bending_to_lengths = np.ascontiguousarray(b.reshape(C, 2 * S).T)
         self.straight_lengths = through.astype(np.float64) @ self.section_lengths
         self.lengths_to_bending = self._sequential_least_squares()
+        self._lengths_map = self.bending_to_lengths.T  # (C, 2S) of forward_rows
+        self._straight_column = self.straight_lengths[:, None]
         self._section_length_list = self.section_lengths.tolist()
         self._tiled: dict[int, np.ndarray] = {}
         self.disk_fractions = tuple(
@@ -266,8 +268,11 @@ class PCCModel:
         """
         m = comp.shape[1]
         tip, direction = self._kinematics(comp)
-        lengths = self.bending_to_lengths.T @ comp
-        lengths += self.straight_lengths[:, None]
+        lengths = self._lengths_map @ comp
+        lengths += self._straight_column
+        if m == 1:  # Python floats: one array for both
+            both = np.array(tip + direction).reshape(2, 3, 1)
+            return both[0], both[1], lengths
         return np.array(tip).reshape(3, m), np.array(direction).reshape(3, m), lengths
 
     def section_frames(self, w) -> np.ndarray:

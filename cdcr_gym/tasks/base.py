@@ -78,6 +78,7 @@ class RobotStateScale:
         self.inv_length_span = 1.0 / (np.pi * np.asarray(params.cable_radii) * (sections + 1))
         self.run_lengths_list = self.run_lengths.tolist()
         self.inv_span_list = self.inv_length_span.tolist()
+        self.length_lists = (self.run_lengths_list, self.inv_span_list)
         self.inv_length_span_col = self.inv_length_span[:, None]  # (C, 1): per field row
         self.run_lengths_col = self.run_lengths[:, None]
 
@@ -85,7 +86,7 @@ class RobotStateScale:
 def columns(values: np.ndarray, numbers: bool) -> list[Any]:
     """The m columns of an (N, m) array: m Python floats if ``numbers`` (N = 1), else m (N,)
     row views."""
-    return values[0].tolist() if numbers else list(values.T)
+    return values.tolist()[0] if numbers else list(values.T)
 
 
 def robot_state_values(
@@ -95,15 +96,21 @@ def robot_state_values(
     inv_t = scale.inv_max_tension
     return {
         "tensions": [t * inv_t for t in columns(readings.tensions, numbers)],
-        "cable_lengths": [
-            (length - run) * inv
-            for length, run, inv in zip(
-                columns(readings.cable_lengths, numbers),
-                scale.run_lengths_list,
-                scale.inv_span_list,
-            )
-        ],
+        "cable_lengths": list(
+            map(_normalised, columns(readings.cable_lengths, numbers), *scale.length_lists)
+        ),
     }
+
+
+def _normalised(length: Any, run: float, inv: float) -> Any:
+    return (length - run) * inv
+
+
+def _index(rows: np.ndarray) -> slice | np.ndarray:
+    """``rows`` (sorted indices) as a slice when consecutive (basic indexing is faster)."""
+    if rows.size and np.array_equal(rows, np.arange(rows[0], rows[0] + rows.size)):
+        return slice(int(rows[0]), int(rows[0]) + rows.size)
+    return rows
 
 
 def fill_robot_state(
@@ -275,8 +282,10 @@ class GoalTask(Task):
             gc: tuple(n for n in spec.names if n in common) for gc, spec in self._specs.items()
         }
         self._common_rows = {
-            gc: np.concatenate(
-                [np.arange(spec.slices[n].start, spec.slices[n].stop) for n in self._common[gc]]
+            gc: _index(
+                np.concatenate(
+                    [np.arange(spec.slices[n].start, spec.slices[n].stop) for n in self._common[gc]]
+                )
             )
             for gc, spec in self._specs.items()
         }
@@ -312,8 +321,10 @@ class GoalTask(Task):
         s = self._slices[goal_conditioned]
         if out.shape[1] == 1:
             # one env: the position block and the robot state on Python floats, written at once
-            values = self.common_values(readings, goal_conditioned)
-            out[self._common_rows[goal_conditioned], 0] = values
+            # (a float64 array is written ~5x faster than a list of Python floats)
+            out[self._common_rows[goal_conditioned], 0] = np.array(
+                self.common_values(readings, goal_conditioned)
+            )
         else:
             self.fill_position(out, s, readings, goal_conditioned)
             fill_robot_state(out, s["tensions"], s["cable_lengths"], readings, self._scale)
@@ -323,16 +334,18 @@ class GoalTask(Task):
         """One env's position block and robot state (the fields of :meth:`position_fields` and
         :func:`robot_state_fields`, in observation order) as Python floats: the arithmetic of
         :meth:`fill_position` and :func:`fill_robot_state`, for one env."""
-        tip = readings.tip[0].tolist()
+        tip = readings.tip.tolist()[0]
         values = robot_state_values(readings, self._scale, True)
         values["tip"] = tip
         if not goal_conditioned:
-            goal = self.goal[0].tolist()
-            error = [g - t for g, t in zip(goal, tip)]
+            g0, g1, g2 = goal = self.goal_rows[:, 0].tolist()
+            t0, t1, t2 = tip
+            e0, e1, e2 = error = [g0 - t0, g1 - t1, g2 - t2]
             inv = 1.0 / ERROR_SCALE
+            tanh = math.tanh
             values[self.goal_name] = goal
             values["error"] = error
-            values["error_tanh"] = [math.tanh(e * inv) for e in error]
+            values["error_tanh"] = [tanh(e0 * inv), tanh(e1 * inv), tanh(e2 * inv)]
         return list(chain.from_iterable(map(values.__getitem__, self._common[goal_conditioned])))
 
     def fill_position(
@@ -362,7 +375,7 @@ class GoalTask(Task):
     def distance(self, readings: Readings) -> np.ndarray:
         """(N,) distance (m) from the tip to the goal (:func:`goal_distance`)."""
         if self.num_envs == 1:
-            tip, goal = readings.tip[0].tolist(), self.goal[0].tolist()
+            tip, goal = readings.tip.tolist()[0], self.goal_rows[:, 0].tolist()
             return np.array([_distance(tip, goal, math.sqrt)])
         return goal_distance(readings.tip, self.goal)
 
@@ -380,7 +393,10 @@ class GoalTask(Task):
 
     def evaluate(self, readings: Readings) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
         distance = self.distance(readings)
-        success = distance <= self.distance_threshold
+        if self.num_envs == 1:  # comparing a Python float is ~3x faster than a numpy call
+            success = np.array([distance.item() <= self.distance_threshold])
+        else:
+            success = distance <= self.distance_threshold
         info = {"distance": distance, "is_success": success, self.goal_name: self.goal.copy()}
         return self.reward_from_distance(distance), success, info
 
