@@ -54,11 +54,8 @@ class Actuation:
         self.max_tension = float(params.max_tension)
         self._tension_increment = self.tension_step * self.max_tension
         self._model = PCCModel(params)
-
-    @property
-    def commands_lengths(self) -> bool:
-        """Whether the commands are cable lengths (else tensions)."""
-        return self.mode == "length_delta"
+        #: Whether the commands are cable lengths (else tensions).
+        self.commands_lengths = self.mode == "length_delta"
 
     def tensions(self, action: np.ndarray, held: np.ndarray) -> np.ndarray:
         """Tensions (N, C) N commanded by clipped ``action`` (N, C) given the ``held`` ones."""

@@ -139,6 +139,7 @@ class EnvCore:
         self._rngs: list[np.random.Generator | None] = [None] * n
         box = self.spec.box()
         self._obs_bounds = (box.low[:, None], box.high[:, None])
+        self._buffer_shape = (self.spec.size, n)
 
     def _draw_episode(self, idx: np.ndarray, rngs: list[np.random.Generator]) -> None:
         """Episode draws of envs ``idx``: randomised parameters (given to the backend), then
@@ -293,7 +294,7 @@ class EnvCore:
         """
         r = self._readings
         task = self.task
-        buffer = np.empty((self.spec.size, self.num_envs), dtype=np.float32)
+        buffer = np.empty(self._buffer_shape, dtype=np.float32)
         imp = self.imperfections
         if imp is None:
             task.observe(r, buffer, self.goal_conditioned)
@@ -318,6 +319,7 @@ class EnvCore:
         info["cable_lengths"] = r.cable_lengths
         if r.anchor_tensions is not None:  # a backend with cable friction
             info["anchor_tensions"] = r.anchor_tensions
-        for name, values in self.randomized.items():
-            info[INFO_PREFIX + name] = values.copy()
+        if self.randomized:
+            for name, values in self.randomized.items():
+                info[INFO_PREFIX + name] = values.copy()
         return obs, reward, success, info

@@ -94,11 +94,13 @@ def robot_state_values(
 ) -> dict[str, list[Any]]:
     """The ``tensions`` and ``cable_lengths`` fields of ``readings``, as :func:`columns`."""
     inv_t = scale.inv_max_tension
+    if numbers:  # (columns() inlined: this runs every step of the single env)
+        tensions, lengths = readings.tensions.tolist()[0], readings.cable_lengths.tolist()[0]
+    else:
+        tensions, lengths = list(readings.tensions.T), list(readings.cable_lengths.T)
     return {
-        "tensions": [t * inv_t for t in columns(readings.tensions, numbers)],
-        "cable_lengths": list(
-            map(_normalised, columns(readings.cable_lengths, numbers), *scale.length_lists)
-        ),
+        "tensions": [t * inv_t for t in tensions],
+        "cable_lengths": list(map(_normalised, lengths, *scale.length_lists)),
     }
 
 
@@ -150,7 +152,8 @@ def goal_distance(achieved_goal: np.ndarray, desired_goal: np.ndarray) -> np.nda
 def one_env_info(info: dict[str, np.ndarray]) -> dict[str, Any]:
     """Env 0's entries of a batched ``info`` (N = 1): a Python scalar for an (1,) entry, else
     the env's row (a view)."""
-    return {key: value.item() if value.shape == (1,) else value[0] for key, value in info.items()}
+    # N = 1: a 1-D entry is an (N,) = (1,) one
+    return {key: value.item() if value.ndim == 1 else value[0] for key, value in info.items()}
 
 
 class Task(abc.ABC):
@@ -229,8 +232,8 @@ class Task(abc.ABC):
     def terminal(self) -> np.ndarray:
         """(N,) bool: envs whose episode the task ends now (e.g. on a collision); default none.
         Read-only (callers combine it into their own arrays)."""
-        none = getattr(self, "_never_terminal", None)
-        if none is None or none.shape != (self.num_envs,):
+        none = self.__dict__.get("_never_terminal")
+        if none is None or none.size != self.num_envs:
             none = self._never_terminal = np.zeros(self.num_envs, dtype=bool)
             none.flags.writeable = False
         return none
@@ -375,13 +378,16 @@ class GoalTask(Task):
     def distance(self, readings: Readings) -> np.ndarray:
         """(N,) distance (m) from the tip to the goal (:func:`goal_distance`)."""
         if self.num_envs == 1:
-            tip, goal = readings.tip.tolist()[0], self.goal_rows[:, 0].tolist()
-            return np.array([_distance(tip, goal, math.sqrt)])
+            return np.array([self._distance_value(readings)])
         return goal_distance(readings.tip, self.goal)
 
-    def reward_from_distance(self, distance: np.ndarray) -> np.ndarray:
+    def _distance_value(self, readings: Readings) -> float:
+        """One env's :meth:`distance` as a Python float (the same bits)."""
+        return _distance(readings.tip.tolist()[0], self.goal_rows[:, 0].tolist(), math.sqrt)
+
+    def reward_from_distance(self, distance: Any) -> Any:
         """``"dense"``: −distance (m); ``"sparse"``: −1 while distance > distance_threshold,
-        else 0."""
+        else 0. Elementwise: (N,) arrays, or a Python float for one env."""
         if self.reward_type == "dense":
             return -distance
         return -((distance > self.distance_threshold) * 1.0)
@@ -392,13 +398,17 @@ class GoalTask(Task):
         return self.reward_from_distance(goal_distance(achieved_goal, desired_goal))
 
     def evaluate(self, readings: Readings) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
-        distance = self.distance(readings)
-        if self.num_envs == 1:  # comparing a Python float is ~3x faster than a numpy call
-            success = np.array([distance.item() <= self.distance_threshold])
+        if self.num_envs == 1:  # on a Python float (numpy calls cost more at one number)
+            d = self._distance_value(readings)
+            distance = np.array([d])
+            success = np.array([d <= self.distance_threshold])
+            reward = np.array([self.reward_from_distance(d)])
         else:
+            distance = goal_distance(readings.tip, self.goal)
             success = distance <= self.distance_threshold
+            reward = self.reward_from_distance(distance)
         info = {"distance": distance, "is_success": success, self.goal_name: self.goal.copy()}
-        return self.reward_from_distance(distance), success, info
+        return reward, success, info
 
     def info_keys(self) -> tuple[str, ...]:
         return ("distance", "is_success", self.goal_name)
