@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import abc
 import math
-from itertools import chain
 from typing import Any
 
 import numpy as np
@@ -211,6 +210,14 @@ class Task(abc.ABC):
     def evaluate(self, readings: Readings) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
         """(reward (N,), success (N,) bool, task info entries of (N, ...) arrays)."""
 
+    def evaluate_single(self, readings: Readings) -> tuple[float, bool, dict[str, Any]]:
+        """:meth:`evaluate` for the single env (N = 1): (reward float, success bool, info with
+        Python scalars for per-env numbers and env 0's rows for per-env arrays). Default: env 0
+        of :meth:`evaluate`; a task may compute it directly (:class:`GoalTask`), with the same
+        arithmetic (the same bits)."""
+        reward, success, info = self.evaluate(readings)
+        return float(reward[0]), bool(success[0]), one_env_info(info)
+
     def compute_reward(
         self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any = None
     ) -> np.ndarray:
@@ -349,7 +356,10 @@ class GoalTask(Task):
             values[self.goal_name] = goal
             values["error"] = error
             values["error_tanh"] = [tanh(e0 * inv), tanh(e1 * inv), tanh(e2 * inv)]
-        return list(chain.from_iterable(map(values.__getitem__, self._common[goal_conditioned])))
+        out: list[float] = []
+        for name in self._common[goal_conditioned]:  # (2x faster than itertools.chain here)
+            out += values[name]
+        return out
 
     def fill_position(
         self, out: np.ndarray, s: dict[str, slice], readings: Readings, goal_conditioned: bool
@@ -409,6 +419,15 @@ class GoalTask(Task):
             reward = self.reward_from_distance(distance)
         info = {"distance": distance, "is_success": success, self.goal_name: self.goal.copy()}
         return reward, success, info
+
+    def evaluate_single(self, readings: Readings) -> tuple[float, bool, dict[str, Any]]:
+        if type(self).evaluate is not GoalTask.evaluate:  # a subclass's own evaluate: its info
+            return super().evaluate_single(readings)
+        # :meth:`evaluate`'s arithmetic on Python floats, without the (1,) arrays
+        d = self._distance_value(readings)
+        success = d <= self.distance_threshold
+        info = {"distance": d, "is_success": success, self.goal_name: self.goal_rows[:, 0].copy()}
+        return self.reward_from_distance(d), success, info
 
     def info_keys(self) -> tuple[str, ...]:
         return ("distance", "is_success", self.goal_name)
