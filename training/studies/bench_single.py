@@ -6,6 +6,7 @@ Usage::
 
     python -m training.studies.bench_single [--rounds 9] [--steps 4000]
     python -m training.studies.bench_single --against /tmp/base --rounds 5 [--batched 64 16384]
+        [--batched-repeats 3]
 
 ``--against CHECKOUT`` alternates this checkout and another one (imported from its directory)
 in subprocesses, round by round, and prints the medians of both and of their per-round ratios:
@@ -78,10 +79,14 @@ def single_ratio(rounds: int = 9, steps: int = 4000) -> dict[str, float]:
     }
 
 
-def batched_rates(sizes: list[int], steps: int = 100, repeats: int = 3) -> dict[str, float]:
+def batched_rates(sizes: list[int], repeats: int = 3) -> dict[str, float]:
     """Median env-steps/s of the batched reach env at each size (results kept until the next
-    step, as a training loop keeps them; ``steps`` >= 100 includes every env's autoreset)."""
+    step, as a training loop keeps them; max(100, 131 072 / size) steps per repeat: every env's
+    autoreset, and at least ~0.1 s at small sizes), and
+    the median of its ratio to Pendulum-v1's env-steps/s timed right after each repeat
+    (``batched_N_per_pendulum``: comparable across runs on a machine whose load changes)."""
     out: dict[str, float] = {}
+    pend = _stepper("Pendulum-v1")
     for n in sizes:
         env = gym.make_vec(SINGLE_ID, num_envs=n, vectorization_mode="vector_entry_point")
         env.reset(seed=0)
@@ -90,24 +95,27 @@ def batched_rates(sizes: list[int], steps: int = 100, repeats: int = 3) -> dict[
         res = None
         for i in range(10):
             res = env.step(actions[i % 8])
-        rates = []
+        rates, ratios = [], []
+        steps = max(100, 131072 // n)
         for _ in range(repeats):
             start = time.perf_counter()
             for i in range(steps):
                 res = env.step(actions[i % 8])
             rates.append(n * steps / (time.perf_counter() - start))
+            ratios.append(rates[-1] / pend(2000))
         del res
         env.close()
         out[f"batched_{n}"] = statistics.median(rates)
+        out[f"batched_{n}_per_pendulum"] = statistics.median(ratios)
     return out
 
 
-def _alternate(baseline: str, rounds: int, sizes: list[int], steps: int) -> None:
+def _alternate(baseline: str, rounds: int, sizes: list[int], steps: int, repeats: int) -> None:
     here = str(Path(__file__).resolve().parents[2])
     runs: dict[str, list[dict[str, float]]] = {"baseline": [], "this": []}
     args = ["--json", "--rounds", "3", "--steps", str(steps)]
     if sizes:
-        args += ["--batched", *map(str, sizes)]
+        args += ["--batched", *map(str, sizes), "--batched-repeats", str(repeats)]
     for k in range(rounds):
         order = (("baseline", baseline), ("this", here))
         for label, root in order if k % 2 == 0 else order[::-1]:
@@ -141,7 +149,11 @@ def _line(r: dict[str, float]) -> str:
         f"single {r['single'] / 1e3:.1f} k/s, Pendulum-v1 {r['pendulum'] / 1e3:.1f} k/s, "
         f"ratio {r['ratio']:.3f}"
     ]
-    parts += [f"{k} {v / 1e6:.3f} M/s" for k, v in r.items() if k.startswith("batched_")]
+    parts += [
+        f"{k} {v / 1e6:.3f} M/s" if k[-1].isdigit() else f"{k} {v:.1f}"
+        for k, v in r.items()
+        if k.startswith("batched_")
+    ]
     return "; ".join(parts)
 
 
@@ -150,14 +162,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--rounds", type=int, default=9, help="alternation rounds")
     parser.add_argument("--steps", type=int, default=4000, help="steps per env per round")
     parser.add_argument("--batched", type=int, nargs="*", default=[], help="batched sizes")
+    parser.add_argument("--batched-repeats", type=int, default=3, help="repeats per batched size")
     parser.add_argument("--against", metavar="CHECKOUT", help="alternate with this checkout")
     parser.add_argument("--json", action="store_true", help="print one JSON line")
     args = parser.parse_args(argv)
     if args.against:
-        _alternate(args.against, args.rounds, args.batched, args.steps)
+        _alternate(args.against, args.rounds, args.batched, args.steps, args.batched_repeats)
         return 0
     result = single_ratio(args.rounds, args.steps)
-    result.update(batched_rates(args.batched))
+    result.update(batched_rates(args.batched, repeats=args.batched_repeats))
     print(json.dumps(result) if args.json else _line(result), flush=True)
     return 0
 
