@@ -264,7 +264,7 @@ def test_validation():
 def test_sb3_adapter_matches_dummy_vec_env():
     from stable_baselines3.common.vec_env import DummyVecEnv
 
-    from training.sb3_vec import BatchedCCKAVecEnv
+    from training.run.sb3_vec import BatchedCCKAVecEnv
 
     n, states = 4, ["straight", "random"]
     kwargs = {"terminate_on_success": True, "distance_threshold": 0.25, "tension_step": 0.2}
@@ -309,7 +309,7 @@ def test_sb3_adapter_takes_shared_per_env_keys_and_rejects_varying_ones():
     envs, as in a DummyVecEnv of single envs with those kwargs; a key that differs is an error."""
     from stable_baselines3.common.vec_env import DummyVecEnv
 
-    from training.sb3_vec import BatchedCCKAVecEnv
+    from training.run.sb3_vec import BatchedCCKAVecEnv
 
     n, states = 4, ["straight", "random"]
     shared = {
@@ -344,7 +344,7 @@ def test_sb3_ppo_learns_with_the_adapter_and_her_relabels():
     from stable_baselines3 import PPO, SAC, HerReplayBuffer
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
-    from training.sb3_vec import BatchedCCKAVecEnv
+    from training.run.sb3_vec import BatchedCCKAVecEnv
 
     venv = VecNormalize(VecMonitor(BatchedCCKAVecEnv(4, seed=0, max_episode_steps=20)))
     model = PPO("MlpPolicy", venv, n_steps=32, batch_size=64, n_epochs=1, seed=0, device="cpu")
@@ -368,7 +368,7 @@ def test_sb3_ppo_learns_with_the_adapter_and_her_relabels():
 
 # -- the bench command (formatting only: timings are not asserted) ---------------------------
 def test_bench_table_and_checks_format():
-    from training import bench
+    from training.studies import bench
 
     rows = [
         {
@@ -449,7 +449,7 @@ def test_single_env_equals_batched_rows(robot, action_mode):
 
 def test_bench_env_share_check_is_an_upper_bound():
     """The PPO env-share target is met when the share is at most 10 %, not at least."""
-    from training import bench
+    from training.studies import bench
 
     def rows(share):
         return {"ppo_batched": {"key": "ppo_batched", "median": 1.0, "env_share": share}}
