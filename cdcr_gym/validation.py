@@ -129,7 +129,7 @@ def clipped_action_values(action: Any, shape: tuple[int, ...]) -> list[float]:
         and action.shape == shape
         and action.size <= 16
     ):
-        values = action.ravel().tolist()
+        values = action.tolist() if action.ndim == 1 else action.ravel().tolist()
         for x in values:
             if not math.isfinite(x):
                 raise ValueError(f"action must be finite, got {action!r}")

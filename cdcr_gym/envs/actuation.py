@@ -54,22 +54,33 @@ class Actuation:
         self.max_tension = float(params.max_tension)
         self._tension_increment = self.tension_step * self.max_tension
         self._model = PCCModel(params)
-
-    @property
-    def commands_lengths(self) -> bool:
-        """Whether the commands are cable lengths (else tensions)."""
-        return self.mode == "length_delta"
+        #: Whether the commands are cable lengths (else tensions).
+        self.commands_lengths = self.mode == "length_delta"
 
     def tensions(self, action: np.ndarray, held: np.ndarray) -> np.ndarray:
         """Tensions (N, C) N commanded by clipped ``action`` (N, C) given the ``held`` ones."""
+        t_max = self.max_tension
+        if action.shape[0] == 1:
+            # one env: the same operations on a few Python floats (cheaper than numpy calls),
+            # the same bits (np.maximum/np.minimum return their second argument on a tie)
+            if self.mode == "tension":
+                scale = t_max * 0.5
+                return np.array([[scale * (a + 1.0) for a in action.tolist()[0]]])
+            step = self._tension_increment
+            values = []
+            for h, a in zip(held.tolist()[0], action.tolist()[0]):
+                t = h + a * step
+                t = t if t > 0.0 else 0.0
+                values.append(t if t < t_max else t_max)
+            return np.array([values])
         if self.mode == "tension":
-            return self.max_tension * 0.5 * (action + 1.0)
+            return t_max * 0.5 * (action + 1.0)
         t = held + action * self._tension_increment
         if t.size > 64:
-            np.clip(t, 0.0, self.max_tension, out=t)  # one pass instead of two
+            np.clip(t, 0.0, t_max, out=t)  # one pass instead of two
         else:  # np.clip's Python wrapper costs more than two ufunc calls on a few numbers
             np.maximum(t, 0.0, out=t)
-            np.minimum(t, self.max_tension, out=t)
+            np.minimum(t, t_max, out=t)
         return t
 
     def lengths(self, action: np.ndarray, held: np.ndarray) -> np.ndarray:

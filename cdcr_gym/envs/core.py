@@ -30,7 +30,7 @@ from cdcr_gym.backends.base import Backend, Readings
 from cdcr_gym.envs.actuation import Actuation
 from cdcr_gym.model.workspace import sample_tensions_each
 from cdcr_gym.randomization import INFO_PREFIX, DomainRandomization, Imperfections
-from cdcr_gym.tasks.base import Task
+from cdcr_gym.tasks.base import Task, one_env_info
 
 __all__ = ["EnvCore", "INITIAL_STATES", "OPTION_KEYS"]
 
@@ -139,6 +139,7 @@ class EnvCore:
         self._rngs: list[np.random.Generator | None] = [None] * n
         box = self.spec.box()
         self._obs_bounds = (box.low[:, None], box.high[:, None])
+        self._buffer_shape = (self.spec.size, n)
 
     def _draw_episode(self, idx: np.ndarray, rngs: list[np.random.Generator]) -> None:
         """Episode draws of envs ``idx``: randomised parameters (given to the backend), then
@@ -270,9 +271,12 @@ class EnvCore:
         self._readings = self.backend.read()
         self.task.advance(self.backend, self._readings)
 
-    def terminated(self, success: np.ndarray) -> np.ndarray:
+    def terminated(self, success: Any) -> Any:
         """(N,) bool: the envs whose episode ends now: a success with ``terminate_on_success``,
-        or the task's own end (``Task.terminal``, e.g. a collision). A fresh array."""
+        or the task's own end (``Task.terminal``, e.g. a collision). A fresh array; for the
+        single env's ``success`` (a bool: :meth:`observe` with ``single``), a bool."""
+        if not isinstance(success, np.ndarray):
+            return bool(self.task.terminal()[0]) or (self.terminate_on_success and bool(success))
         if self.terminate_on_success:
             return success | self.task.terminal()
         return self.task.terminal().copy()
@@ -283,17 +287,21 @@ class EnvCore:
         return self._readings
 
     # -- outputs --------------------------------------------------------------------------------
-    def observe(self) -> tuple[Any, np.ndarray, np.ndarray, dict[str, Any]]:
+    def observe(self, single: bool = False) -> tuple[Any, Any, Any, dict[str, Any]]:
         """(observation, reward (N,), success (N,), info) of the current state, batched.
 
         The observation is an (N, size) float32 array (the transpose of a field-major buffer),
         or the Dict of (N, ·) float32 arrays.
         ``info`` holds the task's entries plus ``tip`` (N, 3) m, ``tensions`` (N, C) N and
         ``cable_lengths`` (N, C) m.
+
+        ``single`` (the single env, N = 1): env 0's outputs, built once: the observation (size,)
+        (or the Dict of (·,)), the reward a float, success a bool, ``info`` with Python scalars
+        for per-env numbers and env 0's rows (views) for per-env arrays.
         """
         r = self._readings
         task = self.task
-        buffer = np.empty((self.spec.size, self.num_envs), dtype=np.float32)
+        buffer = np.empty(self._buffer_shape, dtype=np.float32)
         imp = self.imperfections
         if imp is None:
             task.observe(r, buffer, self.goal_conditioned)
@@ -301,8 +309,19 @@ class EnvCore:
             task.observe(imp.sense(r, self._rngs), buffer, self.goal_conditioned)
             np.clip(buffer, self._obs_bounds[0], self._obs_bounds[1], out=buffer)
         flat = buffer.T  # (N, size), Fortran-ordered (like Gymnasium's CartPoleVectorEnv)
-        reward, success, info = task.evaluate(r)
         obs: Any
+        if single and not self.goal_conditioned:
+            value, ok, info = task.evaluate_single(r)
+            info["tip"] = r.tip[0]
+            info["tensions"] = r.tensions[0]
+            info["cable_lengths"] = r.cable_lengths[0]
+            if r.anchor_tensions is not None:
+                info["anchor_tensions"] = r.anchor_tensions[0]
+            if self.randomized:
+                for name, values in self.randomized.items():
+                    info[INFO_PREFIX + name] = values.item()
+            return flat[0], value, ok, info
+        reward, success, info = task.evaluate(r)
         if self.goal_conditioned:
             obs = {
                 "observation": flat,
@@ -318,6 +337,10 @@ class EnvCore:
         info["cable_lengths"] = r.cable_lengths
         if r.anchor_tensions is not None:  # a backend with cable friction
             info["anchor_tensions"] = r.anchor_tensions
-        for name, values in self.randomized.items():
-            info[INFO_PREFIX + name] = values.copy()
+        if self.randomized:
+            for name, values in self.randomized.items():
+                info[INFO_PREFIX + name] = values.copy()
+        if single:  # goal-conditioned: env 0 of the batch
+            obs = {key: value[0] for key, value in obs.items()}
+            return obs, float(reward[0]), bool(success[0]), one_env_info(info)
         return obs, reward, success, info

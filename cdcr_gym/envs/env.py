@@ -11,7 +11,7 @@ import numpy as np
 from cdcr_gym import defaults, validation
 from cdcr_gym.backends.base import Backend
 from cdcr_gym.envs.core import EnvCore
-from cdcr_gym.tasks.base import Task, one_env_info
+from cdcr_gym.tasks.base import Task
 from cdcr_gym.tasks.reach import Reach
 
 __all__ = ["CDCREnv", "GoalCDCREnv", "ReachEnv", "GoalReachEnv"]
@@ -187,7 +187,7 @@ class CDCREnv(gym.Env):
         return obs, info
 
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
-        self.core.step(validation.clipped_action(action, self._action_shape)[None])
+        self.core.step(np.array([validation.clipped_action_values(action, self._action_shape)]))
         obs, reward, terminated, info = self._observe()
         if self.render_mode == "human":
             self.render()
@@ -195,13 +195,8 @@ class CDCREnv(gym.Env):
 
     def _observe(self) -> tuple[Any, float, bool, dict[str, Any]]:
         """The core's outputs for its one env: (observation, reward, terminated, info)."""
-        obs, reward, success, info = self.core.observe()
-        if self.goal_conditioned:
-            obs = {key: value[0] for key, value in obs.items()}
-        else:
-            obs = obs[0]
-        terminated = bool(self.core.terminated(success)[0])
-        return obs, float(reward[0]), terminated, one_env_info(info)
+        obs, reward, success, info = self.core.observe(single=True)
+        return obs, reward, self.core.terminated(success), info
 
     def render(self) -> np.ndarray | None:
         if self.render_mode is None:

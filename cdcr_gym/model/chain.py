@@ -103,6 +103,9 @@ class PCCModel:
         self.bending_to_lengths = np.ascontiguousarray(b.reshape(C, 2 * S).T)
         self.straight_lengths = through.astype(np.float64) @ self.section_lengths
         self.lengths_to_bending = self._sequential_least_squares()
+        self._lengths_map = self.bending_to_lengths.T  # (C, 2S) of forward_rows
+        self._bending_rows = self.tension_to_bending.T  # (2S, C) of bending_rows_from_tensions
+        self._straight_column = self.straight_lengths[:, None]
         self._section_length_list = self.section_lengths.tolist()
         self._tiled: dict[int, np.ndarray] = {}
         self.disk_fractions = tuple(
@@ -217,8 +220,11 @@ class PCCModel:
     def _kinematics(self, comp) -> tuple[tuple, tuple]:
         """(tip (x, y, z) m, unit tip tangent (x, y, z)) of the bending components ``comp``
         (2S numbers or arrays of one shape), each a 3-tuple of the same kind."""
-        if isinstance(comp, np.ndarray) and comp.ndim == 2 and comp.shape[1] == 1:
-            comp = comp[:, 0].tolist()  # one robot: Python floats
+        if type(comp) is np.ndarray and comp.ndim == 2 and comp.shape[1] == 1:
+            # one robot: Python floats
+            return _tip_and_direction(
+                comp.ravel().tolist(), self._section_length_list, math.sqrt, math.tan
+            )
         numbers = isinstance(comp[0], float)
         return _tip_and_direction(
             comp,
@@ -254,7 +260,7 @@ class PCCModel:
     def bending_rows_from_tensions(self, tensions: np.ndarray) -> np.ndarray:
         """Bending components as rows (2S, M) = (wx_0, wy_0, wx_1, …) (rad) from tensions (M, C)
         (N; any memory layout, finite: the caller validates). A fresh array."""
-        return self.tension_to_bending.T @ tensions.T
+        return self._bending_rows @ tensions.T
 
     def forward_rows(self, comp: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Tip (3, M) m, tip direction (3, M) and cable lengths (C, M) m, as fresh row arrays,
@@ -266,8 +272,11 @@ class PCCModel:
         """
         m = comp.shape[1]
         tip, direction = self._kinematics(comp)
-        lengths = self.bending_to_lengths.T @ comp
-        lengths += self.straight_lengths[:, None]
+        lengths = self._lengths_map @ comp
+        lengths += self._straight_column
+        if m == 1:  # Python floats: one array for both
+            both = np.array(tip + direction).reshape(2, 3, 1)
+            return both[0], both[1], lengths
         return np.array(tip).reshape(3, m), np.array(direction).reshape(3, m), lengths
 
     def section_frames(self, w) -> np.ndarray:

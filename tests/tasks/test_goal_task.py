@@ -62,3 +62,28 @@ def test_obstacle_compute_reward_agrees_with_evaluate():
         assert again[0] == reward
     with pytest.raises(ValueError, match="needs info"):
         task.compute_reward(np.zeros(3), np.zeros(3), None)
+
+
+@pytest.mark.parametrize("task_id", ["Reach", "Pose", "Track", "Obstacle"])
+@pytest.mark.parametrize("reward_type", ["dense", "sparse"])
+def test_evaluate_single_is_env_0_of_evaluate(task_id, reward_type):
+    """The single env's outputs built once (``Task.evaluate_single``; GoalTask's on Python
+    floats) equal env 0 of the batched ``evaluate``: the same values, bits and types."""
+    kwargs = {} if task_id in ("Track", "Obstacle") else {"reward_type": reward_type}
+    env = gym.make(f"cdcr_gym/CCKA{task_id}-v0", **kwargs)
+    env.reset(seed=3)
+    task = env.unwrapped.task
+    shape = (10, *env.action_space.shape)
+    for a in np.random.default_rng(3).uniform(-1, 1, shape).astype(np.float32):
+        env.step(a)
+        readings = env.unwrapped.core.readings
+        reward, success, info = task.evaluate_single(readings)
+        rewards, successes, infos = task.evaluate(readings)
+        assert type(reward) is float and reward == rewards[0]
+        assert np.float64(reward).tobytes() == rewards[:1].tobytes()
+        assert type(success) is bool and success == successes[0]
+        assert list(info) == list(infos)
+        for key, value in infos.items():
+            want = value.item() if value.ndim == 1 else value[0]
+            assert type(info[key]) is type(want), key
+            assert np.array_equal(info[key], want), key
