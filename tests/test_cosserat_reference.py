@@ -172,3 +172,15 @@ def test_bullet_four_links_per_span_is_within_half_a_percent_on_the_paper_robot(
         finally:
             b.close()
     assert worst < 0.005 * ell
+
+
+def test_pyelastica_tip_is_the_static_solve_with_pyelastica_constitutive_law():
+    """The 0.13 mm between PyElastica (32 elements per span) and the reference on the paper
+    robot at 80 N is PyElastica's stretch-scaled stiffness (couple ∝ 1/e³): with that law the
+    static solver lands within 0.05 mm of PyElastica's tip."""
+    c = _case("paper_c1_80N", False)
+    pe = np.asarray(c["pyelastica"]["tip"])
+    assert c["pyelastica"]["elements_per_span"] == 32
+    sol = cr.solve_static(RobotParams(), c["tensions"], False, rtol=1e-9, stretch_scaled=True)
+    assert np.linalg.norm(sol.tip - pe) < 5e-5
+    assert np.linalg.norm(np.asarray(c["tip"]) - pe) > 1e-4

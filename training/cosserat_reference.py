@@ -121,6 +121,8 @@ class RodModel:
         weight_per_length: rod weight (N/m) (0 without gravity).
         disk_weight: weight of one disk (N) (0 without gravity).
         gravity_direction: (3,) unit vector of gravity in R0 (−Z0: base upright).
+        stretch_scaled: bending/twist couple K_bt·u/e³ (e the axial stretch), PyElastica's
+            volume-conserving law, instead of K_bt·u (default: constant EI, GJ).
     """
 
     params: RobotParams
@@ -132,6 +134,7 @@ class RodModel:
     weight_per_length: float
     disk_weight: float
     gravity_direction: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -1.0]))
+    stretch_scaled: bool = False
 
     @classmethod
     def of(cls, params: RobotParams, gravity: bool) -> RodModel:
@@ -212,7 +215,7 @@ def _hat(u: np.ndarray) -> np.ndarray:
     )
 
 
-def _rhs_factory(model: RodModel, extensible: bool, copies: int):
+def _rhs_factory(model: RodModel, extensible: bool, copies: int, stretch_scaled: bool = False):
     kbt_inv = 1.0 / model.k_bt
     kse_inv = 1.0 / model.k_se
     f = model.weight_per_length * model.gravity_direction
@@ -227,6 +230,8 @@ def _rhs_factory(model: RodModel, extensible: bool, copies: int):
         rt_m = np.einsum("kji,kj->ki", r, m)
         u = rt_m * kbt_inv
         v = e3 + rt_n * kse_inv if extensible else np.broadcast_to(e3, u.shape)
+        if stretch_scaled:  # PyElastica's law: couple = K_bt·u/e³, e the stretch
+            u = u * np.linalg.norm(v, axis=1, keepdims=True) ** 3
         dp = np.einsum("kij,kj->ki", r, v)
         dr = r @ _hat(u)
         dn = np.broadcast_to(-f, n.shape)
@@ -255,7 +260,7 @@ def _shoot(
     y = np.zeros((copies, 18))
     y[:, 3:12] = np.eye(3).reshape(-1)
     y[:, 12:18] = z
-    rhs = _rhs_factory(model, extensible, copies)
+    rhs = _rhs_factory(model, extensible, copies, model.stretch_scaled)
     centres = np.zeros((copies, d + 1, 3))
     rots = np.zeros((copies, d + 1, 3, 3))
     rots[:, 0] = np.eye(3)
@@ -317,6 +322,7 @@ def solve_static(
     tol: float = 1e-10,
     max_iter: int = 200,
     guess: StaticSolution | None = None,
+    stretch_scaled: bool = False,
 ) -> StaticSolution:
     """The static shape of the robot under cable ``tensions`` (module docstring, first solver).
 
@@ -329,11 +335,16 @@ def solve_static(
             like the bullet chain).
         rtol: ODE tolerance; tol: largest residual (N; moments over ℓ; direction mismatch).
         guess: a previous solution to start from.
+        stretch_scaled: PyElastica's constitutive law (:class:`RodModel`), to compare with it.
 
     Raises:
         RuntimeError: no convergence in ``max_iter`` iterations.
     """
     model = RodModel.of(params, gravity)
+    if stretch_scaled:
+        from dataclasses import replace
+
+        model = replace(model, stretch_scaled=True)
     seg_t = model.segment_tensions(tensions)
     if guess is None:
         # load continuation: Newton from the straight rod converges for moderate bends only
