@@ -59,7 +59,7 @@ JSON schema (``docs/figures/physics/cosserat_reference.json``)
     * ``command`` (str): the command that made this case.
 
 Regenerate (static solver only, ~1 min; add ``--pyelastica`` to rerun the cross-check cases,
-~1–2 min each)::
+~3–7 min per case on a shared 2-core machine)::
 
     python -m training.cosserat_reference --write docs/figures/physics/cosserat_reference.json
 
