@@ -59,7 +59,7 @@ JSON schema (``docs/figures/physics/cosserat_reference.json``)
     * ``command`` (str): the command that made this case.
 
 Regenerate (static solver only, ~1 min; add ``--pyelastica`` to rerun the cross-check cases,
-~1–2 min each)::
+~3–7 min per case on a shared 2-core machine)::
 
     python -m training.cosserat_reference --write docs/figures/physics/cosserat_reference.json
 
@@ -121,6 +121,8 @@ class RodModel:
         weight_per_length: rod weight (N/m) (0 without gravity).
         disk_weight: weight of one disk (N) (0 without gravity).
         gravity_direction: (3,) unit vector of gravity in R0 (−Z0: base upright).
+        stretch_scaled: bending/twist couple K_bt·u/e³ (e the axial stretch), PyElastica's
+            volume-conserving law, instead of K_bt·u (default: constant EI, GJ).
     """
 
     params: RobotParams
@@ -132,6 +134,7 @@ class RodModel:
     weight_per_length: float
     disk_weight: float
     gravity_direction: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -1.0]))
+    stretch_scaled: bool = False
 
     @classmethod
     def of(cls, params: RobotParams, gravity: bool) -> RodModel:
@@ -212,7 +215,7 @@ def _hat(u: np.ndarray) -> np.ndarray:
     )
 
 
-def _rhs_factory(model: RodModel, extensible: bool, copies: int):
+def _rhs_factory(model: RodModel, extensible: bool, copies: int, stretch_scaled: bool = False):
     kbt_inv = 1.0 / model.k_bt
     kse_inv = 1.0 / model.k_se
     f = model.weight_per_length * model.gravity_direction
@@ -227,6 +230,8 @@ def _rhs_factory(model: RodModel, extensible: bool, copies: int):
         rt_m = np.einsum("kji,kj->ki", r, m)
         u = rt_m * kbt_inv
         v = e3 + rt_n * kse_inv if extensible else np.broadcast_to(e3, u.shape)
+        if stretch_scaled:  # PyElastica's law: couple = K_bt·u/e³, e the stretch
+            u = u * np.linalg.norm(v, axis=1, keepdims=True) ** 3
         dp = np.einsum("kij,kj->ki", r, v)
         dr = r @ _hat(u)
         dn = np.broadcast_to(-f, n.shape)
@@ -255,7 +260,7 @@ def _shoot(
     y = np.zeros((copies, 18))
     y[:, 3:12] = np.eye(3).reshape(-1)
     y[:, 12:18] = z
-    rhs = _rhs_factory(model, extensible, copies)
+    rhs = _rhs_factory(model, extensible, copies, model.stretch_scaled)
     centres = np.zeros((copies, d + 1, 3))
     rots = np.zeros((copies, d + 1, 3, 3))
     rots[:, 0] = np.eye(3)
@@ -317,6 +322,7 @@ def solve_static(
     tol: float = 1e-10,
     max_iter: int = 200,
     guess: StaticSolution | None = None,
+    stretch_scaled: bool = False,
 ) -> StaticSolution:
     """The static shape of the robot under cable ``tensions`` (module docstring, first solver).
 
@@ -329,11 +335,16 @@ def solve_static(
             like the bullet chain).
         rtol: ODE tolerance; tol: largest residual (N; moments over ℓ; direction mismatch).
         guess: a previous solution to start from.
+        stretch_scaled: PyElastica's constitutive law (:class:`RodModel`), to compare with it.
 
     Raises:
         RuntimeError: no convergence in ``max_iter`` iterations.
     """
     model = RodModel.of(params, gravity)
+    if stretch_scaled:
+        from dataclasses import replace
+
+        model = replace(model, stretch_scaled=True)
     seg_t = model.segment_tensions(tensions)
     if guess is None:
         # load continuation: Newton from the straight rod converges for moderate bends only
@@ -482,7 +493,7 @@ def solve_pyelastica(
     *,
     elements_per_span: int = 4,
     final_time: float = 1.5,
-    velocity_tol: float = 1e-7,
+    velocity_tol: float = 1e-6,
     damping: float | None = None,
     inertia_scale: float = 100.0,
     dt: float | None = None,
@@ -632,7 +643,9 @@ PYELASTICA_CASES: tuple[tuple[str, bool], ...] = (
     ("paper_c1_80N", True),
     ("tdcr2_s1c3_2N_s2c1_3N", True),
 )
-PYELASTICA_MESHES = (4, 8)
+#: Elements per disk span tried per preset (the last is recorded; its change from the one
+#: before is the convergence delta, < 0.3 mm required).
+PYELASTICA_MESHES = {"paper": (4, 8, 16), "tdcr2": (2, 4, 8)}
 
 GENERATOR = (
     "python -m training.cosserat_reference --write docs/figures/physics/cosserat_reference.json"
@@ -666,8 +679,9 @@ def _static_case(case: dict, rtol: float = 1e-9) -> dict:
     return out
 
 
-def _pyelastica_case(case: dict, meshes: Sequence[int] = PYELASTICA_MESHES) -> dict:
+def _pyelastica_case(case: dict) -> dict:
     params = RobotParams.preset(case["robot"])
+    meshes = PYELASTICA_MESHES[case["robot"]]
     runs = {
         m: solve_pyelastica(params, case["tensions"], case["gravity"], elements_per_span=m)
         for m in meshes
@@ -738,6 +752,37 @@ def write_reference(
         doc["cases"].append(out)
         path.write_text(json.dumps(doc, indent=1) + "\n")
     return doc
+
+
+def refine_pyelastica(path: Path, name: str, gravity: bool, elements_per_span: int) -> dict:
+    """Add a finer PyElastica mesh to one case of the JSON at ``path`` (its ``pyelastica``
+    entry then records that mesh, its change from the finest before, and the difference to
+    the reference)."""
+    doc = load_reference(path)
+    case = next(c for c in doc["cases"] if c["name"] == name and c["gravity"] == gravity)
+    pe = case["pyelastica"]
+    run = solve_pyelastica(
+        RobotParams.preset(case["robot"]),
+        case["tensions"],
+        gravity,
+        elements_per_span=elements_per_span,
+    )
+    finest = np.asarray(pe["meshes"][str(max(int(m) for m in pe["meshes"]))])
+    pe["meshes"][str(elements_per_span)] = run["tip"].tolist()
+    pe.update(
+        tip=run["tip"].tolist(),
+        elements_per_span=elements_per_span,
+        convergence_delta=float(np.linalg.norm(run["tip"] - finest)),
+        difference_to_reference=float(np.linalg.norm(run["tip"] - np.asarray(case["tip"]))),
+        final_velocity=run["final_velocity"],
+        seconds=run["seconds"],
+    )
+    case["command"] = (
+        f"{GENERATOR} --pyelastica && python -m training.cosserat_reference --refine "
+        f"{name}:{int(gravity)}:{elements_per_span}"
+    )
+    path.write_text(json.dumps(doc, indent=1) + "\n")
+    return pe
 
 
 def load_reference(path: Path = REFERENCE_PATH) -> dict:
@@ -817,12 +862,20 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--pyelastica", action="store_true", help="also rerun the PyElastica cross-check cases"
     )
     parser.add_argument("--robot", action="append", help="--write: only this preset (repeat)")
+    parser.add_argument(
+        "--refine",
+        metavar="NAME:GRAVITY:M",
+        help="add a PyElastica run with M elements per span to one case of --write's file",
+    )
     parser.add_argument("--study", action="store_true", help="compare the package's models")
     parser.add_argument("--out", type=Path, default=None, help="study: write the table here")
     args = parser.parse_args(argv)
-    if args.write:
+    if args.write and not args.refine:
         previous = load_reference(args.write) if args.write.exists() else None
         write_reference(args.write, args.pyelastica, previous, args.robot)
+    if args.refine:
+        name, gravity, m = args.refine.split(":")
+        refine_pyelastica(args.write or REFERENCE_PATH, name, gravity == "1", int(m))
     if args.study:
         table = study()
         print(table)
