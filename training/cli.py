@@ -12,7 +12,7 @@
     cdcr-gym configs                                    # the packaged experiment configs
 
 and ``from-zoo``, ``oracles``, ``results``, ``task-results``, ``sim2sim``, ``hysteresis``,
-``step-response``, ``transfer-probe``, ``verification``, ``bench-realism``, ``bench-physics``, ``calibrate``, ``oracle-feedback`` (``cdcr-gym --help``).
+``step-response``, ``transfer-probe``, ``verification``, ``bench-realism``, ``bench-physics``, ``calibrate``, ``oracle-feedback``, ``cosserat-reference`` (``cdcr-gym --help``).
 The former ``python -m training.<module>`` forms still work (aliases, see
 :mod:`training.deprecated`).
 
@@ -90,6 +90,11 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
         "training.studies.verification",
         "the pybullet backend vs closed-form mechanics",
         "train",
+    ),
+    "cosserat-reference": (
+        "training.studies.cosserat",
+        "the converged Cosserat-rod reference and the models' errors against it",
+        "",
     ),
     "oracle-feedback": (
         "training.evaluate.oracle_feedback",

@@ -48,6 +48,7 @@ MOVED: dict[str, tuple[str, str]] = {
     "training.calibrate": ("training.studies.calibrate", "calibrate"),
     "training.bench_physics": ("training.studies.bench_physics", "bench-physics"),
     "training.oracle_feedback": ("training.evaluate.oracle_feedback", "oracle-feedback"),
+    "training.cosserat_reference": ("training.studies.cosserat", "cosserat-reference"),
 }
 
 

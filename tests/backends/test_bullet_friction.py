@@ -230,9 +230,9 @@ def test_loading_branch_bends_less_than_frictionless_and_settles(links_per_span)
 def test_friction_settles_where_a_cosserat_rod_with_capstan_tensions_does():
     """Bullet (4 links per span) with μ = 0.2, loaded to 80 N, against an independent static
     Cosserat solve whose segment tensions are the capstan decay over the rod's own wrap angles
-    (training.cosserat_reference.solve_static_capstan, at bullet's slip state): as close as
+    (training.studies.cosserat.solve_static_capstan, at bullet's slip state): as close as
     the frictionless chain is to the rod (≈ 1 mm at 80 N), far below the friction effect."""
-    from training.cosserat_reference import solve_static_capstan
+    from training.studies.cosserat import solve_static_capstan
 
     params = RobotParams()
     b = BulletBackend(gravity=False, links_per_span=4, friction_coefficient=0.2)

@@ -238,10 +238,6 @@ COSSERAT_REFERENCE = (
 )
 
 
-@pytest.mark.skipif(
-    not COSSERAT_REFERENCE.exists(),
-    reason="the Cosserat reference (training.cosserat_reference, branch cosserat) is not merged",
-)
 def test_default_is_within_half_a_percent_of_the_cosserat_reference():
     """Every case of the committed Cosserat-rod reference (its robot, gravity and tensions):
     the default MuJoCo env's settled tip within 0.5 % of ℓ of the rod's."""

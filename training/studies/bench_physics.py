@@ -187,7 +187,7 @@ def _reference_tips(params: RobotParams, gravity: bool, cases: np.ndarray) -> np
         ref.close()
 
 
-#: The Cosserat reference of the repository (written by ``training.cosserat_reference``).
+#: The Cosserat reference of the repository (written by ``cdcr-gym cosserat-reference``).
 REFERENCE_PATH = (
     Path(__file__).resolve().parents[1] / "docs/figures/physics/cosserat_reference.json"
 )

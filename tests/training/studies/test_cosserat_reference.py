@@ -1,5 +1,5 @@
 """The committed Cosserat-rod reference (docs/figures/physics/cosserat_reference.json) and the
-static Cosserat solver that made it (training/cosserat_reference.py)."""
+static Cosserat solver that made it (training/studies/cosserat/)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from cdcr_gym.params import RobotParams
-from training import cosserat_reference as cr
+from training.studies import cosserat as cr
 
 REF = cr.load_reference()
 
@@ -96,7 +96,7 @@ def test_pure_moment_gives_a_circular_arc():
     seg_t = np.zeros((model.n_disks, 3))
     dirs = np.zeros((7, model.n_disks, 3, 3))
     dirs[..., 2] = 1.0
-    res, centres, _, _ = cr._shoot(model, z, seg_t, dirs[:1], False, 1e-11)
+    res, centres, _, _ = cr.rod._shoot(model, z, seg_t, dirs[:1], False, 1e-11)
     np.testing.assert_allclose(res[0], [0, 0, 0, 0, moment / params.length, 0], atol=1e-12)
     ell = params.length
     theta = moment * ell / ei
@@ -116,7 +116,7 @@ def test_small_deflection_cantilever_under_a_tip_force():
     dirs = np.zeros((7, model.n_disks, 3, 3))
     dirs[..., 2] = 1.0
     # the tip load is not a disk load: shoot with it in n, m and check the free-end residual
-    res, centres, _, _ = cr._shoot(model, z, seg_t, dirs[:1], False, 1e-11)
+    res, centres, _, _ = cr.rod._shoot(model, z, seg_t, dirs[:1], False, 1e-11)
     assert abs(res[0][0] - force) < 1e-15  # n is constant (no distributed load)
     np.testing.assert_allclose(res[0][3:], 0.0, atol=1e-6 * force)  # moment vanishes at ℓ
     assert centres[0, -1, 0] == pytest.approx(force * ell**3 / (3 * ei), rel=1e-5)
@@ -141,7 +141,7 @@ def test_small_deflection_cantilever_under_gravity():
     # the straight-rod reactions as the first guess, then Newton on the free-end residual
     z = np.zeros(6)
     for _ in range(6):
-        res, centres, _, _ = cr._shoot(
+        res, centres, _, _ = cr.rod._shoot(
             model,
             np.tile(z, (7, 1)) + np.vstack([np.zeros(6), 1e-7 * np.eye(6)]),
             seg_t,
