@@ -87,10 +87,10 @@ def implicit_slip_step(
     segment tendon ids (−1 where a cable does not cross a span), ``segment_order`` the (span,
     cable) of each friction actuator after the C pull actuators (``mjcf``); the ctrl of the
     pull actuators must hold ``tensions``. Leaves the friction actuators' ctrl at the returned
-    slip state, ready for ``mj_step2``. Solves
-    ``s⁺ = update_slip(s, x(s⁺))`` with x(s⁺) the sliding of the step loaded at s⁺ (module
-    docstring) by a safeguarded Newton iteration; ``update_slip`` maps into [−1, 1] and x
-    falls as s⁺ rises, so each cable's residual is monotone with a root in [−1, 1].
+    slip state, ready for ``mj_step2``; ``cable_index`` and ``segment_index`` are the
+    :func:`jacobian_index` of ``cable_ids`` and of the routed ``segment_ids`` (row-major).
+    Solves ``s⁺ = update_slip(s, x(s⁺))`` with x(s⁺) the sliding of the step loaded at s⁺
+    (module docstring) by Newton's method in x, on the side the free step slides.
     """
     h = model.opt.timestep
     n_pull = len(cable_ids)
