@@ -33,7 +33,9 @@ Cable–disk friction
     by (1 − s·σ)/x_s per metre slid (x_s = 0.1 mm by default), so the loads change by
     G·Δq with G = Σ_i (∂τ/∂s_i)·(ds_i/dx)·(∂l_i/∂q) (≈ μ·α·T/x_s along the cable). That
     stiffness is treated implicitly, like K: (M + hD + h²(K + G))·Δq̇ = h·(τ − b − Kq −
-    (D + hK + hG)·q̇). Explicit, it made the slip state flip every physics step (a limit
+    (D + hK + hG)·q̇), with the slope of the direction the cable slides in *this* step (a
+    first solve without G; ``_implicit_velocity``). Explicit, it made the slip state flip
+    every physics step (a limit
     cycle: after loading cable 1 of the paper robot to 80 N in 10 N steps with μ = 0.2 the
     tip kept oscillating by 0.3 mm, and each control step ended at a random point of the cycle,
     bending further than without friction). s has memory, so a settled robot keeps the
