@@ -35,10 +35,10 @@ Cable–disk friction
     stiffness is treated implicitly, like K: (M + hD + h²(K + G))·Δq̇ = h·(τ − b − Kq −
     (D + hK + hG)·q̇), with the slope of the direction the cable slides in *this* step (a
     first solve without G; ``_implicit_velocity``). Explicit, it made the slip state flip
-    every physics step (a limit
-    cycle: after loading cable 1 of the paper robot to 80 N in 10 N steps with μ = 0.2 the
-    tip kept oscillating by 0.3 mm, and each control step ended at a random point of the cycle,
-    bending further than without friction). s has memory, so a settled robot keeps the
+    every physics step (a limit cycle: after loading cable 1 of the paper robot to 80 N in
+    10 N steps with μ = 0.2 the tip kept oscillating by 0.3 mm, each control step ending at a
+    random point of the cycle, bending further than without friction); with the previous
+    step's direction, a reversing cable (unloading 70 N after 80 N) chattered by 1.7 mm. s has memory, so a settled robot keeps the
     profile of its last motion: load–unload cycles open a hysteresis loop. With μ = 0 none of
     this runs (bit-identical to the frictionless model).
 
