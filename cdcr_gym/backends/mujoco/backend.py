@@ -32,6 +32,7 @@ from cdcr_gym.backends.bullet.integrator import (
     SimulationDivergedError,
     bending_modes,
 )
+from cdcr_gym.backends.mujoco import friction as mj_friction
 from cdcr_gym.backends.mujoco import obstacles
 from cdcr_gym.backends.mujoco.mjcf import JOINTS, ROUTINGS, MJCFModel, build_mjcf
 from cdcr_gym.model import friction
@@ -83,7 +84,8 @@ class MuJoCoBackend(Backend):
         friction_coefficient: cable–disk capstan μ in [0, 1] (default 0.0: frictionless, the
             plain MuJoCo path, bit-identical to a model without friction). μ > 0: every cable
             segment carries the capstan tension of ``cdcr_gym.model.friction`` (as on bullet),
-            set before every physics step.
+            set before every physics step with the slip state implicit in the step
+            (``backends/mujoco/friction.py``).
         friction_slip_length: slip length x_s of the slip law (default 1e-4 m, > 0).
         integrator: MuJoCo integrator (default ``"Euler"``: semi-implicit, damping implicit).
         threads: (default ``None``) the N robots are stepped one after the other in the
@@ -175,7 +177,6 @@ class MuJoCoBackend(Backend):
         #: Per-robot friction coefficient μ (N,) and slip state s (N, C).
         self._mu = np.full(self.num_robots, self.friction_coefficient)
         self.slip = np.zeros((self.num_robots, params.n_cables))
-        self._prev_lengths: list[np.ndarray | None] = [None] * self.num_robots
         self.time = np.zeros(self.num_robots)
         self.reset(np.zeros((self.num_robots, params.n_cables)))
 
@@ -250,6 +251,16 @@ class MuJoCoBackend(Backend):
             if self.mjcf.segment_tendons[k][i] is not None
         ]
         self._has_segments = bool(self._segment_order)
+        self._segment_ids = np.array(
+            [
+                [-1 if n is None else name(model, tendon, n) for n in row]
+                for row in self.mjcf.segment_tendons
+            ]
+        ).reshape(len(self.mjcf.segment_tendons), c)
+        self._jac_index = (  # the cables' and the routed segments' rows of ten_J (friction)
+            mj_friction.jacobian_index(model, self._cable_ids),
+            mj_friction.jacobian_index(model, self._segment_ids[self._segment_ids >= 0]),
+        )
         if self._rollout is not None:  # its thread data belong to the previous model
             self._rollout.close()
             self._rollout = None
@@ -372,7 +383,6 @@ class MuJoCoBackend(Backend):
             self._tensions[i] = t[i]
             self.slip[i] = 0.0
             self.time[i] = 0.0
-            self._prev_lengths[i] = None
             self._sense(i)
 
     def apply_tensions(self, tensions: np.ndarray) -> None:
@@ -472,8 +482,9 @@ class MuJoCoBackend(Backend):
 
     # -- friction -------------------------------------------------------------------------------
     def _step_with_friction(self, t: np.ndarray) -> None:
-        """Physics step by physics step: the capstan segment tensions at the current wrap
-        angles and slip, then one MuJoCo step (the loads explicit, as on bullet)."""
+        """Physics step by physics step: the slip state at the end of the step (backward Euler
+        in s, ``backends/mujoco/friction.py``), the capstan segment tensions at the current wrap
+        angles and that slip state, then one MuJoCo step."""
         if not self._has_segments:
             raise RuntimeError("internal: friction without segment tendons")
         n_pull = self._n_pull
@@ -481,25 +492,35 @@ class MuJoCoBackend(Backend):
             for i, (model, data) in enumerate(zip(self._models, self._datas)):
                 data.ctrl[:n_pull] = t[i]
                 if self._mu[i] > 0.0:
-                    lengths = self._lengths[i].copy()
-                    if self._prev_lengths[i] is not None:
-                        self.slip[i] = friction.update_slip(
-                            self.slip[i], self._prev_lengths[i] - lengths, self.friction_slip_length
-                        )
-                    self._prev_lengths[i] = lengths
-                    seg = self._segment_tensions(i, t[i])  # (n_disks, C)
-                    data.ctrl[n_pull:] = [seg[k, c] - t[i, c] for k, c in self._segment_order]
+                    self.slip[i] = mj_friction.implicit_slip_step(
+                        self._mj,
+                        model,
+                        data,
+                        tensions=t[i],
+                        slip=self.slip[i],
+                        mu=float(self._mu[i]),
+                        slip_length=self.friction_slip_length,
+                        wraps=self._wraps(i),
+                        cable_ids=self._cable_ids,
+                        segment_ids=self._segment_ids,
+                        segment_order=self._segment_order,
+                        cable_index=self._jac_index[0],
+                        segment_index=self._jac_index[1],
+                    )
                 else:
                     data.ctrl[n_pull:] = 0.0
                 self._advance(model, data, 1)
                 self._sense(i)
 
+    def _wraps(self, i: int) -> np.ndarray:
+        """Wrap angles (C, n_disks) rad of robot i's cables at its current pinholes."""
+        pins = self._datas[i].site_xpos[self._pin_ids]  # (n_disks + 1, C, 3)
+        return friction.wrap_angles(pins.transpose(1, 0, 2))  # entry +z of R0
+
     def _segment_tensions(self, i: int, t: np.ndarray) -> np.ndarray:
         """Capstan tensions (n_disks, C) N of robot i's cable segments (row k: disk k → k+1)
         at its current pinholes and slip state."""
-        pins = self._datas[i].site_xpos[self._pin_ids]  # (n_disks + 1, C, 3)
-        wraps = friction.wrap_angles(pins.transpose(1, 0, 2))  # (C, n_disks), entry +z of R0
-        return friction.tension_profile(t, wraps, self._mu[i], self.slip[i]).T
+        return friction.tension_profile(t, self._wraps(i), self._mu[i], self.slip[i]).T
 
     @property
     def anchor_tensions(self) -> np.ndarray:
