@@ -58,6 +58,9 @@ __all__ = [
     "tip_of",
     "cable1_tensions",
     "bullet_factory",
+    "mujoco_factory",
+    "FACTORIES",
+    "backend_label",
     "ccka_cable_sweep",
     "robot_mass",
     "run_force_sweep",
@@ -417,6 +420,41 @@ def bullet_factory(
         base_orientation=base_orientation,
         **kwargs,
     )
+
+
+def mujoco_factory(
+    params: RobotParams,
+    *,
+    gravity: bool,
+    links_per_span: int,
+    tip_payload: float,
+    base_orientation: tuple[float, float, float, float],
+    **kwargs,
+) -> Backend:
+    """The MuJoCo backbone (``MuJoCoBackend``: ball joints, the corrected cable routing — the
+    package's reference physics, within 0.2 % of ℓ of a converged Cosserat rod at one link per
+    span; docs/mujoco_backend.md). Imported here, so that the CCKA part runs without MuJoCo."""
+    from cdcr_gym.backends.mujoco import MuJoCoBackend
+
+    return MuJoCoBackend(
+        params,
+        gravity=gravity,
+        links_per_span=links_per_span,
+        tip_payload=tip_payload,
+        base_orientation=base_orientation,
+        **kwargs,
+    )
+
+
+#: ``cdcr-gym reproduce --backend NAME`` → the backend factory.
+FACTORIES: dict[str, BackendFactory] = {"bullet": bullet_factory, "mujoco": mujoco_factory}
+#: The factory's name (``StudyResults.backend_name``) → how the report names the simulation.
+_LABELS = {"bullet_factory": "pybullet", "mujoco_factory": "MuJoCo"}
+
+
+def backend_label(backend_name: str) -> str:
+    """How the report, table and figures name the physics of a study ("pybullet", "MuJoCo")."""
+    return _LABELS.get(backend_name, "pybullet" if not backend_name else backend_name)
 
 
 def cable1_tensions(forces, params: RobotParams) -> np.ndarray:
