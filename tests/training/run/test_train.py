@@ -338,7 +338,7 @@ CONFIG_DIGESTS = {
     "ppo_ccka_pose": "247c1bc6ab08ef2c",
     "ppo_ccka_reach": "a7c421cd60c54f36",
     "ppo_ccka_track": "8eb6a591bbbba874",
-    "ppo_mujoco_reach": "42c67dda1bb7247b",
+    "ppo_mujoco_reach": "d1c54d305ab2e493",
     "sac_bullet_reach": "c15cfa464ef5b6fb",
     "sac_ccka_obstacle": "a33dd57415df159f",
     "sac_ccka_pose": "0397922d895ec273",
