@@ -1,8 +1,9 @@
 """The paper's CCKA-vs-physics study: ``cdcr-gym reproduce [--out DIR] ...``.
 
 The paper (section 4) compares the constant-curvature kinematics (CCKA) with a nonlinear
-simulation of its robot; this subpackage repeats that study on the pybullet backbone and extends
-it (gravity, tip payload, model resolution, number of disks, horizontal base):
+simulation of its robot; this subpackage repeats that study on a physics backbone — MuJoCo by
+default (``--backend mujoco``, the reference physics), or pybullet (``--backend bullet``) — and
+extends it (gravity, tip payload, model resolution, number of disks, horizontal base):
 
 - :mod:`training.studies.reproduce.study`: the sweeps and the settling check;
 - :mod:`training.studies.reproduce.outputs`: the CSV/JSON outputs, figures and report of a run;

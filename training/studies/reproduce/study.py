@@ -3,8 +3,9 @@
 The paper (section 4) pulls cable 1 with 0–80 N in a nonlinear SolidWorks simulation, feeds the
 resulting cable lengths to the constant-curvature forward kinematics (CCKA, its eq. 5) and compares
 the two tips: mean Euclidean error 4.95 mm (0.77 % of ℓ) against the simulation, 2.4 mm (0.37 %)
-against an experiment. This module repeats that study with the pybullet backbone
-(``cdcr_gym.backends.bullet.BulletBackend``) in place of SolidWorks. The study is about the paper's
+against an experiment. This module repeats that study with a physics backbone in place of
+SolidWorks: any backend factory (``mujoco_factory``: ``MuJoCoBackend``, the CLI's default;
+``bullet_factory``: ``cdcr_gym.backends.bullet.BulletBackend``, ``run_study``'s default). The study is about the paper's
 one-section robot with its three cables (``C = params.n_cables = 3``); a backend is driven through
 the batched :class:`cdcr_gym.backends.base.Backend` interface with one robot (N = 1):
 
