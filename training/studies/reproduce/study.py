@@ -5,8 +5,8 @@ resulting cable lengths to the constant-curvature forward kinematics (CCKA, its 
 the two tips: mean Euclidean error 4.95 mm (0.77 % of ℓ) against the simulation, 2.4 mm (0.37 %)
 against an experiment. This module repeats that study with a physics backbone in place of
 SolidWorks: any backend factory (``mujoco_factory``: ``MuJoCoBackend``, the CLI's default;
-``bullet_factory``: ``cdcr_gym.backends.bullet.BulletBackend``, ``run_study``'s default). The study is about the paper's
-one-section robot with its three cables (``C = params.n_cables = 3``); a backend is driven through
+``bullet_factory``: ``cdcr_gym.backends.bullet.BulletBackend``, ``run_study``'s default). The
+study is about the paper's one-section robot with its three cables (``C = params.n_cables = 3``); a backend is driven through
 the batched :class:`cdcr_gym.backends.base.Backend` interface with one robot (N = 1):
 
 1. CCKA alone (paper Fig. 6/7): cable lengths l1 = ℓ − Δl, l2 = l3 = ℓ + Δl/2 → tip X, Y, Z, and a
