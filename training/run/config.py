@@ -19,7 +19,7 @@ valid name), wrong types and out-of-range values are errors that name the key an
                                   # [{initial_state: straight}, {initial_state: random}]
       max_episode_steps: null     # null: the registered value (100)
       n_envs: 8                   # parallel training envs
-      vec_env: dummy              # dummy | subproc | batched (training/sb3_vec.py, CCKA only)
+      vec_env: dummy              # dummy | subproc | batched (training/run/sb3_vec.py: CCKA, MuJoCo)
     normalize:                    # stable-baselines3 VecNormalize
       enabled: true
       norm_obs: true

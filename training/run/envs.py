@@ -57,27 +57,32 @@ def build_vec_env(config: ExperimentConfig, seed: int, n_envs: int | None = None
     n = e.n_envs if n_envs is None else n_envs
     if e.vec_env == "batched":
         try:
-            from training.run.sb3_vec import BatchedCCKAVecEnv
+            from training.run.sb3_vec import BatchedVecEnv
         except ImportError as exc:
             raise ConfigError(
-                f"env.vec_env: 'batched' needs training/sb3_vec.py (BatchedCCKAVecEnv), which "
+                f"env.vec_env: 'batched' needs training/run/sb3_vec.py (BatchedVecEnv), which "
                 f"could not be imported ({exc}); use 'dummy' or 'subproc'"
             ) from None
         import gymnasium as gym
 
         import cdcr_gym  # noqa: F401 - registers the ids
+        from cdcr_gym.registration import BATCHED
 
         registered = gym.registry[e.id].kwargs if e.id in gym.registry else {}
-        if registered.get("backend") != "CCKA":
-            raise ConfigError(f"env.vec_env: 'batched' supports the CCKA env only, not {e.id!r}")
+        if registered.get("backend") not in BATCHED:
+            raise ConfigError(
+                f"env.vec_env: 'batched' supports the ids of the batched backends "
+                f"{list(BATCHED)} only, not {e.id!r}; use 'dummy' or 'subproc'"
+            )
         kwargs = dict(e.kwargs)
+        kwargs["backend"] = registered["backend"]
         kwargs["task"] = registered["task"]
         if e.max_episode_steps is not None:
             kwargs["max_episode_steps"] = e.max_episode_steps
         if e.per_env_kwargs:
             kwargs["per_env_kwargs"] = [dict(k) for k in e.per_env_kwargs]
         try:
-            venv = BatchedCCKAVecEnv(num_envs=n, seed=seed, **kwargs)
+            venv = BatchedVecEnv(num_envs=n, seed=seed, **kwargs)
         except (ValueError, TypeError) as exc:
             raise ConfigError(f"env (vec_env: batched): {exc}") from None
         return VecMonitor(venv)

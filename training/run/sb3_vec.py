@@ -1,8 +1,10 @@
-"""stable-baselines3 ``VecEnv`` over the batched CCKA env: N robots per numpy call, SB3 semantics.
+"""stable-baselines3 ``VecEnv`` over the batched env: N robots per backend call, SB3 semantics.
 
-``BatchedCCKAVecEnv(8, seed=0, action_mode="tension_delta")`` is a drop-in replacement for
+``BatchedVecEnv(8, seed=0, action_mode="tension_delta")`` is a drop-in replacement for
 ``make_vec_env("cdcr_gym/CCKAReach-v0", n_envs=8, seed=0, env_kwargs=...)`` (a ``DummyVecEnv`` of
-single envs): same spaces, same episodes (same seeds give the same trajectories), SB3's conventions
+single envs), and ``BatchedVecEnv(8, seed=0, backend="MuJoCo", gravity=True)`` for
+``cdcr_gym/MuJoCoReach-v0`` (any backend of ``cdcr_gym.registration.BATCHED``): same spaces,
+same episodes (same seeds give the same trajectories), SB3's conventions
 — an env that terminates or truncates is reset within the same step, the returned observation is
 the new episode's first, and its ``info`` carries ``terminal_observation`` and
 ``TimeLimit.truncated``; every ``info`` carries ``is_success`` (SB3 logs the success rate from it)
@@ -30,11 +32,15 @@ from stable_baselines3.common.vec_env.base_vec_env import (
 from cdcr_gym import MAX_EPISODE_STEPS
 from cdcr_gym.envs.vector import CDCRVectorEnv
 
-__all__ = ["BatchedCCKAVecEnv"]
+__all__ = ["BatchedVecEnv", "BatchedCCKAVecEnv"]
 
 
-class BatchedCCKAVecEnv(VecEnv):
-    """``num_envs`` ``CCKAReach-v0`` envs as one stable-baselines3 ``VecEnv``, batched in numpy.
+class BatchedVecEnv(VecEnv):
+    """``num_envs`` envs of one batched backend as one stable-baselines3 ``VecEnv``.
+
+    The backend (``backend=``, default ``"CCKA"``: batched in numpy; ``"MuJoCo"``: one
+    ``MjModel``, N ``MjData``) and the task (``task=``, default ``"Reach"``) are those of
+    ``cdcr_gym.envs.vector.CDCRVectorEnv``.
 
     Args:
         num_envs: number of envs (>= 1).
@@ -44,8 +50,8 @@ class BatchedCCKAVecEnv(VecEnv):
             ``training.train`` does for single envs); only ``initial_state`` may vary per env;
             any other key must have the same value in every entry and then applies to all envs
             (e.g. ``randomize`` / ``imperfections`` kept out of the evaluation's ``env.kwargs``).
-        **env_kwargs: ``gymnasium.make("cdcr_gym/CCKAReach-v0", ...)`` keyword arguments
-            (``action_mode``, ``reward_type``, ``params``, ``goal_conditioned``, ...), and
+        **env_kwargs: ``backend`` and ``task``, and the single env's keyword arguments
+            (``gymnasium.make("cdcr_gym/CCKAReach-v0", ...)``: ``action_mode``, ``reward_type``, ``params``, ``goal_conditioned``, ...), and
             ``max_episode_steps`` (default: the registered 100).
     """
 
@@ -193,3 +199,7 @@ class BatchedCCKAVecEnv(VecEnv):
                 {k: (v[i] if isinstance(v, list) else v[i].copy()) for k, v in columns.items()}
             )
         return out
+
+
+#: The former name (the class predates the MuJoCo backend); same class.
+BatchedCCKAVecEnv = BatchedVecEnv

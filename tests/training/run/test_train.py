@@ -301,7 +301,7 @@ def test_train_with_the_batched_vec_env(tmp_path: Path) -> None:
 
 # -- the fast recipes (issue 12 item 1) ---------------------------------------------------------
 @pytest.mark.slow  # 25-55 s each: one rollout of the real fast recipes (64 envs)
-@pytest.mark.parametrize("name", ["ppo_ccka_fast", "ppo_bullet_fast"])
+@pytest.mark.parametrize("name", ["ppo_ccka_fast", "ppo_bullet_fast", "ppo_mujoco_reach"])
 def test_fast_config_trains_one_rollout(tmp_path: Path, name: str) -> None:
     """A fast recipe loads and trains its first rollout (one PPO update) end to end.
 
@@ -338,6 +338,7 @@ CONFIG_DIGESTS = {
     "ppo_ccka_pose": "247c1bc6ab08ef2c",
     "ppo_ccka_reach": "a7c421cd60c54f36",
     "ppo_ccka_track": "8eb6a591bbbba874",
+    "ppo_mujoco_reach": "d1c54d305ab2e493",
     "sac_bullet_reach": "c15cfa464ef5b6fb",
     "sac_ccka_obstacle": "a33dd57415df159f",
     "sac_ccka_pose": "0397922d895ec273",

@@ -1,8 +1,9 @@
 """The paper's CCKA-vs-physics study: ``cdcr-gym reproduce [--out DIR] ...``.
 
 The paper (section 4) compares the constant-curvature kinematics (CCKA) with a nonlinear
-simulation of its robot; this subpackage repeats that study on the pybullet backbone and extends
-it (gravity, tip payload, model resolution, number of disks, horizontal base):
+simulation of its robot; this subpackage repeats that study on a physics backbone — MuJoCo by
+default (``--backend mujoco``, the reference physics), or pybullet (``--backend bullet``) — and
+extends it (gravity, tip payload, model resolution, number of disks, horizontal base):
 
 - :mod:`training.studies.reproduce.study`: the sweeps and the settling check;
 - :mod:`training.studies.reproduce.outputs`: the CSV/JSON outputs, figures and report of a run;
@@ -36,6 +37,7 @@ from training.studies.reproduce.study import (
     bullet_factory,
     cable1_tensions,
     ccka_cable_sweep,
+    mujoco_factory,
     preflight,
     robot_mass,
     run_force_sweep,
@@ -59,6 +61,7 @@ __all__ = [
     "backend_configs",
     "build_parser",
     "bullet_factory",
+    "mujoco_factory",
     "cable1_tensions",
     "ccka_cable_sweep",
     "config_from_args",

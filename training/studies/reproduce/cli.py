@@ -16,12 +16,20 @@ from cdcr_gym.model.params import RobotParams
 from training.studies.reproduce.outputs import summary_rows, write_outputs
 from training.studies.reproduce.study import (
     DEFAULT_OUT,
+    FACTORIES,
     BackendFactory,
     SettleError,
     StudyConfig,
-    bullet_factory,
     run_study,
 )
+
+#: ``--backend`` default: MuJoCo, the package's reference physics (within 0.2 % of ℓ of a
+#: converged Cosserat rod at its default one link per span; docs/mujoco_backend.md). pybullet
+#: (``--backend bullet``, 4 links per span by default) is the study's first backbone.
+DEFAULT_BACKEND = "mujoco"
+#: ``--links-per-span`` default per backend: each backend's converged-enough main sweeps
+#: (MuJoCo: its env default, 1 with the corrected routing; pybullet: 4, within 0.25 % of ℓ).
+DEFAULT_LINKS_PER_SPAN = {"mujoco": 1, "bullet": 4}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -102,8 +110,8 @@ def _int_list(name: str) -> Callable[[str], tuple[int, ...]]:
 def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(
         prog="cdcr-gym reproduce",
-        description="Reproduce the paper's CCKA-vs-simulation study (section 4) with the pybullet "
-        "backbone, and extend it (gravity, tip payload, model resolution, horizontal base). "
+        description="Reproduce the paper's CCKA-vs-simulation study (section 4) with a physics "
+        "backbone (MuJoCo by default, or pybullet), and extend it (gravity, tip payload, model resolution, horizontal base). "
         "Writes PNG figures, CSV data, report.md and run.json into --out.",
     )
     ap.add_argument(
@@ -111,6 +119,13 @@ def build_parser() -> argparse.ArgumentParser:
         type=Path,
         default=DEFAULT_OUT,
         help=f"output folder (created; default: {DEFAULT_OUT})",
+    )
+    ap.add_argument(
+        "--backend",
+        choices=sorted(FACTORIES),
+        default=DEFAULT_BACKEND,
+        help=f"physics backbone (default {DEFAULT_BACKEND}: the reference physics; bullet: the "
+        f"pybullet chain)",
     )
     ap.add_argument(
         "--quick",
@@ -138,8 +153,8 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument(
         "--links-per-span",
         type=_positive_int("--links-per-span"),
-        default=4,
-        help="links per disk span of the main sweeps (default 4)",
+        default=None,
+        help="links per disk span of the main sweeps (default: 1 on mujoco, 4 on bullet)",
     )
     ap.add_argument(
         "--resolution",
@@ -225,7 +240,11 @@ def config_from_args(args: argparse.Namespace) -> StudyConfig:
         kw["n_disks_values"] = args.disks
     if args.resolution is not None:
         kw["links_per_span_values"] = args.resolution
-    kw["links_per_span"] = args.links_per_span
+    kw["links_per_span"] = (
+        args.links_per_span
+        if args.links_per_span is not None
+        else DEFAULT_LINKS_PER_SPAN[getattr(args, "backend", "bullet")]
+    )
     kw.update(
         horizontal=not args.no_horizontal,
         threshold_pct=args.threshold_pct,
@@ -235,10 +254,13 @@ def config_from_args(args: argparse.Namespace) -> StudyConfig:
     return quick_config(**kw) if args.quick else StudyConfig(**kw)
 
 
-def main(argv: Sequence[str] | None = None, factory: BackendFactory = bullet_factory) -> int:
-    """Entry point; returns the exit code (0 on success)."""
+def main(argv: Sequence[str] | None = None, factory: BackendFactory | None = None) -> int:
+    """Entry point; returns the exit code (0 on success). ``factory`` (tests) overrides
+    ``--backend``."""
     ap = build_parser()
     args = ap.parse_args(argv)
+    if factory is None:
+        factory = FACTORIES[args.backend]
     _check_out(ap, args.out, "--out")
     if args.report_copy is not None:
         if args.report_copy.suffix.lower() != ".md":

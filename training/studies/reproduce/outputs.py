@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from training.studies.reproduce import plots, report
-from training.studies.reproduce.study import PAPER_RESULTS, StudyResults, Sweep
+from training.studies.reproduce.study import PAPER_RESULTS, StudyResults, Sweep, backend_label
 
 # ---------------------------------------------------------------------------------------------
 # Outputs
@@ -103,7 +103,7 @@ def summary_rows(res: StudyResults) -> list[dict]:
         rows.append(
             {
                 "case": name,
-                "source": "this study (pybullet)",
+                "source": f"this study ({backend_label(res.backend_name)})",
                 "mean_mm": 1e3 * st["mean_m"],
                 "mean_pct": st["mean_pct"],
                 "max_mm": 1e3 * st["max_m"],

@@ -13,7 +13,7 @@ import numpy as np
 
 from cdcr_gym import kinematics as K
 from cdcr_gym.model import statics
-from training.studies.reproduce.study import PAPER_RESULTS, cable1_tensions
+from training.studies.reproduce.study import PAPER_RESULTS, backend_label, cable1_tensions
 
 __all__ = ["make_figures"]
 
@@ -187,7 +187,7 @@ def fig05_sim_tip(res, path: Path, dpi: int) -> Path:
             "o-",
             ms=3,
             color="tab:blue",
-            label="pybullet, gravity off",
+            label=f"{backend_label(res.backend_name)}, gravity off",
         )
         ax.plot(
             on.forces,
@@ -195,7 +195,7 @@ def fig05_sim_tip(res, path: Path, dpi: int) -> Path:
             "s--",
             ms=3,
             color="tab:orange",
-            label="pybullet, gravity on",
+            label=f"{backend_label(res.backend_name)}, gravity on",
         )
         ax.plot(fine, el[:, i] * MM, ":", color="k", label="elastica θ = T·r·ℓ/EI")
         ax.set(xlabel="tension on cable 1 (N)", ylabel=f"tip {name} (mm)", title=f"tip {name}")

@@ -3,9 +3,10 @@
 The paper (section 4) pulls cable 1 with 0–80 N in a nonlinear SolidWorks simulation, feeds the
 resulting cable lengths to the constant-curvature forward kinematics (CCKA, its eq. 5) and compares
 the two tips: mean Euclidean error 4.95 mm (0.77 % of ℓ) against the simulation, 2.4 mm (0.37 %)
-against an experiment. This module repeats that study with the pybullet backbone
-(``cdcr_gym.backends.bullet.BulletBackend``) in place of SolidWorks. The study is about the paper's
-one-section robot with its three cables (``C = params.n_cables = 3``); a backend is driven through
+against an experiment. This module repeats that study with a physics backbone in place of
+SolidWorks: any backend factory (``mujoco_factory``: ``MuJoCoBackend``, the CLI's default;
+``bullet_factory``: ``cdcr_gym.backends.bullet.BulletBackend``, ``run_study``'s default). The
+study is about the paper's one-section robot with its three cables (``C = params.n_cables = 3``); a backend is driven through
 the batched :class:`cdcr_gym.backends.base.Backend` interface with one robot (N = 1):
 
 1. CCKA alone (paper Fig. 6/7): cable lengths l1 = ℓ − Δl, l2 = l3 = ℓ + Δl/2 → tip X, Y, Z, and a
@@ -58,6 +59,9 @@ __all__ = [
     "tip_of",
     "cable1_tensions",
     "bullet_factory",
+    "mujoco_factory",
+    "FACTORIES",
+    "backend_label",
     "ccka_cable_sweep",
     "robot_mass",
     "run_force_sweep",
@@ -417,6 +421,41 @@ def bullet_factory(
         base_orientation=base_orientation,
         **kwargs,
     )
+
+
+def mujoco_factory(
+    params: RobotParams,
+    *,
+    gravity: bool,
+    links_per_span: int,
+    tip_payload: float,
+    base_orientation: tuple[float, float, float, float],
+    **kwargs,
+) -> Backend:
+    """The MuJoCo backbone (``MuJoCoBackend``: ball joints, the corrected cable routing — the
+    package's reference physics, within 0.2 % of ℓ of a converged Cosserat rod at one link per
+    span; docs/mujoco_backend.md). Imported here, so that the CCKA part runs without MuJoCo."""
+    from cdcr_gym.backends.mujoco import MuJoCoBackend
+
+    return MuJoCoBackend(
+        params,
+        gravity=gravity,
+        links_per_span=links_per_span,
+        tip_payload=tip_payload,
+        base_orientation=base_orientation,
+        **kwargs,
+    )
+
+
+#: ``cdcr-gym reproduce --backend NAME`` → the backend factory.
+FACTORIES: dict[str, BackendFactory] = {"bullet": bullet_factory, "mujoco": mujoco_factory}
+#: The factory's name (``StudyResults.backend_name``) → how the report names the simulation.
+_LABELS = {"bullet_factory": "pybullet", "mujoco_factory": "MuJoCo"}
+
+
+def backend_label(backend_name: str) -> str:
+    """How the report, table and figures name the physics of a study ("pybullet", "MuJoCo")."""
+    return _LABELS.get(backend_name, "pybullet" if not backend_name else backend_name)
 
 
 def cable1_tensions(forces, params: RobotParams) -> np.ndarray:
