@@ -12,7 +12,7 @@
     cdcr-gym configs                                    # the packaged experiment configs
 
 and ``from-zoo``, ``oracles``, ``results``, ``task-results``, ``sim2sim``, ``hysteresis``,
-``step-response``, ``transfer-probe``, ``verification``, ``bench-realism``, ``bench-physics``, ``calibrate``, ``oracle-feedback``, ``cosserat-reference`` (``cdcr-gym --help``).
+``step-response``, ``transfer-probe``, ``verification``, ``bench-realism``, ``bench-physics``, ``calibrate``, ``oracle-feedback``, ``cosserat-reference``, ``bench-single``, ``friction-chatter`` (``cdcr-gym --help``).
 The former ``python -m training.<module>`` forms still work (aliases, see
 :mod:`training.deprecated`).
 
@@ -90,6 +90,16 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
         "training.studies.verification",
         "the pybullet backend vs closed-form mechanics",
         "train",
+    ),
+    "bench-single": (
+        "training.studies.bench_single",
+        "the single env against Pendulum-v1 as a ratio in one run",
+        "",
+    ),
+    "friction-chatter": (
+        "training.studies.friction_chatter",
+        "cable friction through a 10 N load-unload cycle: does every hold settle?",
+        "",
     ),
     "cosserat-reference": (
         "training.studies.cosserat",

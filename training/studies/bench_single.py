@@ -4,8 +4,8 @@ shared, loaded machine where absolute rates are not). Optionally the batched env
 
 Usage::
 
-    python -m training.studies.bench_single [--rounds 9] [--steps 4000]
-    python -m training.studies.bench_single --against /tmp/base --rounds 5 [--batched 64 16384]
+    cdcr-gym bench-single [--rounds 9] [--steps 4000]
+    cdcr-gym bench-single --against /tmp/base --rounds 5 [--batched 64 16384]
         [--batched-repeats 3]
 
 ``--against CHECKOUT`` alternates this checkout and another one (imported from its directory)
@@ -158,7 +158,9 @@ def _line(r: dict[str, float]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(
+        prog="cdcr-gym bench-single", description=__doc__.split("\n")[0]
+    )
     parser.add_argument("--rounds", type=int, default=9, help="alternation rounds")
     parser.add_argument("--steps", type=int, default=4000, help="steps per env per round")
     parser.add_argument("--batched", type=int, nargs="*", default=[], help="batched sizes")

@@ -1,6 +1,6 @@
 """Friction chatter probe (issue 21 item 4): does a load–unload cycle settle at every hold?
 
-``python -m training.studies.friction_chatter [--backend mujoco|bullet|both] [--hold N]
+``cdcr-gym friction-chatter [--backend mujoco|bullet|both] [--hold N]
 [--mu MU] [--damping-ratio Z]``: paper robot, gravity off, cable 1 loaded 10 → 80 N in 10 N
 steps and unloaded to 0 N, each level held ``--hold`` control steps (default 600). Per hold it
 prints the tip x (mm), the *motion* — the peak-to-peak tip x over the last 20 control steps of
@@ -123,7 +123,9 @@ def _backend(name: str, mu: float, damping_ratio: float):
 
 
 def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(
+        prog="cdcr-gym friction-chatter", description=__doc__.splitlines()[0]
+    )
     ap.add_argument("--backend", choices=("mujoco", "bullet", "both"), default="both")
     ap.add_argument("--hold", type=int, default=600)
     ap.add_argument("--mu", type=float, default=0.2)
