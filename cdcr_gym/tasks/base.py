@@ -278,6 +278,19 @@ class GoalTask(Task):
     reward_type = "dense"
     distance_threshold = 0.005
 
+    def __getstate__(self) -> dict[str, Any]:
+        """Pickling (env snapshots, copies) keeps :attr:`goal` a view of :attr:`goal_rows`:
+        numpy pickles the two arrays separately, which would cut the link (a reset writing
+        ``goal`` would then leave ``goal_rows`` stale)."""
+        state = self.__dict__.copy()
+        state.pop("goal", None)
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        if "goal_rows" in state:
+            self.goal = self.goal_rows.T
+
     def bind(self, params: RobotParams, num_envs: int) -> None:
         super().bind(params, num_envs)
         self.goal_rows = np.zeros((3, self.num_envs))

@@ -87,3 +87,21 @@ def test_evaluate_single_is_env_0_of_evaluate(task_id, reward_type):
             want = value.item() if value.ndim == 1 else value[0]
             assert type(info[key]) is type(want), key
             assert np.array_equal(info[key], want), key
+
+
+@pytest.mark.parametrize("env_id", ["cdcr_gym/CCKAReach-v0", "cdcr_gym/CCKAPose-v0"])
+def test_a_pickled_env_keeps_its_goal_and_goal_rows_linked(env_id):
+    """A snapshot (pickle) of an env must step like the original after a reset: the task's
+    ``goal`` stays a view of ``goal_rows`` (a resumed training depended on it)."""
+    import pickle
+
+    env = gym.make(env_id).unwrapped
+    env.reset(seed=1)
+    copy = pickle.loads(pickle.dumps(env))
+    task = copy.task
+    assert np.shares_memory(task.goal, task.goal_rows)
+    for e in (env, copy):
+        e.reset(seed=2)
+    a = env.action_space.sample()
+    np.testing.assert_array_equal(env.step(a)[0], copy.step(a)[0])
+    np.testing.assert_array_equal(copy.task.goal, copy.task.goal_rows.T)
