@@ -33,8 +33,8 @@ from cdcr_gym.backends.bullet.integrator import (
     bending_modes,
 )
 from cdcr_gym.backends.mujoco import friction as mj_friction
-from cdcr_gym.backends.mujoco import obstacles
 from cdcr_gym.backends.mujoco.mjcf import JOINTS, ROUTINGS, MJCFModel, build_mjcf
+from cdcr_gym.backends.mujoco.obstacles import ObstacleScene
 from cdcr_gym.model import friction
 from cdcr_gym.model.params import STANDARD_GRAVITY, RobotParams
 
@@ -52,7 +52,7 @@ def _mujoco() -> Any:
     return mujoco
 
 
-class MuJoCoBackend(Backend):
+class MuJoCoBackend(ObstacleScene, Backend):
     """``num_robots`` CDCRs simulated by MuJoCo (see the module docstring and ``mjcf``).
 
     Args:
@@ -743,29 +743,6 @@ class MuJoCoBackend(Backend):
             data.mocap_pos[:k] = old_data.mocap_pos[:k]
             mj.mj_forward(model, data)
             self._sense(i)
-
-    # -- obstacles (cdcr_gym.backends.mujoco.obstacles) ----------------------------------------
-    def set_obstacles(self, index: np.ndarray, spheres: np.ndarray) -> None:
-        """Place spheres ``spheres`` (M, K, 4) rows (x, y, z, radius) m in R0 for robots
-        ``index`` (M,); a row of radius 0 is no sphere. The first call with K spheres builds
-        them into the model (MuJoCo geoms on mocap bodies; the robot's links and disks become
-        capsule and cylinder geoms), keeping every robot's state. Collisions are then MuJoCo's
-        contacts: :attr:`obstacle_clearance`, and with ``solid_obstacles`` the spheres push
-        back (:attr:`contact_forces`)."""
-        obstacles.place_spheres(self, index, spheres)
-
-    @property
-    def obstacle_clearance(self) -> np.ndarray:
-        """Smallest distance (N,) m between every robot's geoms (links as capsules of the rod's
-        radius, disks as cylinders) and its spheres, by MuJoCo's ``mj_geomDistance``
-        (negative: penetration; inf without spheres, or with none within ℓ)."""
-        return obstacles.clearance(self)
-
-    @property
-    def contact_forces(self) -> np.ndarray:
-        """Total normal force (N,) N the spheres exert on every robot in its current state (0
-        unless ``solid_obstacles``)."""
-        return obstacles.contact_forces(self)
 
     def close(self) -> None:
         """Release the MuJoCo data and the rollout threads. Safe to call more than once."""
