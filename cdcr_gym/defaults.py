@@ -13,6 +13,7 @@ __all__ = [
     "INITIAL_STATE",
     "MAX_EPISODE_STEPS",
     "DISTANCE_THRESHOLD",
+    "NOMINAL_TIMESTEP",
 ]
 
 #: Action mode of every env (``cdcr_gym.envs.actuation.ACTION_MODES``).
@@ -27,3 +28,7 @@ INITIAL_STATE = "straight"
 MAX_EPISODE_STEPS = 100
 #: Success radius (m) of the goal tasks.
 DISTANCE_THRESHOLD = 0.005
+#: Control timestep (s) assumed on a quasi-static backend (the analytic one has
+#: ``control_timestep == 0``): the pybullet backend's default, so a speed means the same
+#: distance per step on every backend (Track's target, the ``tip_velocity`` field).
+NOMINAL_TIMESTEP = 0.02

@@ -31,6 +31,7 @@ from cdcr_gym.envs.actuation import Actuation
 from cdcr_gym.model.workspace import sample_tensions_each
 from cdcr_gym.randomization import INFO_PREFIX, DomainRandomization, Imperfections
 from cdcr_gym.tasks.base import Task, one_env_info
+from cdcr_gym.tasks.observation import Field, ObservationSpec
 
 __all__ = ["EnvCore", "INITIAL_STATES", "OPTION_KEYS"]
 
@@ -55,6 +56,12 @@ class EnvCore:
         randomize: per-episode parameter ranges (``cdcr_gym.randomization``); None: off.
         imperfections: sensor and actuator imperfections (``cdcr_gym.randomization``);
             None: off.
+        observe_tip_velocity: append the field ``tip_velocity`` (3, m/s) to the task's
+            observation: the tip's displacement over the last control step divided by the
+            backend's control timestep (``defaults.NOMINAL_TIMESTEP`` on a quasi-static
+            backend), 0 after a reset. A physics robot moves on after a command (it overshoots
+            and settles); this tells a policy how. From the backend's readings (the
+            ``imperfections`` noise acts on the task's fields, not on this difference).
     """
 
     def __init__(
@@ -70,6 +77,7 @@ class EnvCore:
         terminate_on_success: bool = False,
         randomize: Mapping[str, Any] | None = None,
         imperfections: Mapping[str, Any] | None = None,
+        observe_tip_velocity: bool = False,
     ) -> None:
         if not isinstance(backend, Backend):
             raise ValueError(f"backend must be a cdcr_gym.backends.Backend, got {backend!r}")
@@ -102,6 +110,24 @@ class EnvCore:
         self.initial_states = tuple(states)
         self._random_start = np.array([s == "random" for s in states])
         self.spec = task.observation_spec(self.goal_conditioned)
+        #: Rows of the task's own fields in the observation (the velocity field follows them).
+        self._task_rows = self.spec.size
+        self.observe_tip_velocity = validation.flag(observe_tip_velocity, "observe_tip_velocity")
+        dt = float(backend.control_timestep)
+        self._inv_timestep = 1.0 / (dt if dt > 0.0 else defaults.NOMINAL_TIMESTEP)
+        self._tip_velocity = np.zeros((3, n))  # field-major rows, m/s
+        if self.observe_tip_velocity:
+            bound = 2.0 * self.params.length * self._inv_timestep  # no step moves the tip > 2l
+            velocity = Field.uniform(
+                "tip_velocity",
+                3,
+                -bound,
+                bound,
+                "m/s",
+                "tip velocity over the last control step",
+                ("x", "y", "z"),
+            )
+            self.spec = ObservationSpec([*self.spec.fields, velocity])
         c = self.n_cables
         self.action_space = spaces.Box(-1.0, 1.0, shape=(c,), dtype=np.float32)
         if self.goal_conditioned:
@@ -245,6 +271,7 @@ class EnvCore:
             self._held_lengths[idx] = r.cable_lengths[idx]
         if self.imperfections is not None:
             self.imperfections.reset(idx, r.tensions[idx])
+        self._tip_velocity[:, idx] = 0.0
 
     # -- step -----------------------------------------------------------------------------------
     def step(self, action: np.ndarray, active: np.ndarray | None = None) -> None:
@@ -255,6 +282,8 @@ class EnvCore:
         """
         act = self.actuation
         imp = self.imperfections
+        if self.observe_tip_velocity:
+            self._previous_tip = self._readings.tip
         if imp is not None:
             action = imp.delayed(action)
         if act.commands_lengths:
@@ -266,10 +295,18 @@ class EnvCore:
                 shape, actuator = imp.actuate(self._held_tensions, self._rngs, active)
                 self.backend.apply_tensions(shape)
                 self._readings = self.backend.read()._replace(tensions=actuator)
+                self._moved()
                 return
             self.backend.apply_tensions(self._held_tensions)
         self._readings = self.backend.read()
+        self._moved()
         self.task.advance(self.backend, self._readings)
+
+    def _moved(self) -> None:
+        """After a step: the tip velocity (field rows) from the readings before and after."""
+        if self.observe_tip_velocity:
+            diff = self._readings.tip - self._previous_tip
+            np.multiply(diff.T, self._inv_timestep, out=self._tip_velocity)
 
     def terminated(self, success: Any) -> Any:
         """(N,) bool: the envs whose episode ends now: a success with ``terminate_on_success``,
@@ -303,10 +340,14 @@ class EnvCore:
         task = self.task
         buffer = np.empty(self._buffer_shape, dtype=np.float32)
         imp = self.imperfections
+        rows = buffer[: self._task_rows] if self.observe_tip_velocity else buffer
         if imp is None:
-            task.observe(r, buffer, self.goal_conditioned)
+            task.observe(r, rows, self.goal_conditioned)
         else:  # noisy readings; a sensor saturates at the observation space's bounds
-            task.observe(imp.sense(r, self._rngs), buffer, self.goal_conditioned)
+            task.observe(imp.sense(r, self._rngs), rows, self.goal_conditioned)
+        if self.observe_tip_velocity:
+            buffer[self._task_rows :] = self._tip_velocity
+        if imp is not None or self.observe_tip_velocity:
             np.clip(buffer, self._obs_bounds[0], self._obs_bounds[1], out=buffer)
         flat = buffer.T  # (N, size), Fortran-ordered (like Gymnasium's CartPoleVectorEnv)
         obs: Any

@@ -97,6 +97,7 @@ class CDCREnv(gym.Env):
     | ``render_height``      | 480               | image height (px)                                |
     | ``randomize`` | None | per-episode parameter ranges (domain randomisation, ``cdcr_gym.randomization``) |
     | ``imperfections`` | None | sensor noise/bias, action delay, tension rate limit, actuator noise (``cdcr_gym.randomization``) |
+    | ``observe_tip_velocity`` | False | append ``tip_velocity`` (3, m/s): the tip's displacement over the last control step / the control timestep (0.02 s on CCKA), 0 after a reset |
 
     ## Version History
     * v0: initial release (one-section reach); the n-section core keeps its layout and results.
@@ -122,6 +123,7 @@ class CDCREnv(gym.Env):
         render_height: int = 480,
         randomize: Mapping[str, Any] | None = None,
         imperfections: Mapping[str, Any] | None = None,
+        observe_tip_velocity: bool = False,
     ) -> None:
         if not isinstance(backend, Backend):
             raise ValueError(f"backend must be a cdcr_gym.backends.Backend, got {backend!r}")
@@ -142,6 +144,7 @@ class CDCREnv(gym.Env):
             terminate_on_success=terminate_on_success,
             randomize=randomize,
             imperfections=imperfections,
+            observe_tip_velocity=observe_tip_velocity,
         )
         self.task = task
         self.action_mode = action_mode

@@ -21,7 +21,13 @@ import numpy as np
 from cdcr_gym.backends.base import Backend
 from cdcr_gym.model.chain import PCCModel
 
-__all__ = ["RobotGeometry", "backend_geometry", "model_geometry", "clearance"]
+__all__ = [
+    "RobotGeometry",
+    "backend_geometry",
+    "model_geometry",
+    "clearance",
+    "nearest_backbone_points",
+]
 
 
 class RobotGeometry(NamedTuple):
@@ -87,3 +93,25 @@ def clearance(
     d_disk = np.where(q <= disk_radius, np.abs(h), np.hypot(h, q - disk_radius)).min(-1)
     out = np.minimum(d_rod, d_disk) - radius
     return np.where(radius > 0.0, out, np.inf)
+
+
+def nearest_backbone_points(geometry: RobotGeometry, spheres: np.ndarray) -> np.ndarray:
+    """The point of each robot's backbone polyline nearest to each sphere's centre: (M, K, 3) m.
+
+    Args:
+        geometry: M robots.
+        spheres: (M, K, 4) or (K, 4) rows (x, y, z, radius) m (padding rows are measured too;
+            callers mask them).
+    """
+    spheres = np.asarray(spheres, dtype=np.float64)
+    m = geometry.points.shape[0]
+    if spheres.ndim == 2:
+        spheres = np.broadcast_to(spheres, (m,) + spheres.shape)
+    c = spheres[:, :, None, :3]  # (M, K, 1, 3)
+    a = geometry.points[:, None, :-1]  # (M, 1, P-1, 3)
+    ab = geometry.points[:, None, 1:] - a
+    t = np.clip(np.sum((c - a) * ab, -1) / np.maximum(np.sum(ab * ab, -1), 1e-300), 0.0, 1.0)
+    nearest = a + t[..., None] * ab  # (M, K, P-1, 3)
+    d2 = np.sum((c - nearest) ** 2, -1)
+    best = np.argmin(d2, axis=-1)  # (M, K)
+    return np.take_along_axis(nearest, best[..., None, None], axis=2)[:, :, 0]

@@ -17,7 +17,13 @@ from cdcr_gym.tasks.base import (
     goal_distance,
     robot_state_fields,
 )
-from cdcr_gym.tasks.collision import RobotGeometry, backend_geometry, clearance, model_geometry
+from cdcr_gym.tasks.collision import (
+    RobotGeometry,
+    backend_geometry,
+    clearance,
+    model_geometry,
+    nearest_backbone_points,
+)
 from cdcr_gym.tasks.observation import Field
 
 __all__ = ["Obstacle", "ObstacleSceneError"]
@@ -72,9 +78,24 @@ class Obstacle(GoalTask):
     | 28–30 | cable tensions / max_tension | 0 | 1 | – |
     | 31–33 | (cable length − L_i) / (π r_i m_i), L_i: backbone length the cable spans | -1 | 1 | – |
 
+    With ``clearance_features=True`` three more fields follow ``min_clearance`` (before the
+    robot state): ``obstacle_clearances`` (one per sphere, m, clipped to [−ℓ, 2ℓ]; padding 2ℓ),
+    ``obstacle_directions`` (3 per sphere: the unit vector from the sphere's centre to the
+    nearest point of the backbone, the way out of the sphere; padding 0) and ``collided`` (1
+    once the robot has touched a sphere in this episode, else 0) — measured geometrically on the
+    backend's backbone and disks (``cdcr_gym.tasks.collision``) on every backend. They tell the
+    policy where each sphere is *relative to the robot* and whether the episode can still
+    succeed, which the sphere centres alone leave it to learn (docs/tasks.md measures the
+    effect).
+
     **Reward**: ``"dense"``: −‖goal − tip‖ (m) − ``collision_penalty`` on every step in
     collision − ``penetration_weight``·(penetration depth, m: −min_clearance when negative);
-    ``"sparse"``: −1 until success, then 0, minus the same penalties.
+    ``"sparse"``: −1 until success, then 0, minus the same penalties. Both can add a shaping
+    that is off by default: ``proximity_weight``·max(0, ``proximity_margin`` − min_clearance)
+    (a graded cost of coming closer than the margin to a sphere, before touching it; it keeps
+    growing inside) and ``success_bonus`` on every step that counts as a success (within the
+    threshold and no collision so far: a collision forfeits the bonus for the rest of the
+    episode).
     **Success**: distance <= ``distance_threshold`` and no collision so far in the episode.
     **info**: ``distance`` (m), ``is_success``, ``goal`` (m), ``collision`` (in collision now),
     ``collided`` (at any step of the episode so far), ``min_clearance`` (m, unclipped; negative
@@ -105,6 +126,13 @@ class Obstacle(GoalTask):
             the robot's length: 38–77 mm on the paper robot).
         clearance_margin: smallest distance (m) between a sphere and the start and goal shapes
             when a scene is made (>= 0).
+        clearance_features: add the per-sphere clearances, the directions out of the spheres
+            and the ``collided`` flag to the observation (see above).
+        proximity_margin: distance (m, >= 0) to a sphere below which the proximity cost
+            starts.
+        proximity_weight: reward subtracted per metre closer than ``proximity_margin`` (1/m·m,
+            >= 0), 0 = off.
+        success_bonus: reward added on every step that counts as a success (>= 0), 0 = off.
     """
 
     name = "Obstacle"
@@ -121,6 +149,10 @@ class Obstacle(GoalTask):
         max_obstacles: int = 3,
         radius_range: tuple[float, float] | None = None,
         clearance_margin: float = 0.01,
+        clearance_features: bool = False,
+        proximity_margin: float = 0.0,
+        proximity_weight: float = 0.0,
+        success_bonus: float = 0.0,
     ) -> None:
         self.reward_type = validation.choice(reward_type, "reward_type", REWARD_TYPES)
         self.distance_threshold = validation.positive(distance_threshold, "distance_threshold")
@@ -146,6 +178,14 @@ class Obstacle(GoalTask):
         self.clearance_margin = validation.positive(
             clearance_margin, "clearance_margin", allow_zero=True
         )
+        self.clearance_features = validation.flag(clearance_features, "clearance_features")
+        self.proximity_margin = validation.positive(
+            proximity_margin, "proximity_margin", allow_zero=True
+        )
+        self.proximity_weight = validation.positive(
+            proximity_weight, "proximity_weight", allow_zero=True
+        )
+        self.success_bonus = validation.positive(success_bonus, "success_bonus", allow_zero=True)
         self._dense = reward_type == "dense"
 
     def bind(self, params, num_envs: int) -> None:
@@ -156,6 +196,8 @@ class Obstacle(GoalTask):
         self.collision = np.zeros(n, dtype=bool)
         self.collided = np.zeros(n, dtype=bool)
         self.contact_force = np.zeros(n)
+        self.clearances = np.full((n, k), np.inf)  # per sphere (clearance_features)
+        self.directions = np.zeros((n, k, 3))  # unit vectors out of each sphere
         ell = params.length
         self.radii = self.radius_range or (0.06 * ell, 0.12 * ell)
         self._rod = 0.5 * params.backbone_diameter
@@ -175,7 +217,28 @@ class Obstacle(GoalTask):
             Field.uniform(
                 "min_clearance", 1, -ell, 2 * ell, "m", "smallest robot–sphere clearance"
             ),
+            *(self.clearance_fields() if self.clearance_features else []),
             *robot_state_fields(self.params),
+        ]
+
+    def clearance_fields(self) -> list[Field]:
+        """The fields ``clearance_features`` adds (see the class docstring)."""
+        ell, k = self.params.length, self.max_obstacles
+        labels = tuple(f"{i}{a}" for i in range(k) for a in ("x", "y", "z"))
+        return [
+            Field.uniform(
+                "obstacle_clearances", k, -ell, 2 * ell, "m", "robot–sphere clearance per sphere"
+            ),
+            Field.uniform(
+                "obstacle_directions",
+                3 * k,
+                -1.0,
+                1.0,
+                "–",
+                "unit vector from each sphere's centre to the nearest backbone point",
+                labels,
+            ),
+            Field.uniform("collided", 1, 0.0, 1.0, "–", "1: a sphere was touched this episode"),
         ]
 
     # -- scenes ---------------------------------------------------------------------------------
@@ -263,12 +326,15 @@ class Obstacle(GoalTask):
         self._check(backend, idx)
 
     def _check(self, backend: Backend, idx: np.ndarray | None = None) -> None:
+        if not backend.supports_obstacles or self.clearance_features:
+            geometry = backend_geometry(backend)
+            per_sphere = clearance(geometry, self.obstacles, self._rod, self._disk)
+            gap = per_sphere.min(1)
+            if self.clearance_features:
+                self._features(geometry, per_sphere, idx)
         if backend.supports_obstacles:  # the simulator's collision detection
             gap = np.asarray(backend.obstacle_clearance, dtype=np.float64)
             self.contact_force = np.asarray(backend.contact_forces, dtype=np.float64)
-        else:
-            geometry = backend_geometry(backend)
-            gap = clearance(geometry, self.obstacles, self._rod, self._disk).min(1)
         hit = gap < 0.0
         if idx is None:
             self.min_clearance, self.collision = gap, hit
@@ -276,6 +342,20 @@ class Obstacle(GoalTask):
         else:
             self.min_clearance[idx], self.collision[idx] = gap[idx], hit[idx]
             self.collided[idx] |= hit[idx]
+
+    def _features(
+        self, geometry: RobotGeometry, per_sphere: np.ndarray, idx: np.ndarray | None
+    ) -> None:
+        """Store the per-sphere clearances (N, K) m and unit directions (N, K, 3) out of each
+        sphere for envs ``idx`` (all if None)."""
+        rows = slice(None) if idx is None else idx
+        centres = self.obstacles[rows, :, :3]
+        away = nearest_backbone_points(geometry, self.obstacles)[rows] - centres
+        norm = np.linalg.norm(away, axis=-1, keepdims=True)
+        present = self.obstacles[rows, :, 3:4] > 0.0
+        unit = np.divide(away, norm, out=np.zeros_like(away), where=present & (norm > 0.0))
+        self.directions[rows] = unit
+        self.clearances[rows] = per_sphere[rows]
 
     def advance(self, backend: Backend, readings: Readings) -> None:
         self._check(backend)
@@ -294,6 +374,10 @@ class Obstacle(GoalTask):
         out[s["obstacle_radii"]] = self.obstacles[:, :, 3].T
         out[s["obstacle_mask"]] = (self.obstacles[:, :, 3] > 0.0).T
         out[s["min_clearance"]] = np.clip(self.min_clearance, -ell, 2 * ell)[None]
+        if self.clearance_features:
+            out[s["obstacle_clearances"]] = np.clip(self.clearances, -ell, 2 * ell).T
+            out[s["obstacle_directions"]] = self.directions.reshape(n, 3 * k).T
+            out[s["collided"]] = self.collided[None]
 
     def evaluate(self, readings: Readings) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
         distance = self.distance(readings)
@@ -312,16 +396,25 @@ class Obstacle(GoalTask):
 
     def reward_from_success(self, distance: np.ndarray, success: np.ndarray) -> np.ndarray:
         """The goal part of the reward: ``"dense"`` −distance (m), ``"sparse"`` −1 until
-        success, then 0."""
-        return -distance if self.reward_type == "dense" else success - 1.0
+        success, then 0; plus ``success_bonus`` on success."""
+        reward = -distance if self.reward_type == "dense" else success - 1.0
+        if self.success_bonus:
+            reward = reward + self.success_bonus * success
+        return reward
 
     def penalised(self, reward: np.ndarray, info: dict[str, Any]) -> np.ndarray:
         """``reward`` minus the collision penalties of ``info`` (``collision``,
-        ``min_clearance``)."""
+        ``min_clearance``): per step in collision, per metre of penetration, per metre closer
+        than ``proximity_margin``."""
         reward = reward - self.collision_penalty * np.asarray(info["collision"])
-        if self.penetration_weight:
-            penetration = np.maximum(0.0, -np.asarray(info["min_clearance"], dtype=np.float64))
-            reward = reward - self.penetration_weight * penetration
+        if self.penetration_weight or self.proximity_weight:
+            gap = np.asarray(info["min_clearance"], dtype=np.float64)
+            if self.penetration_weight:
+                reward = reward - self.penetration_weight * np.maximum(0.0, -gap)
+            if self.proximity_weight:
+                reward = reward - self.proximity_weight * np.maximum(
+                    0.0, self.proximity_margin - gap
+                )
         return reward
 
     def compute_reward(

@@ -8,16 +8,13 @@ import numpy as np
 
 from cdcr_gym import validation
 from cdcr_gym.backends.base import Backend, Readings
+from cdcr_gym.defaults import NOMINAL_TIMESTEP
 from cdcr_gym.model.workspace import sample_tensions
 from cdcr_gym.tasks.base import GoalTask, robot_state_fields
 from cdcr_gym.tasks.observation import Field
 
 __all__ = ["Track", "NOMINAL_TIMESTEP", "TargetPaths"]
 
-#: Control timestep (s) assumed on a quasi-static backend (the analytic one has
-#: ``control_timestep == 0``): the pybullet backend's default, so a speed means the same
-#: distance per step on both backends.
-NOMINAL_TIMESTEP = 0.02
 
 #: Samples of the tension loop mapped through the backend's statics (knots of the tip path).
 _KNOTS = 64

@@ -8,6 +8,7 @@ import pytest
 
 import cdcr_gym  # noqa: F401  (registers the ids)
 from cdcr_gym.backends.analytic import AnalyticBackend
+from cdcr_gym.defaults import NOMINAL_TIMESTEP
 from cdcr_gym.envs.core import OPTION_KEYS, EnvCore
 from cdcr_gym.model.params import RobotParams
 from cdcr_gym.tasks.obstacle import Obstacle
@@ -112,3 +113,62 @@ def test_the_single_env_is_a_core_of_one_env():
 def test_bad_arguments_name_themselves(kwargs, name):
     with pytest.raises(ValueError, match=name):
         _core(1, **kwargs)
+
+
+@pytest.mark.parametrize(
+    "env_id", ["cdcr_gym/CCKAReach-v0", "cdcr_gym/MuJoCoReach-v0", "cdcr_gym/CCKAObstacle-v0"]
+)
+def test_tip_velocity_field_is_the_tip_displacement_per_control_timestep(env_id):
+    plain = gym.make(env_id)
+    env = gym.make(env_id, observe_tip_velocity=True)
+    size = plain.observation_space.shape[0]
+    assert env.observation_space.shape == (size + 3,)
+    assert env.unwrapped.observation_spec.names[-1] == "tip_velocity"
+    dt = env.unwrapped.backend.control_timestep or NOMINAL_TIMESTEP
+    obs, info = env.reset(seed=2)
+    obs_plain, _ = plain.reset(seed=2)
+    assert np.array_equal(obs[:size], obs_plain) and np.all(obs[size:] == 0.0)
+    rng = np.random.default_rng(0)
+    for _ in range(15):
+        tip = info["tip"]
+        action = rng.uniform(-1, 1, 3).astype(np.float32)
+        obs, _, _, _, info = env.step(action)
+        obs_plain, *_ = plain.step(action)
+        assert np.array_equal(obs[:size], obs_plain)  # the task's fields are unchanged
+        expected = ((info["tip"] - tip) / dt).astype(np.float32)
+        np.testing.assert_allclose(obs[size:], expected, rtol=1e-5, atol=1e-9)
+        assert env.observation_space.contains(obs)
+    assert np.abs(obs[size:]).max() > 0.0
+    obs, _ = env.reset(seed=3)
+    assert np.all(obs[size:] == 0.0)  # a reset starts from rest
+
+
+def test_tip_velocity_in_the_batched_env_matches_single_envs_across_autoresets():
+    kwargs = {"observe_tip_velocity": True, "initial_state": "random"}
+    vec = gym.make_vec(
+        "cdcr_gym/CCKAReach-v0",
+        num_envs=3,
+        vectorization_mode="vector_entry_point",
+        max_episode_steps=4,
+        **kwargs,
+    )
+    singles = [gym.make("cdcr_gym/CCKAReach-v0", max_episode_steps=4, **kwargs) for _ in range(3)]
+    obs, _ = vec.reset(seed=[5, 6, 7])
+    rows = [e.reset(seed=s)[0] for e, s in zip(singles, [5, 6, 7])]
+    np.testing.assert_array_equal(obs, np.stack(rows))
+    rng = np.random.default_rng(1)
+    for t in range(9):
+        actions = rng.uniform(-1, 1, (3, 3)).astype(np.float32)
+        obs, *_ = vec.step(actions)
+        for i, e in enumerate(singles):
+            if t % 5 == 4:  # next-step autoreset: the vector env resets this step
+                row, _ = e.reset()
+                np.testing.assert_array_equal(obs[i, -3:], 0.0)
+                continue
+            row, *_ = e.step(actions[i])
+            np.testing.assert_allclose(obs[i], row, rtol=1e-6, atol=1e-9)
+
+
+def test_observe_tip_velocity_must_be_a_bool():
+    with pytest.raises(ValueError, match="observe_tip_velocity"):
+        gym.make("cdcr_gym/CCKAReach-v0", observe_tip_velocity="yes")

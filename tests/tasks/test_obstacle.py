@@ -13,7 +13,7 @@ from cdcr_gym.controllers import AnalyticIKController, ObstaclePlanner
 from cdcr_gym.model.ik import solve_ik
 from cdcr_gym.model.statics import cached_model
 from cdcr_gym.params import RobotParams
-from cdcr_gym.tasks.collision import clearance, model_geometry
+from cdcr_gym.tasks.collision import clearance, model_geometry, nearest_backbone_points
 from cdcr_gym.tasks.obstacle import Obstacle
 
 COMBOS = combos("Obstacle")
@@ -135,6 +135,10 @@ def test_render_draws_the_obstacles():
         ({"radius_range": (0.05, 0.01)}, "radius_range"),
         ({"radius_range": (0.0, 0.01)}, "radius_range"),
         ({"clearance_margin": -0.01}, "clearance_margin"),
+        ({"clearance_features": "yes"}, "clearance_features"),
+        ({"proximity_margin": -0.01}, "proximity_margin"),
+        ({"proximity_weight": float("nan")}, "proximity_weight"),
+        ({"success_bonus": -1.0}, "success_bonus"),
         ({"goal_conditioned": True}, "goal_conditioned"),
     ],
 )
@@ -156,3 +160,77 @@ def test_docstring_lists_the_arguments_and_the_observation_table():
             assert f"{name}:" in doc, name
     env = gym.make("cdcr_gym/CCKAObstacle-v0")
     assert env.unwrapped.observation_spec.table() in doc
+
+
+def test_nearest_backbone_points_match_a_dense_search_along_the_polyline():
+    params = RobotParams.preset("paper")
+    model = cached_model(params)
+    rng = np.random.default_rng(3)
+    bending = rng.uniform(-1.0, 1.0, (4, 1, 2))
+    geometry = model_geometry(model, bending)
+    spheres = np.concatenate([rng.uniform(-0.4, 0.7, (4, 3, 3)), np.full((4, 3, 1), 0.05)], -1)
+    nearest = nearest_backbone_points(geometry, spheres)
+    a, b = geometry.points[:, :-1], geometry.points[:, 1:]
+    t = np.linspace(0.0, 1.0, 2001)[:, None, None, None]
+    dense = (a + t * (b - a)).transpose(1, 0, 2, 3).reshape(4, -1, 3)  # (M, many, 3)
+    for m in range(4):
+        for k in range(3):
+            brute = np.linalg.norm(dense[m] - spheres[m, k, :3], axis=-1).min()
+            found = np.linalg.norm(nearest[m, k] - spheres[m, k, :3])
+            assert found <= brute + 1e-12
+            assert found >= brute - 1e-3 * np.max(np.linalg.norm(b[m] - a[m], axis=-1))
+
+
+@pytest.mark.parametrize("env_id", ["cdcr_gym/CCKAObstacle-v0", "cdcr_gym/MuJoCoObstacle-v0"])
+def test_clearance_features_describe_each_sphere_and_the_collided_flag(env_id):
+    env = gym.make(env_id, clearance_features=True, min_obstacles=2, max_obstacles=3)
+    spec = env.unwrapped.observation_spec
+    assert env.observation_space.shape == (47,)
+    ik = AnalyticIKController.from_env(env)
+    obs, info = env.reset(seed=4)
+    seen_collision = False
+    for _ in range(60):
+        s = spec.slices
+        present = info["obstacles"][:, 3] > 0
+        clear = obs[s["obstacle_clearances"]]
+        directions = obs[s["obstacle_directions"]].reshape(3, 3)
+        # padding: clearance 2l and no direction; spheres: unit directions
+        assert np.all(clear[~present] == np.float32(2 * 0.641))
+        assert np.all(directions[~present] == 0.0)
+        np.testing.assert_allclose(np.linalg.norm(directions[present], axis=1), 1.0, rtol=1e-5)
+        if env_id.startswith("cdcr_gym/CCKA"):  # the same geometry as min_clearance
+            assert clear.min() == pytest.approx(info["min_clearance"], abs=1e-6)
+        assert obs[s["collided"]][0] == float(info["collided"])
+        seen_collision |= info["collided"]
+        obs, _, _, _, info = env.step(ik(obs))
+    assert seen_collision  # the reach IK runs into the blocking sphere: the flag was exercised
+    assert env.observation_space.contains(obs)
+
+
+def test_proximity_cost_and_success_bonus_shape_the_reward_as_documented():
+    kwargs = {"proximity_margin": 0.03, "proximity_weight": 2.0, "success_bonus": 0.5}
+    env = gym.make("cdcr_gym/CCKAObstacle-v0", penetration_weight=5.0, **kwargs)
+    plain = gym.make("cdcr_gym/CCKAObstacle-v0", penetration_weight=5.0)
+    task = env.unwrapped.task
+    near = bonus = 0
+    for controller in (AnalyticIKController.from_env(env), ObstaclePlanner.from_env(env)):
+        obs, info = env.reset(seed=1)
+        plain.reset(seed=1)
+        for _ in range(100):
+            action = controller(obs)
+            obs, reward, _, _, info = env.step(action)
+            _, reward_plain, _, _, info_plain = plain.step(action)
+            gap = info["min_clearance"]
+            expected = reward_plain - 2.0 * max(0.0, 0.03 - gap) + 0.5 * info["is_success"]
+            assert reward == pytest.approx(expected, abs=1e-12)
+            assert info_plain["distance"] == info["distance"]
+            keys = ("collided", "collision", "min_clearance")
+            again = task.compute_reward(
+                np.asarray(info["tip"])[None],
+                np.asarray(info["goal"])[None],
+                {k: np.asarray([info[k]]) for k in keys},
+            )
+            assert again[0] == pytest.approx(reward, abs=1e-12)
+            near += 0.0 < gap < 0.03
+            bonus += bool(info["is_success"])
+    assert near > 0 and bonus > 0  # both terms were exercised
