@@ -40,3 +40,12 @@ def test_accuracy_table_reads_a_reference_json(tmp_path):
     by_config = {(r["joint"], r["routing"], r["links_per_span"]): r for r in rows}
     assert by_config["ball", "corrected", 1]["paper g=off"][0] < 1e-12
     assert by_config["cardan", "disk", 1]["paper g=off"][0] > 0.005  # bullet's model is off
+
+
+def test_default_reference_is_the_committed_cosserat_rod():
+    # the module moved into training/studies/; a wrong parents[] index silently fell back to the
+    # converged chain
+    assert bench_physics.REFERENCE_PATH.exists()
+    assert bench_physics.REFERENCE_PATH.name == "cosserat_reference.json"
+    name, _ = bench_physics.accuracy_table(quick=True, repeats=1, steps=3)
+    assert name.startswith("Cosserat rod"), name
