@@ -25,6 +25,7 @@ Units: N, m, rad. Functions broadcast over leading dimensions.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from functools import lru_cache
 
 import numpy as np
@@ -41,6 +42,8 @@ __all__ = [
     "arc_from_tensions",
     "tensions_from_arc",
     "bending_limit",
+    "payload_test_tensions",
+    "check_tip_payload",
     "CABLE_DIRECTIONS",
 ]
 
@@ -266,3 +269,60 @@ def bending_limit(phi, params: RobotParams, pretension: float = 0.0) -> np.ndarr
     unit = solvers[0](np.stack([np.cos(phi), np.sin(phi)], axis=-1))  # N per N·m
     ratio = np.where(unit > 0.0, headroom / np.where(unit > 0.0, unit, 1.0), np.inf)
     return np.min(ratio, axis=-1) * params.length / params.bending_stiffness
+
+
+def payload_test_tensions(params: RobotParams) -> np.ndarray:
+    """The tension-box corners at which a tip payload must be held, shape (1 + C + C(C−1)/2, C) N.
+
+    No tension, then each cable alone at ``max_tension``, then each pair of cables at
+    ``max_tension``: the most bent shapes the robot takes (goals and random starts are drawn
+    from them), where a payload's weight has the longest lever arm.
+    """
+    if not isinstance(params, RobotParams):
+        raise ValueError(f"params must be a RobotParams, got {params!r}")
+    c, top = params.n_cables, params.max_tension
+    eye = np.eye(c)
+    corners = [np.zeros(c)]
+    corners += [eye[i] * top for i in range(c)]
+    corners += [(eye[i] + eye[j]) * top for i in range(c) for j in range(i)]
+    return np.stack(corners)
+
+
+def check_tip_payload(
+    tip_payload: float,
+    params: RobotParams,
+    gravity: bool,
+    has_equilibrium: Callable[[np.ndarray], bool],
+) -> None:
+    """Refuse a tip payload that the robot cannot hold under gravity, naming ``tip_payload``.
+
+    The shared check of the physics backends: ``has_equilibrium(tensions)`` ((C,) N → bool)
+    is the backend's own static solve (its discretisation, its gravity in the base frame), and
+    it must find an equilibrium at every :func:`payload_test_tensions` corner. Without this
+    check, such a payload is accepted and resets then fail with "no static equilibrium" (or
+    the dynamics fold the robot over). The limit is that of the backend's solve (a fixed-point
+    iteration from the straight pose), which also stops converging when a hanging payload
+    stiffens the chain more than its joints: so it is the heaviest payload the backend's resets
+    handle, not a buckling load. Nothing is checked when ``tip_payload`` is 0 or
+    ``gravity`` is off (a payload without weight bends nothing).
+
+    Args:
+        tip_payload: point mass (kg, >= 0) at the tip disk centre, already validated.
+        params: the robot.
+        gravity: whether gravity acts.
+        has_equilibrium: the backend's static solve of one tension vector (C,) N.
+
+    Raises:
+        ValueError: naming ``tip_payload`` and the first tensions with no equilibrium.
+    """
+    if tip_payload == 0.0 or not gravity:
+        return
+    for t in payload_test_tensions(params):
+        if not has_equilibrium(t):
+            raise ValueError(
+                f"tip_payload={tip_payload!r} kg is more than this robot holds under "
+                f"gravity: the static solve from the straight pose finds no equilibrium with "
+                f"tensions {t.tolist()} N (the payload's weight overpowers the bent backbone), "
+                f"so resets there would fail; use a lighter tip_payload, gravity=False, a "
+                f"stiffer backbone or a lower max_tension"
+            )

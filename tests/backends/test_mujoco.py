@@ -393,11 +393,21 @@ def test_loading_branch_of_the_10_newton_steps_is_the_capstan_rod():
         ({"threads": 0}, "threads"),
         ({"params": "paper"}, "params"),
         ({"solid_obstacles": 1}, "solid_obstacles"),
+        # more than tdcr2 holds bent under gravity (bullet refuses it too)
+        ({"params": ROBOTS["tdcr2"], "tip_payload": 0.05}, "tip_payload"),
     ],
 )
 def test_bad_arguments_raise_value_error_naming_them(kwargs, name):
     with pytest.raises(ValueError, match=name):
         MuJoCoBackend(**kwargs)
+
+
+def test_a_payload_is_checked_only_under_gravity_and_a_light_one_passes():
+    # the shared check (cdcr_gym.model.statics.check_tip_payload) with MuJoCo's static solve
+    MuJoCoBackend(ROBOTS["tdcr2"], tip_payload=0.05, gravity=False).close()
+    MuJoCoBackend(ROBOTS["paper"], tip_payload=0.5).close()
+    with pytest.raises(ValueError, match=r"tip_payload=1\.5 kg"):
+        MuJoCoBackend(ROBOTS["paper"], tip_payload=1.5)
 
 
 def test_bad_tensions_and_buckling_robots_are_refused():

@@ -51,6 +51,7 @@ from cdcr_gym.backends.bullet.integrator import (
 )
 from cdcr_gym.backends.bullet.multibody import MAX_JOINTS, build_multibody
 from cdcr_gym.model.params import STANDARD_GRAVITY, RobotParams
+from cdcr_gym.model.statics import check_tip_payload
 
 __all__ = ["BulletBackend"]
 
@@ -235,33 +236,20 @@ class BulletBackend(Backend):
                 self.friction_slip_length,
             )
             self._joint_ids = self._integrator.joint_ids
-            self._check_payload()
+            # refuse, by name, a payload the robot cannot hold at the extreme shapes (goals are
+            # drawn from them), instead of a divergence at every reset
+            check_tip_payload(
+                self.tip_payload,
+                p,
+                self.gravity,
+                lambda t: self.chain.static_equilibrium(
+                    t, self._integrator.gravity_bias, max_angle=MAX_JOINT_ANGLE
+                )[1],
+            )
             self.reset(np.zeros(p.n_cables))
         except BaseException:
             self.close()
             raise
-
-    def _check_payload(self) -> None:
-        """With a tip payload under gravity: the robot must hold it at the extreme shapes
-        (each cable, and each pair of cables, at max_tension), else the payload is refused
-        here, by name, instead of a divergence at every reset (goals are drawn from these
-        shapes)."""
-        if self.tip_payload == 0.0 or not self.gravity:
-            return
-        c, top = self.params.n_cables, self.params.max_tension
-        corners = [np.eye(c)[i] * top for i in range(c)]
-        corners += [(np.eye(c)[i] + np.eye(c)[j]) * top for i in range(c) for j in range(i)]
-        for t in [np.zeros(c), *corners]:
-            _, converged = self.chain.static_equilibrium(
-                t, self._integrator.gravity_bias, max_angle=MAX_JOINT_ANGLE
-            )
-            if not converged:
-                raise ValueError(
-                    f"tip_payload={self.tip_payload!r} kg is more than this robot holds under "
-                    f"gravity: no static equilibrium with tensions {t.tolist()} N (the payload's "
-                    f"weight buckles the bent backbone); use a lighter tip_payload, "
-                    f"gravity=False, a stiffer backbone or a lower max_tension"
-                )
 
     # ---------------------------------------------------------------- state access
 

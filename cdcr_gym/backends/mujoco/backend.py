@@ -37,6 +37,7 @@ from cdcr_gym.backends.mujoco.mjcf import JOINTS, ROUTINGS, MJCFModel, build_mjc
 from cdcr_gym.backends.mujoco.obstacles import ObstacleScene
 from cdcr_gym.model import friction
 from cdcr_gym.model.params import STANDARD_GRAVITY, RobotParams
+from cdcr_gym.model.statics import check_tip_payload
 
 __all__ = ["MuJoCoBackend", "SimulationDivergedError", "INTEGRATORS"]
 
@@ -78,7 +79,9 @@ class MuJoCoBackend(ObstacleScene, Backend):
             (``docs/mujoco_backend.md``). h changes the transient, never the settled state.
         base_orientation: unit quaternion (x, y, z, w) of R0 in the world (default
             ``(0.0, 0.0, 0.0, 1.0)``: upright).
-        tip_payload: point mass (kg, >= 0) at the tip disk centre (default 0.0).
+        tip_payload: point mass (kg, >= 0) at the tip disk centre (default 0.0). Rejected
+            (``ValueError``) under gravity if the robot cannot hold it at the extreme shapes
+            (``cdcr_gym.model.statics.check_tip_payload``, the check bullet makes).
         damping_ratio: damping ratio ζ > 0 of the first bending mode (default 0.7): D = β·K,
             β = 2ζ/ω₁.
         friction_coefficient: cable–disk capstan μ in [0, 1] (default 0.0: frictionless, the
@@ -172,6 +175,14 @@ class MuJoCoBackend(ObstacleScene, Backend):
         self._closed = False
         self._rollout: Any = None
         self._build(segment_tendons=self.friction_coefficient > 0.0)
+        # refuse, by name, a payload the robot cannot hold at the extreme shapes (goals and
+        # random starts are drawn from them), as bullet does, instead of failing every reset
+        check_tip_payload(
+            self.tip_payload,
+            params,
+            self.gravity,
+            lambda t: self._solve_static(self.model, self._scratch, t),
+        )
         self._report_anchors = self.friction_coefficient > 0.0
         self._rough = self.friction_coefficient > 0.0  # any robot with μ > 0
         #: Per-robot friction coefficient μ (N,) and slip state s (N, C).
