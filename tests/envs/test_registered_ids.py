@@ -15,7 +15,7 @@ import cdcr_gym
 from cdcr_gym.controllers import AnalyticIKController
 from cdcr_gym.params import RobotParams
 
-IDS = ["cdcr_gym/CCKAReach-v0", "cdcr_gym/BulletReach-v0"]
+IDS = ["cdcr_gym/CCKAReach-v0", "cdcr_gym/BulletReach-v0", "cdcr_gym/MuJoCoReach-v0"]
 ROBOTS = ["paper", "tdcr2"]
 #: every (id, robot) the release supports
 COMBOS = [(i, r) for i in IDS for r in ROBOTS]
@@ -113,18 +113,17 @@ def test_bad_make_arguments_raise_value_error_naming_them(kwargs, name):
         gym.make("cdcr_gym/CCKAReach-v0", **kwargs)
 
 
-def test_batched_env_matches_single_envs_for_tdcr2():
+@pytest.mark.parametrize("env_id", ["cdcr_gym/CCKAReach-v0", "cdcr_gym/MuJoCoReach-v0"])
+def test_batched_env_matches_single_envs_for_tdcr2(env_id):
     n = 3
     venv = gym.make_vec(
-        "cdcr_gym/CCKAReach-v0",
+        env_id,
         num_envs=n,
         robot="tdcr2",
         vectorization_mode="vector_entry_point",
         initial_state="random",
     )
-    envs = [
-        gym.make("cdcr_gym/CCKAReach-v0", robot="tdcr2", initial_state="random") for _ in range(n)
-    ]
+    envs = [gym.make(env_id, robot="tdcr2", initial_state="random") for _ in range(n)]
     obs_v, _ = venv.reset(seed=9)
     obs_s = [e.reset(seed=9 + i)[0] for i, e in enumerate(envs)]
     np.testing.assert_allclose(obs_v, np.stack(obs_s), rtol=0, atol=1e-6)

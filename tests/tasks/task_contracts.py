@@ -12,13 +12,20 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import cdcr_gym  # noqa: F401  (registers the ids)
 
-#: robots per backend (both model n sections)
-ROBOTS = {"CCKA": ["paper", "tdcr2"], "Bullet": ["paper", "tdcr2"]}
+#: robots per backend (each models n sections)
+ROBOTS = {"CCKA": ["paper", "tdcr2"], "Bullet": ["paper", "tdcr2"], "MuJoCo": ["paper", "tdcr2"]}
+#: backends with a batched vector entry point (``gym.make_vec(..., "vector_entry_point")``)
+BATCHED = ["CCKA", "MuJoCo"]
 
 
 def combos(task: str) -> list[tuple[str, str]]:
     """(env id, robot) pairs of a task."""
     return [(f"cdcr_gym/{b}{task}-v0", r) for b, robots in ROBOTS.items() for r in robots]
+
+
+def batched_ids(task: str) -> list[str]:
+    """The ids of a task whose backend steps N robots in one batched env."""
+    return [f"cdcr_gym/{b}{task}-v0" for b in BATCHED]
 
 
 def make(env_id: str, robot: str, **kwargs):

@@ -1,4 +1,5 @@
-"""The Obstacle task (cdcr_gym/{CCKA,Bullet}Obstacle-v0), its collision geometry and oracle."""
+"""The Obstacle task (cdcr_gym/{CCKA,Bullet,MuJoCo}Obstacle-v0), its collision geometry and
+oracle."""
 
 from __future__ import annotations
 
@@ -7,7 +8,14 @@ import inspect
 import gymnasium as gym
 import numpy as np
 import pytest
-from task_contracts import batched_matches_single, check_env_both, combos, make, rollout
+from task_contracts import (
+    batched_ids,
+    batched_matches_single,
+    check_env_both,
+    combos,
+    make,
+    rollout,
+)
 
 from cdcr_gym.controllers import AnalyticIKController, ObstaclePlanner
 from cdcr_gym.model.ik import solve_ik
@@ -33,8 +41,9 @@ def test_same_seed_and_actions_give_identical_trajectories(env_id, robot):
     assert np.array_equal(a, b)
 
 
-def test_batched_env_matches_single_envs():
-    batched_matches_single("cdcr_gym/CCKAObstacle-v0", "paper", terminate_on_collision=True)
+@pytest.mark.parametrize("env_id", batched_ids("Obstacle"))
+def test_batched_env_matches_single_envs(env_id):
+    batched_matches_single(env_id, "paper", terminate_on_collision=True)
 
 
 def test_clearance_of_rod_and_disks_is_exact_on_the_straight_robot():

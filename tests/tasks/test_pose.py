@@ -1,4 +1,4 @@
-"""The Pose task (cdcr_gym/{CCKA,Bullet}Pose-v0) and its oracle."""
+"""The Pose task (cdcr_gym/{CCKA,Bullet,MuJoCo}Pose-v0) and its oracle."""
 
 from __future__ import annotations
 
@@ -7,7 +7,14 @@ import inspect
 import gymnasium as gym
 import numpy as np
 import pytest
-from task_contracts import batched_matches_single, check_env_both, combos, make, rollout
+from task_contracts import (
+    batched_ids,
+    batched_matches_single,
+    check_env_both,
+    combos,
+    make,
+    rollout,
+)
 
 from cdcr_gym.controllers import PoseIKController
 from cdcr_gym.tasks.pose import Pose, pose_errors
@@ -31,8 +38,9 @@ def test_same_seed_and_actions_give_identical_trajectories(env_id, robot, goal_c
     assert np.array_equal(a, b)
 
 
-def test_batched_env_matches_single_envs():
-    batched_matches_single("cdcr_gym/CCKAPose-v0", "tdcr2", initial_state="random")
+@pytest.mark.parametrize("env_id", batched_ids("Pose"))
+def test_batched_env_matches_single_envs(env_id):
+    batched_matches_single(env_id, "tdcr2", initial_state="random")
 
 
 def test_ccka_pose_defaults_to_the_two_section_robot():

@@ -1,4 +1,4 @@
-"""The Track task (cdcr_gym/{CCKA,Bullet}Track-v0) and its oracle."""
+"""The Track task (cdcr_gym/{CCKA,Bullet,MuJoCo}Track-v0) and its oracle."""
 
 from __future__ import annotations
 
@@ -7,7 +7,14 @@ import inspect
 import gymnasium as gym
 import numpy as np
 import pytest
-from task_contracts import batched_matches_single, check_env_both, combos, make, rollout
+from task_contracts import (
+    batched_ids,
+    batched_matches_single,
+    check_env_both,
+    combos,
+    make,
+    rollout,
+)
 
 from cdcr_gym.controllers import TrackingIKController
 from cdcr_gym.tasks.track import NOMINAL_TIMESTEP, Track
@@ -29,8 +36,9 @@ def test_same_seed_and_actions_give_identical_trajectories(env_id, robot):
     assert not np.array_equal(a, rollout(env_id, robot, seed=6))
 
 
-def test_batched_env_matches_single_envs():
-    batched_matches_single("cdcr_gym/CCKATrack-v0", "tdcr2", initial_state="random")
+@pytest.mark.parametrize("env_id", batched_ids("Track"))
+def test_batched_env_matches_single_envs(env_id):
+    batched_matches_single(env_id, "tdcr2", initial_state="random")
 
 
 @pytest.mark.parametrize("robot", ["paper", "tdcr2"])
