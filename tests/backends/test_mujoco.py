@@ -513,6 +513,34 @@ def test_randomized_robot_acts_like_the_robot_built_with_those_parameters():
     assert seen == {0.0, 1.0}
 
 
+def test_action_delay_applies_every_action_one_step_later():
+    """``imperfections={"action_delay": 1}`` on MuJoCo: the tensions of step t are those
+    commanded at step t − 1 (the first step holds the reset's tensions), and the robot moves
+    exactly as an undelayed env fed the shifted actions (CCKA's delay semantics)."""
+    rng = np.random.default_rng(4)
+    actions = rng.uniform(-1, 1, (12, 3)).astype(np.float32)
+    make = lambda **kw: gym.make("cdcr_gym/MuJoCoReach-v0", action_mode="tension", **kw)  # noqa: E731
+    plain, delayed = make(), make(imperfections={"action_delay": 1})
+    start = {"initial_tensions": [10.0, 30.0, 0.0]}
+    try:
+        _, i0 = plain.reset(seed=9, options=start)
+        delayed.reset(seed=9, options=start)
+        commanded = (actions.astype(np.float64) + 1.0) / 2.0 * RobotParams().max_tension
+        held = np.concatenate([i0["tensions"][None], commanded[:-1]])  # lags by one step
+        hold = (2.0 * i0["tensions"] / RobotParams().max_tension - 1.0).astype(np.float32)
+        shifted = np.concatenate([hold[None], actions[:-1]])
+        for a, b, want in zip(actions, shifted, held):
+            _, _, _, _, di = delayed.step(a)
+            _, _, _, _, pi = plain.step(b)
+            np.testing.assert_allclose(di["tensions"], want, rtol=0, atol=1e-4)
+            np.testing.assert_allclose(di["tensions"], pi["tensions"], rtol=0, atol=1e-12)
+            np.testing.assert_allclose(di["tip"], pi["tip"], rtol=0, atol=1e-12)
+        assert not np.allclose(held[1:], commanded[1:])  # the lag is visible
+    finally:
+        plain.close()
+        delayed.close()
+
+
 def test_vector_env_rows_equal_single_envs_and_runs_are_deterministic():
     n, seed = 3, 11
     vec = gym.make_vec(
