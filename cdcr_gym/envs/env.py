@@ -27,8 +27,9 @@ class CDCREnv(gym.Env):
     at fixed positions (radius r, angle β) and each is anchored at the last disk of its
     section, so pulling cables bends the sections towards them (a cable also bends every
     section it passes). The robot is a *backend* object (``cdcr_gym.backends``): the analytic
-    piecewise-constant-curvature model (``CCKA*-v0``) or a pybullet multibody backbone
-    (``Bullet*-v0``); what the agent must do is a *task* object (``cdcr_gym.tasks``). The
+    piecewise-constant-curvature model (``CCKA*-v0``), a pybullet multibody backbone
+    (``Bullet*-v0``) or a MuJoCo chain with one tendon per cable (``MuJoCo*-v0``, the reference
+    physics); what the agent must do is a *task* object (``cdcr_gym.tasks``). The
     default robot is the paper's (one section, ℓ = 0.641 m, r = 29 mm, cables at
     0°/120°/240°); ``robot="tdcr2"`` selects the two-section reference robot.
 
