@@ -123,6 +123,10 @@ def evaluate(
     params = probe.unwrapped.params
     threshold = float(probe.unwrapped.task.distance_threshold)
     ik = AnalyticIKController.from_env(probe)
+    from training.evaluate.metrics import is_physics
+
+    # on a physics backend the open-loop IK misses by centimetres: the closed-loop IK beside it
+    closed = AnalyticIKController.from_env(probe, feedback=True) if is_physics(probe) else None
     probe.close()
 
     out_json = run_dir / ("eval.json" if tag is None else f"eval_{tag}.json")
@@ -158,6 +162,9 @@ def evaluate(
                 _state_distances(pol.final_tensions, pol.final_lengths, ik_tensions, ik_lengths)
             )
             cond["ik"] = ik_block
+            if closed is not None:
+                closed_run = run_episodes(env_fn, closed.action, specs, horizon)
+                cond["ik_closed_loop"] = summarize(closed_run.final_distance, threshold)
             conditions[name] = cond
             raw[name] = (specs, pol, ikr)
 
@@ -182,6 +189,7 @@ def evaluate(
         "within_1mm": head["within_1mm"],
         "error_mm": head["error_mm"],
         "ik": head["ik"],
+        **({"ik_closed_loop": head["ik_closed_loop"]} if closed is not None else {}),
         "conditions": conditions,
         "command": command,
     }
@@ -251,7 +259,7 @@ def _evaluate_task(
     """Track, Pose, Obstacle: the task's own metrics for the policy beside its oracle's (and, for
     Obstacle, the plain reach IK's) on the same episodes, per starting state, at the first
     horizon (``training.task_metrics``). Writes the JSON and the path figures."""
-    from training.evaluate.metrics import oracle_for, run_task_episodes, summarize_task
+    from training.evaluate.metrics import is_physics, oracle_for, run_task_episodes, summarize_task
     from training.evaluate.oracles import plot_paths
     from training.evaluate.rollout import make_env
 
@@ -270,6 +278,8 @@ def _evaluate_task(
 
         probe = env_fn()
         baselines = {"oracle": oracle_for(probe)}
+        if is_physics(probe):  # the open-loop oracle misses on physics: also closed loop
+            baselines["oracle_closed_loop"] = oracle_for(probe, "closed_loop")
         task = type(probe.unwrapped.task).__name__
         if task == "Obstacle":
             baselines["reach_ik"] = oracle_for(probe, "reach_ik")
@@ -363,10 +373,16 @@ def _print_table(result: dict[str, Any]) -> None:
         "IK p95",
         "Δlength vs IK (median)",
         "ΔT vs IK (median, N)",
+        *(
+            (f"closed-loop IK ≤{thr_mm:g} mm", "closed-loop IK median")
+            if "ik_closed_loop" in result
+            else ()
+        ),
     ):
         table.add_column(col, justify="right")
     for name, c in result["conditions"].items():
         e, ik = c["error_mm"], c["ik"]
+        closed = c.get("ik_closed_loop")
         table.add_row(
             name + (" *" if name == result["headline_condition"] else ""),
             f"{100 * c['success_rate']:.1f} %",
@@ -380,6 +396,11 @@ def _print_table(result: dict[str, Any]) -> None:
             f"{ik['error_mm']['p95']:.3f}",
             f"{ik['cable_length_distance_mm']['median']:.3f} mm",
             f"{ik['tension_distance_n']['median']:.2f}",
+            *(
+                (f"{100 * closed['success_rate']:.1f} %", f"{closed['error_mm']['median']:.3f}")
+                if closed is not None
+                else ()
+            ),
         )
     console = Console(width=200)
     console.print(table)
@@ -552,7 +573,7 @@ def _print_task_table(result: dict[str, Any]) -> None:
                     f"successes {s['collisions_in_successful_episodes']}"
                 )
             print(
-                f"  {who:9s} success {100 * s['success_rate']:5.1f} %  final distance median "
+                f"  {who:18s} success {100 * s['success_rate']:5.1f} %  final distance median "
                 f"{s['final_distance_mm']['median']:.3f} mm{extra}"
             )
 

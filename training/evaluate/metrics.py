@@ -22,7 +22,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-__all__ = ["run_task_episodes", "summarize_task", "oracle_for", "task_name"]
+__all__ = ["run_task_episodes", "summarize_task", "oracle_for", "task_name", "is_physics"]
 
 
 def task_name(env: Any) -> str:
@@ -30,21 +30,30 @@ def task_name(env: Any) -> str:
     return type(env.unwrapped.task).__name__
 
 
+def is_physics(env: Any) -> bool:
+    """Whether ``env`` runs a dynamic physics backend (pybullet, MuJoCo: a control timestep >
+    0), on which the oracles are also evaluated closed loop."""
+    return float(env.unwrapped.backend.control_timestep) > 0.0
+
+
 def oracle_for(env: Any, kind: str = "oracle") -> Any:
-    """The oracle policy of ``env``'s task (``kind="oracle"``), or the plain reach IK controller
-    on the task's goal (``kind="reach_ik"``: the baseline the Obstacle task must defeat)."""
+    """The oracle policy of ``env``'s task: ``kind="oracle"`` open loop (the model's solution
+    commanded as is), ``"closed_loop"`` the same oracle with ``feedback=True`` (corrected from
+    the measured tip: the strong baseline on a physics backend), or ``"reach_ik"`` the plain
+    reach IK controller on the task's goal (the baseline the Obstacle task must defeat)."""
     from cdcr_gym import controllers
 
     task = task_name(env)
+    if kind not in ("oracle", "closed_loop", "reach_ik"):
+        raise ValueError(f"kind must be 'oracle', 'closed_loop' or 'reach_ik', got {kind!r}")
+    feedback = kind == "closed_loop"
     if kind == "reach_ik" or task == "Reach":
-        return controllers.AnalyticIKController.from_env(env)
-    if kind != "oracle":
-        raise ValueError(f"kind must be 'oracle' or 'reach_ik', got {kind!r}")
+        return controllers.AnalyticIKController.from_env(env, feedback=feedback)
     return {
         "Track": controllers.TrackingIKController,
         "Pose": controllers.PoseIKController,
         "Obstacle": controllers.ObstaclePlanner,
-    }[task].from_env(env)
+    }[task].from_env(env, feedback=feedback)
 
 
 def run_task_episodes(

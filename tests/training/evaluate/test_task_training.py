@@ -41,7 +41,15 @@ def _small(tmp_path: Path, name: str) -> Path:
 
 @pytest.mark.slow
 @pytest.mark.parametrize(
-    "name", ["ppo_ccka_track", "ppo_ccka_pose", "ppo_ccka_obstacle", "ppo_bullet_track"]
+    "name",
+    [
+        "ppo_ccka_track",
+        "ppo_ccka_pose",
+        "ppo_ccka_obstacle",
+        "ppo_bullet_track",
+        "ppo_mujoco_track",
+        "ppo_mujoco_pose",
+    ],
 )
 def test_task_config_trains_and_evaluates_beside_its_oracle(tmp_path: Path, name: str) -> None:
     run = tmp_path / "run"
@@ -57,6 +65,11 @@ def test_task_config_trains_and_evaluates_beside_its_oracle(tmp_path: Path, name
     assert set(data["conditions"]) == {"straight_20steps"}
     assert "policy" in data and "oracle" in data
     task = data["task"]
+    # on a physics backend the oracle also runs closed loop, on the same episodes
+    physics = "CCKA" not in data["env_id"]
+    assert ("oracle_closed_loop" in data) == physics
+    if physics:
+        assert data["oracle_closed_loop"]["episodes"] == data["oracle"]["episodes"] == 2
     if task == "Track" and "CCKA" in data["env_id"]:  # on bullet the oracle runs open loop
         assert data["oracle"]["tracking_rms_mm"]["max"] < 1.0
         assert (run / "eval" / "straight_20steps_paths.png").stat().st_size > 0
