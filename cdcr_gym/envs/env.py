@@ -178,6 +178,11 @@ class CDCREnv(gym.Env):
         """The current goal of the task (a copy)."""
         return self.task.desired_goal()[0].copy()
 
+    def set_difficulty(self, difficulty: float) -> None:
+        """The task's curriculum: episodes from the next reset on are drawn at ``difficulty``
+        in (0, 1] (``Task.set_difficulty``; ``ValueError`` for a task without one)."""
+        self.task.set_difficulty(difficulty)
+
     # -- Gymnasium API --------------------------------------------------------------------------
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None

@@ -286,6 +286,10 @@ class CDCRVectorEnv(VectorEnv):
         """Goal-conditioned reward, vectorised over leading dimensions (as the single env's)."""
         return self.task.compute_reward(achieved_goal, desired_goal, info)
 
+    def set_difficulty(self, difficulty: float) -> None:
+        """The task's curriculum, for every env (as ``CDCREnv.set_difficulty``)."""
+        self.task.set_difficulty(difficulty)
+
     def close_extras(self, **kwargs: Any) -> None:
         self.core.backend.close()
 

@@ -249,6 +249,18 @@ class Task(abc.ABC):
         """Names of the ``info`` entries :meth:`evaluate` returns."""
         return ()
 
+    #: Whether :meth:`set_difficulty` is implemented (a curriculum can make episodes easier).
+    has_curriculum = False
+
+    def set_difficulty(self, difficulty: float) -> None:
+        """Make the episodes drawn from now on easier (``difficulty`` in (0, 1]; 1 = the task as
+        configured), for a training curriculum. Tasks without one (:attr:`has_curriculum`
+        False) raise ``ValueError``."""
+        raise ValueError(
+            f"the {type(self).__name__} task has no curriculum (set_difficulty); tasks with one: "
+            f"Obstacle"
+        )
+
     def render_markers(self, index: int = 0) -> dict[str, Any]:
         """What the renderer draws for env ``index`` besides the robot (e.g. ``goal``)."""
         return {}

@@ -133,7 +133,14 @@ class Obstacle(GoalTask):
         proximity_weight: reward subtracted per metre closer than ``proximity_margin`` (1/m·m,
             >= 0), 0 = off.
         success_bonus: reward added on every step that counts as a success (>= 0), 0 = off.
+        difficulty: in (0, 1]; scenes drawn at difficulty d < 1 are easier: sphere radii × d
+            and at most ``min_obstacles`` + ⌊d·(``max_obstacles`` − ``min_obstacles``)⌋
+            spheres (the observation keeps ``max_obstacles`` slots). 1: the task as configured.
+            A training curriculum raises it during training (:meth:`set_difficulty`;
+            ``curriculum`` in the training config).
     """
+
+    has_curriculum = True
 
     name = "Obstacle"
     goal_size = 0
@@ -153,6 +160,7 @@ class Obstacle(GoalTask):
         proximity_margin: float = 0.0,
         proximity_weight: float = 0.0,
         success_bonus: float = 0.0,
+        difficulty: float = 1.0,
     ) -> None:
         self.reward_type = validation.choice(reward_type, "reward_type", REWARD_TYPES)
         self.distance_threshold = validation.positive(distance_threshold, "distance_threshold")
@@ -186,6 +194,7 @@ class Obstacle(GoalTask):
             proximity_weight, "proximity_weight", allow_zero=True
         )
         self.success_bonus = validation.positive(success_bonus, "success_bonus", allow_zero=True)
+        self.set_difficulty(difficulty)
         self._dense = reward_type == "dense"
 
     def bind(self, params, num_envs: int) -> None:
@@ -241,6 +250,11 @@ class Obstacle(GoalTask):
             Field.uniform("collided", 1, 0.0, 1.0, "–", "1: a sphere was touched this episode"),
         ]
 
+    def set_difficulty(self, difficulty: float) -> None:
+        """Draw the scenes of the next resets at ``difficulty`` in (0, 1] (see the class
+        docstring); a scene already drawn is kept."""
+        self.difficulty = validation.positive(difficulty, "difficulty", upper=1.0)
+
     # -- scenes ---------------------------------------------------------------------------------
     def _free(self, geometry: RobotGeometry, sphere: np.ndarray) -> bool:
         """Whether ``sphere`` (4,) keeps more than ``clearance_margin`` from every shape."""
@@ -254,7 +268,9 @@ class Obstacle(GoalTask):
         model, params = self._model, self.params
         t_max = params.max_tension
         start_w = model.bending_from_tensions(start_tensions[None])
-        lo, hi = self.radii
+        d = self.difficulty
+        lo, hi = self.radii if d == 1.0 else (d * self.radii[0], d * self.radii[1])
+        most = self.min_obstacles + int(d * (self.max_obstacles - self.min_obstacles) + 1e-9)
         for attempt in range(_ATTEMPTS):
             if attempt % 8 == 0:
                 goal_t = sample_tensions(rng, params, 1)
@@ -283,7 +299,7 @@ class Obstacle(GoalTask):
             )
         spheres = np.zeros((self.max_obstacles, 4))
         spheres[0] = sphere
-        count = int(rng.integers(self.min_obstacles, self.max_obstacles + 1))
+        count = int(rng.integers(self.min_obstacles, most + 1))
         placed = 1
         for _ in range(_ATTEMPTS):
             if placed >= count:

@@ -243,3 +243,39 @@ def test_proximity_cost_and_success_bonus_shape_the_reward_as_documented():
             near += 0.0 < gap < 0.03
             bonus += bool(info["is_success"])
     assert near > 0 and bonus > 0  # both terms were exercised
+
+
+def test_difficulty_shrinks_the_spheres_and_their_count_and_one_is_the_task():
+    easy = gym.make("cdcr_gym/CCKAObstacle-v0", difficulty=0.5, min_obstacles=1, max_obstacles=3)
+    full = gym.make("cdcr_gym/CCKAObstacle-v0", min_obstacles=1, max_obstacles=3)
+    ell = 0.641
+    counts, radii = [], []
+    for seed in range(25):
+        _, info = easy.reset(seed=seed)
+        present = info["obstacles"][:, 3] > 0
+        counts.append(int(present.sum()))
+        radii.extend(info["obstacles"][present, 3])
+        assert info["min_clearance"] > 0.01  # start and goal still free
+    assert max(counts) <= 2 and min(counts) >= 1  # 1 + floor(0.5 * (3 - 1))
+    assert 0.5 * 0.06 * ell <= min(radii) and max(radii) <= 0.5 * 0.12 * ell
+    # the curriculum hook: raising the difficulty to 1 draws the task's own scenes again
+    easy.unwrapped.set_difficulty(1.0)
+    _, a = easy.reset(seed=7)
+    _, b = full.reset(seed=7)
+    np.testing.assert_array_equal(a["obstacles"], b["obstacles"])
+
+
+@pytest.mark.parametrize("value", [0.0, -0.5, 1.5, float("nan"), "easy"])
+def test_bad_difficulty_raises_value_error_naming_it(value):
+    with pytest.raises(ValueError, match="difficulty"):
+        gym.make("cdcr_gym/CCKAObstacle-v0", difficulty=value)
+    env = gym.make("cdcr_gym/CCKAObstacle-v0")
+    with pytest.raises(ValueError, match="difficulty"):
+        env.unwrapped.set_difficulty(value)
+
+
+def test_tasks_without_a_curriculum_refuse_set_difficulty():
+    for env_id in ("cdcr_gym/CCKAReach-v0", "cdcr_gym/CCKATrack-v0"):
+        env = gym.make(env_id)
+        with pytest.raises(ValueError, match="no curriculum"):
+            env.unwrapped.set_difficulty(0.5)

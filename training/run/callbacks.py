@@ -199,6 +199,19 @@ def make_callbacks(config: ExperimentConfig, run: RunDir, state: dict[str, Any])
             ):
                 self._evaluate()
 
+    class CurriculumCallback(BaseCallback):
+        """Before every rollout: the training envs' task difficulty for the steps done so far
+        (``curriculum``; a resumed run continues where it was). Logged as
+        ``charts/difficulty``."""
+
+        def _on_rollout_start(self) -> None:
+            difficulty = config.curriculum.difficulty(self.num_timesteps)
+            self.training_env.env_method("set_difficulty", difficulty)
+            self.logger.record("charts/difficulty", difficulty)
+
+        def _on_step(self) -> bool:
+            return True
+
     class WallTimeCallback(BaseCallback):
         """Stops training once ``runtime.max_wall_time_s`` of training wall time has passed."""
 
@@ -211,4 +224,7 @@ def make_callbacks(config: ExperimentConfig, run: RunDir, state: dict[str, Any])
             return True
 
     # The wall-time check runs last, so the step that hits the limit is still logged/evaluated.
-    return [StatsCallback(), CheckpointCallback(), EvalCallback(), WallTimeCallback()]
+    callbacks = [StatsCallback(), CheckpointCallback(), EvalCallback(), WallTimeCallback()]
+    if config.curriculum.steps > 0:
+        callbacks.insert(0, CurriculumCallback())
+    return callbacks

@@ -85,6 +85,9 @@ valid name), wrong types and out-of-range values are errors that name the key an
       initial_states: [straight, random]
       horizons: [100, 200]        # episode lengths; the first is the headline condition
       video_episodes: 3
+    curriculum:                   # easier episodes early in training (tasks with one: Obstacle)
+      steps: 0                    # env steps over which the difficulty rises to 1; 0: off
+      start: 1.0                  # difficulty at step 0, in (0, 1] (Task.set_difficulty)
     runtime:
       device: cpu
       torch_threads: 1            # torch.set_num_threads (tiny MLPs are fastest single-threaded)
@@ -122,6 +125,7 @@ __all__ = [
     "CheckpointConfig",
     "EvaluateConfig",
     "RuntimeConfig",
+    "CurriculumConfig",
     "ExperimentConfig",
     "load_config",
     "load_yaml",
@@ -334,6 +338,22 @@ class RuntimeConfig:
 
 
 @dataclass
+class CurriculumConfig:
+    """A training curriculum: the task's difficulty rises linearly from ``start`` at step 0 to 1
+    at ``steps`` env steps (then stays 1), set before every rollout (``Task.set_difficulty``);
+    evaluations always run the task as configured. ``steps`` 0: off."""
+
+    steps: int = 0
+    start: float = 1.0
+
+    def difficulty(self, timesteps: int) -> float:
+        """The difficulty at ``timesteps`` env steps."""
+        if self.steps <= 0:
+            return 1.0
+        return self.start + (1.0 - self.start) * min(1.0, timesteps / self.steps)
+
+
+@dataclass
 class ExperimentConfig:
     """One experiment: everything ``python -m training.train`` needs."""
 
@@ -351,6 +371,7 @@ class ExperimentConfig:
     checkpoint: CheckpointConfig = field(default_factory=CheckpointConfig)
     evaluate: EvaluateConfig = field(default_factory=EvaluateConfig)
     runtime: RuntimeConfig = field(default_factory=RuntimeConfig)
+    curriculum: CurriculumConfig = field(default_factory=CurriculumConfig)
 
     def validate(self) -> ExperimentConfig:
         """Check values (types are checked on parsing); raise :class:`ConfigError` naming the key."""
@@ -504,6 +525,11 @@ class ExperimentConfig:
             )
 
     def _validate_rest(self) -> None:
+        c = self.curriculum
+        if isinstance(c.steps, bool) or c.steps < 0:
+            raise ConfigError(f"curriculum.steps must be an integer >= 0, got {c.steps!r}")
+        if not 0.0 < c.start <= 1.0:
+            raise ConfigError(f"curriculum.start must be in (0, 1], got {c.start!r}")
         _positive_int("eval.freq", self.eval.freq)
         _positive_int("eval.n_episodes", self.eval.n_episodes)
         if self.eval.seed < 0:

@@ -177,10 +177,16 @@ def check_env_config(config: ExperimentConfig) -> None:
             env = make_env(e.id, kwargs, e.max_episode_steps)
             try:
                 env.reset(seed=config.seed)
+                task = env.unwrapped.task
             finally:
                 env.close()
         except (TypeError, ValueError) as exc:
             raise ConfigError(f"{key}: cannot make {e.id!r} with {kwargs}: {exc}") from None
+        if config.curriculum.steps > 0 and not task.has_curriculum:
+            raise ConfigError(
+                f"curriculum.steps: the {type(task).__name__} task of {e.id!r} has no "
+                f"curriculum (tasks with one: Obstacle); set curriculum.steps: 0"
+            )
     if e.vec_env == "batched":
         build_vec_env(config, config.seed, n_envs=1).close()
     try:

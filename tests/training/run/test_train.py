@@ -328,35 +328,35 @@ def test_fast_config_trains_one_rollout(tmp_path: Path, name: str) -> None:
 # -- pins: the numbers a restructuring of training/ must leave unchanged ------------------------
 #: sha256 (first 16 hex digits) of every packaged config as resolved (every default filled in)
 CONFIG_DIGESTS = {
-    "ppo_bullet_fast": "425ca3953cbd4d61",
-    "ppo_bullet_friction_reach": "342e59cfcfa3abda",
-    "ppo_bullet_reach": "9593264220302609",
-    "ppo_bullet_track": "b13d45633a0eebf9",
-    "ppo_ccka_dr_reach": "29ea77b5982cf0c6",
-    "ppo_ccka_fast": "99d7030e56fb8fdd",
-    "ppo_ccka_obstacle": "0e0d18eb730402ff",
-    "ppo_ccka_pose": "03be9b14d385b3d9",
-    "ppo_ccka_reach": "a7c421cd60c54f36",
-    "ppo_ccka_track": "8eb6a591bbbba874",
-    "ppo_mujoco_pose": "e173f2077c356580",
-    "ppo_mujoco_reach": "d1c54d305ab2e493",
-    "ppo_mujoco_track": "5cb4f2c8213f8f9e",
-    "sac_bullet_reach": "c15cfa464ef5b6fb",
-    "sac_ccka_obstacle": "a33dd57415df159f",
-    "sac_ccka_pose": "0397922d895ec273",
-    "sac_ccka_reach": "c07184d8bd3601ef",
-    "sac_ccka_track": "89a0d8255bef4170",
-    "td3_bullet_reach": "389e0b7404094fc3",
-    "td3_ccka_obstacle": "f7fcc4d871aa56c8",
-    "td3_ccka_pose": "02461dcfb670dd06",
-    "td3_ccka_reach": "f1b25efbdbc2b672",
-    "td3_ccka_track": "d51b7a8c87c4e976",
-    "tqc_bullet_reach": "b8b4b2082cb2d4eb",
-    "tqc_ccka_obstacle": "2a62b2cd0336af24",
-    "tqc_ccka_pose": "9262955216f039b0",
-    "tqc_ccka_reach": "ce60ff6cc40c6484",
-    "tqc_ccka_track": "65d31bc7002529f1",
-    "tqc_her_ccka_goalreach": "6b44b99c99165e10",
+    "ppo_bullet_fast": "4b598b3a284ace1d",
+    "ppo_bullet_friction_reach": "1e26385fa68fa0c8",
+    "ppo_bullet_reach": "b183b4ccc9754683",
+    "ppo_bullet_track": "8e9ff5fecc8ae5cf",
+    "ppo_ccka_dr_reach": "72783379b7580dd3",
+    "ppo_ccka_fast": "f67822a895eec25e",
+    "ppo_ccka_obstacle": "bc97bfacc807485f",
+    "ppo_ccka_pose": "b048a896b43158ca",
+    "ppo_ccka_reach": "e5f4cd3da26a16ea",
+    "ppo_ccka_track": "745d8afb0307034a",
+    "ppo_mujoco_pose": "71a74585268385e5",
+    "ppo_mujoco_reach": "114b713b3a22c084",
+    "ppo_mujoco_track": "007270aea6066a48",
+    "sac_bullet_reach": "f783acadb2fca2c6",
+    "sac_ccka_obstacle": "d2c92a2a3085a1e9",
+    "sac_ccka_pose": "f243c06fca103cde",
+    "sac_ccka_reach": "0a6944a1e2910164",
+    "sac_ccka_track": "a671f10c9a2d87d7",
+    "td3_bullet_reach": "eff020b83e31872a",
+    "td3_ccka_obstacle": "55e416f788957801",
+    "td3_ccka_pose": "5081ef4dcc6b03dc",
+    "td3_ccka_reach": "c09cb2c43441222f",
+    "td3_ccka_track": "831e9a5c8be7255e",
+    "tqc_bullet_reach": "3f0234ba245e4417",
+    "tqc_ccka_obstacle": "9a161e960905f505",
+    "tqc_ccka_pose": "25e004dab8cd4c8c",
+    "tqc_ccka_reach": "7bed50c6ea9ff525",
+    "tqc_ccka_track": "486e0d8cb9dd6ed3",
+    "tqc_her_ccka_goalreach": "12a9a558b6a81d82",
 }
 
 
@@ -409,3 +409,21 @@ def test_train_prints_a_progress_bar_and_a_summary_and_tables_only_when_verbose(
     )
     assert loud.returncode == 0, loud.stderr[-3000:]
     assert "rollout/" in loud.stdout and "time/" in loud.stdout
+
+
+def test_curriculum_raises_the_obstacle_difficulty_before_each_rollout(tmp_path: Path) -> None:
+    """A curriculum run logs the difficulty it set before each rollout: linear from ``start``
+    to 1 over ``steps`` env steps (the in-training evaluation runs the full task)."""
+    cfg = _tiny_config(
+        tmp_path,
+        env={"id": "cdcr_gym/CCKAObstacle-v0", "n_envs": 2, "vec_env": "batched"},
+        total_timesteps=512,
+        curriculum={"steps": 384, "start": 0.25},
+    )
+    run = tmp_path / "run"
+    result = _run("training.train", cfg, "--run-dir", run)
+    assert result.returncode == 0, result.stderr[-3000:]
+    rows = _csv_rows(run / "progress.csv")
+    logged = [float(r["charts/difficulty"]) for r in rows if r.get("charts/difficulty")]
+    # rollouts of 128 steps start at 0, 128, 256, 384: 0.25, 0.5, 0.75, 1.0
+    assert logged == pytest.approx([0.25, 0.5, 0.75, 1.0])

@@ -74,6 +74,11 @@ def _train_fails(
         ({"sac": {"batch_size": 64}}, "config section 'sac' is for algo: sac"),
         ({"algo": "td3", "ppo": None, "td3": {"polcy_delay": 3}}, "did you mean 'policy_delay'"),
         ({"algo": "a2c"}, "algo must be one of"),
+        # a curriculum on a task without one, and out-of-range curriculum values
+        ({"curriculum": {"steps": 1000, "start": 0.5}}, "curriculum.steps: the Reach task"),
+        ({"curriculum": {"steps": -1}}, "curriculum.steps must be an integer >= 0"),
+        ({"curriculum": {"steps": 10, "start": 0.0}}, "curriculum.start must be in (0, 1]"),
+        ({"curriculum": {"stps": 10}}, "did you mean 'steps'"),
     ],
 )
 def test_bad_config_is_exit_2_before_the_run_dir(
