@@ -49,6 +49,7 @@ def _small(tmp_path: Path, name: str) -> Path:
         "ppo_bullet_track",
         "ppo_mujoco_track",
         "ppo_mujoco_pose",
+        "ppo_mujoco_obstacle",
     ],
 )
 def test_task_config_trains_and_evaluates_beside_its_oracle(tmp_path: Path, name: str) -> None:
