@@ -334,7 +334,7 @@ CONFIG_DIGESTS = {
     "ppo_bullet_track": "8e9ff5fecc8ae5cf",
     "ppo_ccka_dr_reach": "72783379b7580dd3",
     "ppo_ccka_fast": "f67822a895eec25e",
-    "ppo_ccka_obstacle": "273d785bffab5de2",
+    "ppo_ccka_obstacle": "ecf9593a3f5b73bb",
     "ppo_ccka_pose": "b048a896b43158ca",
     "ppo_ccka_reach": "e5f4cd3da26a16ea",
     "ppo_ccka_track": "745d8afb0307034a",
