@@ -412,6 +412,7 @@ def test_train_prints_a_progress_bar_and_a_summary_and_tables_only_when_verbose(
     assert "rollout/" in loud.stdout and "time/" in loud.stdout
 
 
+@pytest.mark.slow  # ~25 s: a real (tiny) training run on the Obstacle env
 def test_curriculum_raises_the_obstacle_difficulty_before_each_rollout(tmp_path: Path) -> None:
     """A curriculum run logs the difficulty it set before each rollout: linear from ``start``
     to 1 over ``steps`` env steps (the in-training evaluation runs the full task)."""
