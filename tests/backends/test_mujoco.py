@@ -258,6 +258,25 @@ def test_default_is_within_half_a_percent_of_the_cosserat_reference():
     assert checked == {(r, g) for r in ("paper", "tdcr2") for g in (False, True)}
 
 
+def test_static_solve_finds_the_settled_state_where_the_plain_iteration_oscillates():
+    """tdcr2 with gravity and every cable near max_tension: the plain fixed-point iteration
+    oscillates (MuJoCoPose-v0 goal sampling failed there with "no static equilibrium"); the
+    relaxed restart finds the state the dynamics settle to, and resets hold it."""
+    backend = MuJoCoBackend(ROBOTS["tdcr2"], gravity=True)
+    t = np.array([[5.2686, 5.0532, 5.9195, 5.1965, 5.8729, 5.9842]])
+    data, model = backend._scratch, backend.model
+    assert not backend._solve_static(model, data, t[0], relaxations=(1.0,))
+    tip = backend.equilibrium(t).tip
+    backend.reset(np.zeros((1, 6)))
+    for _ in range(400):  # 8 s of dynamics from the straight robot
+        backend.apply_tensions(t)
+    np.testing.assert_allclose(backend.read().tip, tip, atol=1e-9)
+    backend.reset(t)
+    for _ in range(50):
+        backend.apply_tensions(t)
+    np.testing.assert_allclose(backend.read().tip, tip, atol=1e-9)
+
+
 # -- friction -----------------------------------------------------------------------------------
 def _run(backend, steps):
     rng = np.random.default_rng(0)

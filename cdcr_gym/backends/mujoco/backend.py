@@ -181,7 +181,8 @@ class MuJoCoBackend(ObstacleScene, Backend):
             self.tip_payload,
             params,
             self.gravity,
-            lambda t: self._solve_static(self.model, self._scratch, t),
+            # the plain iteration only: a payload it accepts, every reset handles
+            lambda t: self._solve_static(self.model, self._scratch, t, relaxations=(1.0,)),
         )
         self._report_anchors = self.friction_coefficient > 0.0
         self._rough = self.friction_coefficient > 0.0  # any robot with μ > 0
@@ -323,35 +324,46 @@ class MuJoCoBackend(ObstacleScene, Backend):
 
     # -- statics --------------------------------------------------------------------------------
     def _solve_static(
-        self, model: Any, data: Any, tensions: np.ndarray, tol: float = 1e-13, max_iter: int = 1000
+        self,
+        model: Any,
+        data: Any,
+        tensions: np.ndarray,
+        tol: float = 1e-13,
+        max_iter: int = 1000,
+        relaxations: tuple[float, ...] = (1.0, 0.5, 0.25),
     ) -> bool:
         """Put ``data`` at the static equilibrium of ``model`` under ``tensions`` (C,) N.
 
-        The fixed point q ← q ⊕ K⁻¹·(τ_cable(q) + τ_passive(q) − τ_gravity(q)) from the straight
-        pose (bullet's iteration, in MuJoCo's generalized forces; ⊕ MuJoCo's position
-        integration, which handles the ball joints' quaternions), to max |Δq| < ``tol`` rad. It
-        converges because the cable and gravity load stiffnesses are a fraction of K; the limit
-        is the state the dynamics settle to. Returns whether it converged.
+        The fixed point q ← q ⊕ ω·K⁻¹·(τ_cable(q) + τ_passive(q) − τ_gravity(q)) from the
+        straight pose (bullet's iteration, in MuJoCo's generalized forces; ⊕ MuJoCo's position
+        integration, which handles the ball joints' quaternions), to max |K⁻¹·τ| < ``tol`` rad.
+        With ω = 1 it converges when the cable and gravity load stiffnesses are a fraction of K;
+        where they are not (tdcr2 with gravity and every cable near max_tension: the plain
+        iteration oscillates although the dynamics settle) it is restarted with the smaller
+        relaxation factors ω of ``relaxations`` (``max_iter``/ω iterations each). Every ω has the
+        same fixed point, the state the dynamics settle to, so a case the plain iteration solves
+        gives the same bits. Returns whether it converged.
         """
         mj = self._mj
-        data.qpos[:] = model.qpos0
-        data.qvel[:] = 0.0
-        data.act[:] = 0.0
-        data.ctrl[:] = 0.0
-        data.ctrl[: self._n_pull] = tensions
         k_inv = 1.0 / model.jnt_stiffness[model.dof_jntid]
         step = np.empty(model.nv)
-        for _ in range(max_iter):
-            mj.mj_forward(model, data)
-            np.subtract(data.qfrc_actuator + data.qfrc_passive, data.qfrc_bias, out=step)
-            step *= k_inv
-            mj.mj_integratePos(model, data.qpos, step, 1.0)
-            size = np.max(np.abs(step))
-            if not size <= MAX_JOINT_ANGLE:  # NaN too
-                return False
-            if size < tol:
+        for omega in relaxations:
+            data.qpos[:] = model.qpos0
+            data.qvel[:] = 0.0
+            data.act[:] = 0.0
+            data.ctrl[:] = 0.0
+            data.ctrl[: self._n_pull] = tensions
+            for _ in range(int(max_iter / omega)):
                 mj.mj_forward(model, data)
-                return True
+                np.subtract(data.qfrc_actuator + data.qfrc_passive, data.qfrc_bias, out=step)
+                step *= k_inv
+                size = np.max(np.abs(step))
+                if not size <= MAX_JOINT_ANGLE:  # NaN too
+                    break
+                mj.mj_integratePos(model, data.qpos, step, omega)
+                if size < tol:
+                    mj.mj_forward(model, data)
+                    return True
         return False
 
     def static_equilibrium(self, tensions: np.ndarray, index: int = 0) -> np.ndarray:
