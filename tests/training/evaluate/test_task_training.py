@@ -77,6 +77,10 @@ def test_task_config_trains_and_evaluates_beside_its_oracle(tmp_path: Path, name
     if task == "Obstacle":
         assert data["reach_ik"]["collision_rate"] > 0.0
         assert data["oracle"]["collisions_in_successful_episodes"] == 0
+        replay = _run("training.evaluate.obstacle_failures", run, "--episodes", 3)
+        assert replay.returncode == 0, replay.stderr[-3000:]
+        counts = replay.stdout.splitlines()[0]
+        assert "success" in counts and "collided" in counts and "waited" in counts
     assert task in result.stdout
 
 
@@ -97,3 +101,8 @@ def test_oracle_script_rejects_bad_arguments(tmp_path: Path) -> None:
         "training.oracles", "--task", "track", "--env-kwarg", "speed=-1", "--out", tmp_path
     )
     assert result.returncode == 2 and "speed" in result.stderr
+
+
+def test_obstacle_failures_without_a_model_is_exit_2(tmp_path: Path) -> None:
+    result = _run("training.evaluate.obstacle_failures", tmp_path)
+    assert result.returncode == 2 and "best_model/model.zip" in result.stderr

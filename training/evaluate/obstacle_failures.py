@@ -1,0 +1,104 @@
+"""Why an Obstacle policy fails: its best model replayed on evaluate's episodes, failures sorted.
+
+    python -m training.evaluate.obstacle_failures RUN [--episodes 100] [--seed 1000000]
+
+Runs ``RUN/best_model`` (with its normalisation) on the episodes ``cdcr-gym evaluate`` uses
+(reset seeds ``seed + i``, the run's env arguments, straight start) and sorts every failed
+episode into one of three kinds, printed with counts and per-episode lines:
+
+* ``collided``: a sphere was touched (the step of the first contact is listed);
+* ``waited``: collision-free, but the tip never came within 10 % of its starting distance to the
+  goal (the policy waited behind a sphere);
+* ``missed``: collision-free and it came close, but ended outside the success radius (closest
+  and final distance listed).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+__all__ = ["classify", "main"]
+
+
+def classify(run: Path, episodes: int, seed: int) -> dict[str, Any]:
+    """Per-episode outcome of ``run``'s best model: {"success": n, "collided": [...],
+    "waited": [...], "missed": [...]} (lists of per-episode dicts)."""
+    import cdcr_gym  # noqa: F401  (registers the ids)
+    from training.evaluate.rollout import PPOPolicy
+    from training.run.config import load_config
+
+    config = load_config(run / "config.yaml")
+    kwargs = {**config.env.kwargs, "initial_state": "straight"}
+    model_dir = run / "best_model"
+    vecnorm = model_dir / "vecnormalize.pkl"
+    policy = PPOPolicy(model_dir / "model.zip", vecnorm if vecnorm.exists() else None)
+    env = gym.make(config.env.id, **kwargs)
+    out: dict[str, Any] = {"success": 0, "collided": [], "waited": [], "missed": []}
+    for i in range(episodes):
+        obs, info = env.reset(seed=seed + i)
+        start, first, closest = info["distance"], None, info["distance"]
+        truncated = terminated = False
+        t = 0
+        while not (truncated or terminated):
+            obs, _, terminated, truncated, info = env.step(policy(obs[None])[0])
+            if info["collision"] and first is None:
+                first = t
+            closest = min(closest, info["distance"])
+            t += 1
+        row = {
+            "episode": i,
+            "spheres": int(np.sum(info["obstacles"][:, 3] > 0)),
+            "final_mm": 1000 * info["distance"],
+            "closest_mm": 1000 * closest,
+            "first_contact_step": first,
+        }
+        if info["is_success"]:
+            out["success"] += 1
+        elif info["collided"]:
+            out["collided"].append(row)
+        elif closest > 0.9 * start:
+            out["waited"].append(row)
+        else:
+            out["missed"].append(row)
+    env.close()
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python -m training.evaluate.obstacle_failures", description=__doc__
+    )
+    parser.add_argument("run", type=Path)
+    parser.add_argument("--episodes", type=int, default=100)
+    parser.add_argument("--seed", type=int, default=1_000_000)
+    args = parser.parse_args(argv)
+    if not (args.run / "best_model" / "model.zip").exists():
+        print(f"error: run: no best_model/model.zip in {args.run}", file=sys.stderr)
+        return 2
+    if args.episodes < 1:
+        print(f"error: --episodes must be >= 1, got {args.episodes}", file=sys.stderr)
+        return 2
+    result = classify(args.run, args.episodes, args.seed)
+    print(
+        f"{args.run}: success {result['success']} of {args.episodes}; failures: "
+        f"collided {len(result['collided'])}, waited {len(result['waited'])}, "
+        f"missed {len(result['missed'])}"
+    )
+    for kind in ("collided", "waited", "missed"):
+        for row in result[kind]:
+            print(
+                f"  {kind:8s} episode {row['episode']:3d}: {row['spheres']} spheres, final "
+                f"{row['final_mm']:.1f} mm, closest {row['closest_mm']:.1f} mm, first contact "
+                f"at step {row['first_contact_step']}"
+            )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
