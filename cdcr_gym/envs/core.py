@@ -289,16 +289,16 @@ class EnvCore:
         if act.commands_lengths:
             self._held_lengths = act.lengths(action, self._held_lengths)
             self.backend.apply_cable_lengths(self._held_lengths)
+            self._readings = self.backend.read()
         else:
             self._held_tensions = act.tensions(action, self._held_tensions)
             if imp is not None and imp.actuates:
                 shape, actuator = imp.actuate(self._held_tensions, self._rngs, active)
                 self.backend.apply_tensions(shape)
                 self._readings = self.backend.read()._replace(tensions=actuator)
-                self._moved()
-                return
-            self.backend.apply_tensions(self._held_tensions)
-        self._readings = self.backend.read()
+            else:
+                self.backend.apply_tensions(self._held_tensions)
+                self._readings = self.backend.read()
         self._moved()
         self.task.advance(self.backend, self._readings)
 

@@ -8,6 +8,7 @@ import pytest
 
 import cdcr_gym  # noqa: F401  (registers the ids)
 from cdcr_gym.backends.analytic import AnalyticBackend
+from cdcr_gym.controllers import AnalyticIKController
 from cdcr_gym.defaults import NOMINAL_TIMESTEP
 from cdcr_gym.envs.core import OPTION_KEYS, EnvCore
 from cdcr_gym.model.params import RobotParams
@@ -172,3 +173,26 @@ def test_tip_velocity_in_the_batched_env_matches_single_envs_across_autoresets()
 def test_observe_tip_velocity_must_be_a_bool():
     with pytest.raises(ValueError, match="observe_tip_velocity"):
         gym.make("cdcr_gym/CCKAReach-v0", observe_tip_velocity="yes")
+
+
+@pytest.mark.parametrize(
+    "imperfections",
+    [None, {"actuator_noise": 0.5}, {"tension_rate_limit": 2.0}, {"action_delay": 1}],
+)
+def test_the_task_moves_on_every_step_whatever_the_actuator_imperfections(imperfections):
+    """Track's target moves and Obstacle's collision check runs on every step also when an
+    actuator imperfection shapes the held tensions (it used to skip Task.advance)."""
+    track = gym.make("cdcr_gym/CCKATrack-v0", imperfections=imperfections)
+    track.reset(seed=0)
+    start = track.unwrapped.task.goal.copy()
+    for _ in range(10):
+        track.step(np.zeros(3, np.float32))
+    assert np.linalg.norm(track.unwrapped.task.goal - start) > 0.009  # 10 steps at 1 mm/step
+    obstacle = gym.make("cdcr_gym/CCKAObstacle-v0", imperfections=imperfections)
+    ik = AnalyticIKController.from_env(obstacle)
+    obs, info = obstacle.reset(seed=0)
+    clearances = [info["min_clearance"]]
+    for _ in range(40):
+        obs, _, _, _, info = obstacle.step(ik(obs))
+        clearances.append(info["min_clearance"])
+    assert len(set(clearances)) > 10 and info["collided"]  # the reach IK runs into the sphere
