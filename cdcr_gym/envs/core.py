@@ -164,7 +164,8 @@ class EnvCore:
         self.randomized = {name: np.full(n, np.nan) for name in dr.reported}
         self._rngs: list[np.random.Generator | None] = [None] * n
         box = self.spec.box()
-        self._obs_bounds = (box.low[:, None], box.high[:, None])
+        task_rows = slice(0, self._task_rows)  # what the sensor noise acts on
+        self._obs_bounds = (box.low[task_rows, None], box.high[task_rows, None])
         self._buffer_shape = (self.spec.size, n)
 
     def _draw_episode(self, idx: np.ndarray, rngs: list[np.random.Generator]) -> None:
@@ -299,14 +300,10 @@ class EnvCore:
             else:
                 self.backend.apply_tensions(self._held_tensions)
                 self._readings = self.backend.read()
-        self._moved()
-        self.task.advance(self.backend, self._readings)
-
-    def _moved(self) -> None:
-        """After a step: the tip velocity (field rows) from the readings before and after."""
-        if self.observe_tip_velocity:
+        if self.observe_tip_velocity:  # from the readings before and after the step
             diff = self._readings.tip - self._previous_tip
             np.multiply(diff.T, self._inv_timestep, out=self._tip_velocity)
+        self.task.advance(self.backend, self._readings)
 
     def terminated(self, success: Any) -> Any:
         """(N,) bool: the envs whose episode ends now: a success with ``terminate_on_success``,
@@ -345,10 +342,9 @@ class EnvCore:
             task.observe(r, rows, self.goal_conditioned)
         else:  # noisy readings; a sensor saturates at the observation space's bounds
             task.observe(imp.sense(r, self._rngs), rows, self.goal_conditioned)
-        if self.observe_tip_velocity:
+            np.clip(rows, self._obs_bounds[0], self._obs_bounds[1], out=rows)
+        if self.observe_tip_velocity:  # within its bounds: no step moves the tip by 2l
             buffer[self._task_rows :] = self._tip_velocity
-        if imp is not None or self.observe_tip_velocity:
-            np.clip(buffer, self._obs_bounds[0], self._obs_bounds[1], out=buffer)
         flat = buffer.T  # (N, size), Fortran-ordered (like Gymnasium's CartPoleVectorEnv)
         obs: Any
         if single and not self.goal_conditioned:
