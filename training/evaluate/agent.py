@@ -97,6 +97,7 @@ def evaluate(
 
     from cdcr_gym.controllers import AnalyticIKController
     from training.evaluate import plots
+    from training.evaluate.random_policy import RandomPolicy
     from training.evaluate.rollout import PPOPolicy, make_env, make_specs, run_episodes, summarize
 
     torch.set_num_threads(config.runtime.torch_threads)
@@ -127,6 +128,7 @@ def evaluate(
 
     # on a physics backend the open-loop IK misses by centimetres: the closed-loop IK beside it
     closed = AnalyticIKController.from_env(probe, feedback=True) if is_physics(probe) else None
+    action_space = probe.action_space
     probe.close()
 
     out_json = run_dir / ("eval.json" if tag is None else f"eval_{tag}.json")
@@ -165,6 +167,9 @@ def evaluate(
             if closed is not None:
                 closed_run = run_episodes(env_fn, closed.action, specs, horizon)
                 cond["ik_closed_loop"] = summarize(closed_run.final_distance, threshold)
+            # the floor: uniform random tensions on the same goals (the same draws every run)
+            random_run = run_episodes(env_fn, RandomPolicy(action_space, seed), specs, horizon)
+            cond["random"] = summarize(random_run.final_distance, threshold)
             conditions[name] = cond
             raw[name] = (specs, pol, ikr)
 
@@ -190,6 +195,7 @@ def evaluate(
         "error_mm": head["error_mm"],
         "ik": head["ik"],
         **({"ik_closed_loop": head["ik_closed_loop"]} if closed is not None else {}),
+        "random": head["random"],
         "conditions": conditions,
         "command": command,
     }
@@ -261,6 +267,7 @@ def _evaluate_task(
     horizon (``training.task_metrics``). Writes the JSON and the path figures."""
     from training.evaluate.metrics import is_physics, oracle_for, run_task_episodes, summarize_task
     from training.evaluate.oracles import plot_paths
+    from training.evaluate.random_policy import RandomPolicy
     from training.evaluate.rollout import make_env
 
     ev = config.evaluate
@@ -283,6 +290,7 @@ def _evaluate_task(
         task = type(probe.unwrapped.task).__name__
         if task == "Obstacle":
             baselines["reach_ik"] = oracle_for(probe, "reach_ik")
+        baselines["random"] = RandomPolicy.from_env(probe, seed)  # the floor
         probe.close()
         record = min(3, episodes)
         runs = {"policy": run_task_episodes(env_fn, policy, episodes, seed, record=record)}
@@ -357,7 +365,7 @@ def _print_table(result: dict[str, Any]) -> None:
     table = Table(
         title=(
             f"{result['env_id']} — {result['episodes']} goals per condition, model at step "
-            f"{result['model_step']} (errors in mm; IK = analytic IK on the same goals)"
+            f"{result['model_step']} (errors in mm; IK = analytic IK, random = uniform random tensions, on the same goals)"
         ),
     )
     for col in (
@@ -378,6 +386,8 @@ def _print_table(result: dict[str, Any]) -> None:
             if "ik_closed_loop" in result
             else ()
         ),
+        f"random ≤{thr_mm:g} mm",
+        "random median",
     ):
         table.add_column(col, justify="right")
     for name, c in result["conditions"].items():
@@ -401,8 +411,16 @@ def _print_table(result: dict[str, Any]) -> None:
                 if closed is not None
                 else ()
             ),
+            *(
+                (
+                    f"{100 * c['random']['success_rate']:.1f} %",
+                    f"{c['random']['error_mm']['median']:.3f}",
+                )
+                if "random" in c  # absent in eval.json files written before the random row
+                else ("–", "–")
+            ),
         )
-    console = Console(width=200)
+    console = Console(width=220)
     console.print(table)
     console.print(
         f"* headline condition; wrote {result['_json_path']} and figures "

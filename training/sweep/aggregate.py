@@ -218,6 +218,49 @@ def target_table(runs: list[RunResult], target: dict[str, float]) -> list[str]:
     return lines
 
 
+def parts_table(summary: dict[str, Any], runs: list[RunResult]) -> list[str]:
+    """Markdown: per part of a sweep run in parts — its task, budget, how many trials ran, when,
+    on which machine, for how long, and the env steps each algorithm reached in the budget."""
+    spec_parts = (summary.get("spec") or {}).get("parts") or {}
+    common = (summary.get("spec") or {}).get("set") or {}
+    lines = [
+        "| part | task | budget (train wall time) | trials complete | ran (UTC) | machine "
+        "| trial time (train + evaluate, sum over trials) | env steps reached (median per algorithm) |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for name, part in spec_parts.items():
+        members = [r for r in runs if r.part == name]
+        done = [r for r in members if r.status == "complete"]
+        budget = {**common, **(part.get("set") or {})}.get("runtime.max_wall_time_s")
+        tasks = ", ".join(sorted({r.task for r in members})) or "?"
+        if done:
+            starts = sorted(r.start for r in done if r.start)
+            ends = sorted(r.end for r in done if r.end)
+            when = (
+                f"{starts[0][:16].replace('T', ' ')} – {ends[-1][:16].replace('T', ' ')}"
+                if starts and ends
+                else "?"
+            )
+            hosts = ", ".join(sorted({r.host for r in done if r.host})) or "?"
+            total = sum(r.trial_wall_time_s or 0.0 for r in done)
+            by_algo: dict[str, list[int]] = defaultdict(list)
+            for r in done:
+                if r.steps is not None:
+                    by_algo[r.algo].append(r.steps)
+            steps = "; ".join(
+                f"{algo} {np.median(v) / 1e6:.2f} M"
+                if np.median(v) >= 1e5
+                else f"{algo} {np.median(v) / 1e3:.0f} k"
+                for algo, v in sorted(by_algo.items())
+            )
+            ran = f"{when} | {hosts} | {total / 3600:.2f} h | {steps}"
+        else:
+            ran = "not run yet | – | – | –"
+        budget_txt = f"{budget:g} s" if budget else "the configs' steps"
+        lines.append(f"| {name} | {tasks} | {budget_txt} | {len(done)}/{len(members)} | {ran} |")
+    return lines
+
+
 # -- the benchmark page -------------------------------------------------------------------------
 def _machine(summary: dict[str, Any], runs: list[RunResult]) -> str:
     loads = [x for r in runs for x in r.loadavg]
@@ -273,6 +316,13 @@ def write_doc(
     spec = summary.get("spec", {})
     target = spec.get("target") or {}
     budget = (spec.get("set") or {}).get("runtime.max_wall_time_s")
+    parts = spec.get("parts") or {}
+    ran = [r for r in runs if r.status != "not run"]
+    per_group = defaultdict(int)
+    for r in runs:
+        if r.status == "complete":
+            per_group[(r.task, r.algo)] += 1
+    n_per_group = sorted(set(per_group.values()))
     sweep_file = next(
         (a for a in shlex.split(summary.get("command", "")) if a.endswith((".yaml", ".yml"))),
         "?",
@@ -285,7 +335,7 @@ def write_doc(
             break
     sweep_cmd = "cdcr-gym sweep " + " ".join(words)
     agg_cmd = "cdcr-gym aggregate " + " ".join(shlex.quote(a) for a in argv)
-    n_ok = sum(r.status == "complete" for r in runs)
+    n_ok = sum(r.status == "complete" for r in runs)  # of every trial, "not run" ones included
     concurrency = summary.get("executor", "ray")
     cpus = spec.get("resources", {}).get("cpus_per_trial", 1)
     max_conc = spec.get("resources", {}).get("max_concurrent")
@@ -322,7 +372,14 @@ def write_doc(
         *([note, ""] if note else []),
         "## Protocol",
         "",
-        f"* **Budget**: every run trains for the same wall-clock budget, "
+        "* **Budget**: per task, every algorithm trains for the same wall-clock budget "
+        "(`runtime.max_wall_time_s`, the periodic evaluations during training count against "
+        "it), set in each part of the sweep (table *Parts* below); an algorithm whose config "
+        "reaches its `total_timesteps` first stops there. Training stops at the first env step "
+        "past the budget, then evaluates the final weights once more, so the *train wall time* "
+        "column exceeds the budget by that last evaluation."
+        if parts
+        else f"* **Budget**: every run trains for the same wall-clock budget, "
         f"**{budget:g} s of training wall time** (`runtime.max_wall_time_s`; the periodic "
         f"evaluations during training count against it), whatever the env steps it reaches. "
         f"Training stops at the first env step past the budget, then evaluates the final "
@@ -356,18 +413,38 @@ def write_doc(
             "the moving target)."
             if kinds - {"Reach"}
             else "."
-        ),
+        )
+        + " Reference rows (in italics), on the same episodes as every run: the oracles — "
+        "the analytic IK (Reach) or the task's oracle, open loop and, on a physics backend, "
+        "also closed loop (corrected from the measured tip every step) — and the uniform "
+        "random policy (tensions drawn uniformly from the action space: the floor).",
         f"* **Estimator**: interquartile mean across runs with a 95 % stratified-bootstrap "
         f"percentile interval ({reps:,} resamples; rliable's method, implemented in "
-        f"`training/aggregate.py`). With 3 runs per group the IQM cuts no run (`int(0.25·3) = 0`): "
-        f"it equals the mean, and the interval comes from resampling only 3 values, so it is "
-        f"wide and coarse.",
+        f"`training/sweep/statistics.py`). " + _iqm_note(n_per_group),
         f"* **Target** (for the time-to-target columns): the first periodic evaluation during "
         f"training (`eval_log.csv`) with {tgt_txt}.",
         "",
         f"Covered by this sweep: algorithms {', '.join(sorted({r.algo for r in runs}))}; "
-        f"tasks {', '.join(sorted({r.task for r in runs}))}.",
+        f"tasks {', '.join(sorted({r.task for r in runs}))}"
+        + (
+            f"; run so far: {', '.join(sorted({r.task for r in ran}))}."
+            if len(ran) < len(runs)
+            else "."
+        ),
         "",
+        *(
+            [
+                "## Parts",
+                "",
+                "The sweep runs in parts (`cdcr-gym sweep SWEEP --part NAME`), at different "
+                "times into one output directory; what ran where and for how long:",
+                "",
+                *parts_table(summary, runs),
+                "",
+            ]
+            if parts
+            else []
+        ),
         "## IQM per task and algorithm",
         "",
         *iqm_table(result),
@@ -402,10 +479,10 @@ def write_doc(
         "",
         "## Every run",
         "",
-        *runs_table(runs, target),
+        *runs_table(ran, target),
         "",
     ]
-    failed = [r for r in runs if r.status != "complete"]
+    failed = [r for r in runs if r.status not in ("complete", "not run")]
     if failed:
         lines += ["## Failed trials", ""]
         for r in failed:
@@ -425,6 +502,25 @@ def write_doc(
         "",
     ]
     page.write_text("\n".join(lines))
+
+
+def _iqm_note(n_per_group: list[int]) -> str:
+    """What the IQM does with the number of runs per group."""
+    if not n_per_group:
+        return ""
+    n = n_per_group[0] if len(n_per_group) == 1 else None
+    if n is not None and int(0.25 * n) == 0:
+        return (
+            f"With {n} runs per group the IQM cuts no run (`int(0.25·{n}) = 0`): it equals the "
+            f"mean, and the interval comes from resampling only {n} values, so it is wide and "
+            "coarse."
+        )
+    sizes = " or ".join(map(str, n_per_group))
+    cuts = ", ".join(f"{int(0.25 * k)} at each end of {k}" for k in n_per_group)
+    return (
+        f"With {sizes} runs per group the IQM drops the best and the worst runs ({cuts}) and "
+        "averages the rest."
+    )
 
 
 def main(argv: list[str] | None = None) -> int:

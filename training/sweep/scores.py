@@ -25,6 +25,19 @@ METRICS = {
     "collision_rate": ("collision rate", "%", True),
 }
 RATE_METRICS = ("success_rate", "within_1mm")
+#: Reach's baselines in eval.json's conditions -> their row labels
+REACH_BASELINES = {
+    "ik": "analytic IK",
+    "ik_closed_loop": "analytic IK, closed loop",
+    "random": "random policy",
+}
+#: Track/Pose/Obstacle's baselines in eval.json's conditions -> their row labels
+TASK_BASELINES = {
+    "oracle": "oracle",
+    "oracle_closed_loop": "oracle, closed loop",
+    "reach_ik": "reach IK (ignores the spheres)",
+    "random": "random policy",
+}
 #: what "success" means per task (the env's ``is_success`` at the last step)
 SUCCESS = {
     "Reach": "final tip error ≤ 5 mm",
@@ -64,6 +77,10 @@ class RunResult:
     #: condition -> baseline name (e.g. "oracle", "analytic IK") -> {metric: value}, evaluated
     #: on the same episodes as the run (identical for every run of a task)
     baselines: dict[str, dict[str, dict[str, float]]] = field(default_factory=dict)
+    part: str = ""  # the sweep part (sweeps run in parts)
+    start: str | None = None  # when the trial started and ended (ISO 8601, the record's)
+    end: str | None = None
+    trial_wall_time_s: float | None = None  # training + evaluation
 
 
 def task_scores(summary: dict[str, Any]) -> dict[str, float]:
@@ -125,6 +142,10 @@ def load_runs(sweep_dir: Path) -> tuple[dict[str, Any], list[RunResult]]:
             status=record.get("status", "?"),
             error=record.get("error"),
             loadavg=[x[0] for x in (record.get("loadavg_start"), record.get("loadavg_end")) if x],
+            part=str(record.get("part") or ""),
+            start=record.get("start"),
+            end=record.get("end"),
+            trial_wall_time_s=record.get("wall_time_s"),
         )
         run_dir = Path(record.get("run_dir", ""))
         if run.status == "complete" and (run_dir / "run.json").is_file():
@@ -141,7 +162,9 @@ def load_runs(sweep_dir: Path) -> tuple[dict[str, Any], list[RunResult]]:
                     if "policy" in c:  # Track, Pose, Obstacle: the task's own metrics
                         run.scores[name] = task_scores(c["policy"])
                         run.baselines[name] = {
-                            k: task_scores(v) for k, v in c.items() if k != "policy"
+                            TASK_BASELINES.get(k, k): task_scores(v)
+                            for k, v in c.items()
+                            if k != "policy"
                         }
                         continue
                     run.scores[name] = {
@@ -149,14 +172,15 @@ def load_runs(sweep_dir: Path) -> tuple[dict[str, Any], list[RunResult]]:
                         "success_rate": float(c["success_rate"]),
                         "within_1mm": float(c["within_1mm"]),
                     }
-                    if "ik" in c:
-                        run.baselines[name] = {
-                            "analytic IK": {
-                                "median_error_mm": float(c["ik"]["error_mm"]["median"]),
-                                "success_rate": float(c["ik"]["success_rate"]),
-                                "within_1mm": float(c["ik"]["within_1mm"]),
+                    # the baselines on the same goals: analytic IK (open loop), on a physics
+                    # backend also closed loop, and the uniform random policy (the floor)
+                    for key, label in REACH_BASELINES.items():
+                        if key in c:
+                            run.baselines.setdefault(name, {})[label] = {
+                                "median_error_mm": float(c[key]["error_mm"]["median"]),
+                                "success_rate": float(c[key]["success_rate"]),
+                                "within_1mm": float(c[key]["within_1mm"]),
                             }
-                        }
             if (run_dir / "eval_log.csv").is_file():
                 with open(run_dir / "eval_log.csv", newline="") as f:
                     for row in csv.DictReader(f):

@@ -2,7 +2,8 @@
 
 Usage::
 
-    python -m training.sweep SWEEP.yaml [--address ADDR] [--executor ray|serial] [--dry-run]
+    python -m training.sweep SWEEP.yaml [--address ADDR] [--executor ray|serial]
+                                         [--part NAME ...] [--dry-run]
     cdcr-gym sweep SWEEP.yaml ...
 
 A sweep file (strict: an unknown or misspelt key is an error naming it, exit status 2)::
@@ -32,6 +33,20 @@ A sweep file (strict: an unknown or misspelt key is an error naming it, exit sta
       max_concurrent: null           # null: as many as the cluster's CPUs allow
     out_dir: null                    # null: runs/sweeps/<name> (relative to the working dir)
 
+A sweep too long for one sitting is split into **parts** (instead of ``configs``)::
+
+    parts:                           # name -> its configs and its own settings
+      ccka_reach:
+        configs: [ppo_ccka_fast, sac_ccka_reach]
+        set: {runtime.max_wall_time_s: 90}   # on top of the sweep's set (the part's budget)
+      mujoco_obstacle:
+        configs: [ppo_mujoco_obstacle]
+        set: {runtime.max_wall_time_s: 500}
+
+``--part NAME`` (repeatable) runs only those parts' unfinished trials; every run writes
+``sweep.json`` with all trials (those of parts not run yet: ``not run``), so the parts can run
+on different days or machines into the same output directory and be aggregated together.
+
 Each trial is an ordinary ``python -m training.train`` run directory, ``OUT/runs/<trial id>``,
 trained from its resolved config ``OUT/configs/<trial id>.yaml`` (the same code and files as a
 hand-started run), then evaluated. ``OUT/trials/<trial id>.json`` records the outcome (status,
@@ -60,7 +75,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import datetime as _dt
-import difflib
 import importlib.util
 import itertools
 import json
@@ -85,6 +99,14 @@ from training.run.config import (
     load_config,
     save_config,
 )
+from training.sweep.spec import (
+    TARGET_KEYS,
+    PartSpec,
+    SweepSpec,
+    check_parts,
+    load_sweep,
+    sweep_from_dict,
+)
 
 __all__ = [
     "SweepSpec",
@@ -100,55 +122,7 @@ __all__ = [
 ]
 
 EXIT_USAGE = 2
-#: eval_log.csv columns a target may name -> True if higher is better (a lower bound)
-TARGET_KEYS: dict[str, bool] = {
-    "success_rate": True,
-    "within_1mm": True,
-    "mean_error_mm": False,
-    "median_error_mm": False,
-    "p95_error_mm": False,
-}
 PYTHON = "{python}"  # replaced by the Python of the process that runs the trial
-
-
-@dataclasses.dataclass
-class EvaluateSpec:
-    """What runs after training: ``python -m training.evaluate RUN_DIR --model MODEL``."""
-
-    enabled: bool = True
-    model: str = "best"
-    episodes: int | None = None
-
-
-@dataclasses.dataclass
-class ResourcesSpec:
-    """Ray resources: CPUs per trial, and a cap on concurrent trials (None: no cap)."""
-
-    cpus_per_trial: float = 1.0
-    max_concurrent: int | None = None
-
-
-@dataclasses.dataclass
-class SweepSpec:
-    """A parsed sweep file (see the module docstring)."""
-
-    name: str
-    configs: list[str]
-    seeds: list[int]
-    set: dict[str, Any] = dataclasses.field(default_factory=dict)
-    overrides: list[dict[str, Any]] = dataclasses.field(default_factory=lambda: [{}])
-    grid: dict[str, list[Any]] = dataclasses.field(default_factory=dict)
-    evaluate: EvaluateSpec = dataclasses.field(default_factory=EvaluateSpec)
-    target: dict[str, float] = dataclasses.field(default_factory=dict)
-    resources: ResourcesSpec = dataclasses.field(default_factory=ResourcesSpec)
-    out_dir: str | None = None
-    #: where the sweep file lives (config paths may be relative to it); not a file key
-    base_dir: Path = dataclasses.field(default=Path("."), repr=False)
-
-    @property
-    def output(self) -> Path:
-        """The sweep's output directory (absolute)."""
-        return Path(self.out_dir or Path("runs") / "sweeps" / self.name).resolve()
 
 
 @dataclasses.dataclass
@@ -164,6 +138,7 @@ class Trial:
     config: dict[str, Any]  # the resolved experiment config (every key)
     out_dir: str  # the sweep's output directory (absolute)
     evaluate: dict[str, Any]
+    part: str = ""  # the sweep part it belongs to ("": a sweep without parts)
 
     @property
     def run_dir(self) -> Path:
@@ -200,128 +175,6 @@ class Trial:
                 cmd += ["--episodes", str(self.evaluate["episodes"])]
             cmds.append(cmd)
         return cmds
-
-
-# -- the sweep file -----------------------------------------------------------------------------
-_TOP_KEYS = [f.name for f in dataclasses.fields(SweepSpec) if f.name != "base_dir"]
-
-
-def _check_keys(where: str, data: dict[str, Any], valid: list[str]) -> None:
-    for key in data:
-        if key not in valid:
-            close = difflib.get_close_matches(str(key), valid, n=1)
-            hint = f"; did you mean '{close[0]}'?" if close else ""
-            raise ConfigError(
-                f"unknown sweep key '{where}{key}'{hint} (valid keys here: {', '.join(valid)})"
-            )
-
-
-def _mapping(key: str, value: Any) -> dict[str, Any]:
-    if value is None:
-        return {}
-    if not isinstance(value, dict) or not all(isinstance(k, str) for k in value):
-        raise ConfigError(f"{key} must be a mapping of dotted config keys to values, got {value!r}")
-    return dict(value)
-
-
-def sweep_from_dict(data: Any, name: str = "sweep", base_dir: Path | None = None) -> SweepSpec:
-    """A :class:`SweepSpec` from a parsed sweep file; raises ConfigError naming the bad key."""
-    if not isinstance(data, dict):
-        raise ConfigError(f"a sweep file must be a mapping of keys to values, got {data!r}")
-    _check_keys("", data, _TOP_KEYS)
-    sweep_name = data.get("name", name)
-    if not isinstance(sweep_name, str) or not re.fullmatch(r"[A-Za-z0-9_.-]+", sweep_name):
-        raise ConfigError(f"name must be a word of [A-Za-z0-9_.-], got {sweep_name!r}")
-    configs = data.get("configs")
-    if not isinstance(configs, list) or not configs or not all(isinstance(c, str) for c in configs):
-        raise ConfigError(f"configs must be a non-empty list of config files, got {configs!r}")
-    seeds = data.get("seeds")
-    if (
-        not isinstance(seeds, list)
-        or not seeds
-        or not all(isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in seeds)
-        or len(set(seeds)) != len(seeds)
-    ):
-        raise ConfigError(
-            f"seeds must be a non-empty list of distinct integers >= 0, got {seeds!r}"
-        )
-    common = _mapping("set", data.get("set"))
-    overrides = data.get("overrides", [{}])
-    if overrides is None:
-        overrides = [{}]
-    if not isinstance(overrides, list) or not overrides:
-        raise ConfigError(f"overrides must be a non-empty list of mappings, got {overrides!r}")
-    overrides = [_mapping(f"overrides[{i}]", o) for i, o in enumerate(overrides)]
-    grid = _mapping("grid", data.get("grid"))
-    for key, values in grid.items():
-        if not isinstance(values, list) or not values:
-            raise ConfigError(f"grid.{key} must be a non-empty list of values, got {values!r}")
-    ev = data.get("evaluate") or {}
-    if not isinstance(ev, dict):
-        raise ConfigError(f"evaluate must be a mapping, got {ev!r}")
-    _check_keys("evaluate.", ev, [f.name for f in dataclasses.fields(EvaluateSpec)])
-    evaluate = EvaluateSpec(**ev)
-    if not isinstance(evaluate.enabled, bool):
-        raise ConfigError(f"evaluate.enabled must be true or false, got {evaluate.enabled!r}")
-    if evaluate.model not in ("best", "final"):
-        raise ConfigError(f"evaluate.model must be 'best' or 'final', got {evaluate.model!r}")
-    if evaluate.episodes is not None and (
-        not isinstance(evaluate.episodes, int)
-        or isinstance(evaluate.episodes, bool)
-        or evaluate.episodes <= 0
-    ):
-        raise ConfigError(
-            f"evaluate.episodes must be a positive integer or null, got {evaluate.episodes!r}"
-        )
-    target = _mapping("target", data.get("target"))
-    _check_keys("target.", target, list(TARGET_KEYS))
-    for key, value in target.items():
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise ConfigError(f"target.{key} must be a number, got {value!r}")
-    res = data.get("resources") or {}
-    if not isinstance(res, dict):
-        raise ConfigError(f"resources must be a mapping, got {res!r}")
-    _check_keys("resources.", res, [f.name for f in dataclasses.fields(ResourcesSpec)])
-    resources = ResourcesSpec(**res)
-    cpus = resources.cpus_per_trial
-    if isinstance(cpus, bool) or not isinstance(cpus, (int, float)) or not cpus > 0:
-        raise ConfigError(f"resources.cpus_per_trial must be a number > 0, got {cpus!r}")
-    mc = resources.max_concurrent
-    if mc is not None and (not isinstance(mc, int) or isinstance(mc, bool) or mc <= 0):
-        raise ConfigError(
-            f"resources.max_concurrent must be a positive integer or null, got {mc!r}"
-        )
-    out_dir = data.get("out_dir")
-    if out_dir is not None and not isinstance(out_dir, str):
-        raise ConfigError(f"out_dir must be a path or null, got {out_dir!r}")
-    return SweepSpec(
-        name=sweep_name,
-        configs=list(configs),
-        seeds=list(seeds),
-        set=common,
-        overrides=overrides,
-        grid=grid,
-        evaluate=evaluate,
-        target={k: float(v) for k, v in target.items()},
-        resources=resources,
-        out_dir=out_dir,
-        base_dir=base_dir or Path("."),
-    )
-
-
-def load_sweep(path: str | Path) -> SweepSpec:
-    """Read and validate a sweep file; raises ConfigError naming the file and the bad key."""
-    path = Path(path)
-    if not path.is_file():
-        raise ConfigError(f"sweep file {str(path)!r} does not exist")
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"sweep file {str(path)!r} is not valid YAML: {exc}") from None
-    try:
-        return sweep_from_dict(data, name=path.stem, base_dir=path.resolve().parent)
-    except ConfigError as exc:
-        raise ConfigError(f"{path}: {exc}") from None
 
 
 # -- the grid -----------------------------------------------------------------------------------
@@ -375,7 +228,10 @@ def expand(spec: SweepSpec) -> list[Trial]:
     variants = [{**o, **g} for o in spec.overrides for g in grid_variants]
     trials: list[Trial] = []
     seen: dict[str, str] = {}
-    for name in spec.configs:
+    parts = spec.parts or {"": PartSpec(spec.configs)}
+    for part_name, name, part_set in (
+        (p, c, part.set) for p, part in parts.items() for c in part.configs
+    ):
         path = _find_config(name, spec.base_dir)
         base = yaml.safe_load(path.read_text()) or {}
         if not isinstance(base, dict):
@@ -383,7 +239,7 @@ def expand(spec: SweepSpec) -> list[Trial]:
         for variant in variants:
             for seed in spec.seeds:
                 data = json.loads(json.dumps(base))
-                for key, value in {**spec.set, **variant}.items():
+                for key, value in {**spec.set, **part_set, **variant}.items():
                     set_dotted(data, key, value)
                 data["seed"] = seed
                 where = f"config {str(path)!r}" + (f", variant {variant}" if variant else "")
@@ -412,6 +268,7 @@ def expand(spec: SweepSpec) -> list[Trial]:
                         config=config_to_dict(config),
                         out_dir=str(spec.output),
                         evaluate=dataclasses.asdict(spec.evaluate),
+                        part=part_name,
                     )
                 )
     return trials
@@ -512,6 +369,7 @@ def run_trial(trial: Trial | dict[str, Any]) -> dict[str, Any]:
         "env_id": trial.env_id,
         "variant": trial.variant,
         "seed": trial.seed,
+        "part": trial.part,
         "run_dir": str(trial.run_dir),
         "config": str(trial.config_path),
         "log": str(trial.log_path),
@@ -631,20 +489,39 @@ def _run_ray(trials: list[Trial], spec: SweepSpec, address: str | None) -> None:
         ray.shutdown()
 
 
+def _not_run(trial: Trial) -> dict[str, Any]:
+    """The record of a trial that has not run (yet): what it is, no outcome."""
+    return {
+        "trial_id": trial.trial_id,
+        "config_name": trial.config_name,
+        "algo": trial.algo,
+        "env_id": trial.env_id,
+        "seed": trial.seed,
+        "part": trial.part,
+        "status": "not run",
+        "log": str(trial.log_path),
+    }
+
+
 def run_sweep(
     spec: SweepSpec,
     executor: str = "ray",
     address: str | None = None,
     argv: list[str] | None = None,
+    parts: list[str] | None = None,
 ) -> dict[str, Any]:
-    """Run the unfinished trials of ``spec``; write ``OUT/sweep.json``; return its content."""
+    """Run the unfinished trials of ``spec`` (of its ``parts`` only, if given); write
+    ``OUT/sweep.json`` (every trial of the sweep); return its content."""
     trials = expand(spec)
-    todo = [t for t in trials if not is_finished(t)]
+    check_parts(spec, parts)
+    chosen = [t for t in trials if parts is None or t.part in parts]
+    todo = [t for t in chosen if not is_finished(t)]
     out = spec.output
     out.mkdir(parents=True, exist_ok=True)
+    which = f" (parts {', '.join(parts)}: {len(chosen)} trials)" if parts is not None else ""
     print(
-        f"sweep {spec.name}: {len(trials)} trials, {len(trials) - len(todo)} finished earlier "
-        f"(skipped), {len(todo)} to run; output {out}",
+        f"sweep {spec.name}: {len(trials)} trials{which}, {len(chosen) - len(todo)} finished "
+        f"earlier (skipped), {len(todo)} to run; output {out}",
         flush=True,
     )
     if todo:
@@ -656,9 +533,13 @@ def run_sweep(
     for trial in trials:
         record = _load_json(trial.record_path)
         if not isinstance(record, dict):
-            record = {"trial_id": trial.trial_id, "status": "not run", "log": str(trial.log_path)}
-        elif record.get("status") == "running":
+            record = _not_run(trial)
+        elif record.get("status") == "running" and trial in todo:
             record = {**record, "status": "failed", "error": _tail(trial.log_path)}
+        elif record.get("status") == "complete" and not is_finished(trial):
+            # a record of another budget or config (the sweep file changed since): not this trial
+            record = _not_run(trial)
+        record.setdefault("part", trial.part)
         record["skipped"] = trial not in todo
         records.append(record)
     summary = {
@@ -677,7 +558,7 @@ def run_sweep(
 
 
 def _report(summary: dict[str, Any]) -> int:
-    failed = [r for r in summary["trials"] if r.get("status") != "complete"]
+    failed = [r for r in summary["trials"] if r.get("status") not in ("complete", "not run")]
     width = max(len(r["trial_id"]) for r in summary["trials"])
     for r in summary["trials"]:
         note = "skipped (finished earlier)" if r.get("skipped") else ""
@@ -716,6 +597,13 @@ def main(argv: list[str] | None = None) -> int:
         "--out-dir", default=None, help="override the sweep file's out_dir (output directory)"
     )
     parser.add_argument(
+        "--part",
+        action="append",
+        default=None,
+        metavar="NAME",
+        help="run only this part of the sweep (repeatable); default: every part",
+    )
+    parser.add_argument(
         "--dry-run", action="store_true", help="list the trials and whether they are finished"
     )
     args = parser.parse_args(argv)
@@ -727,12 +615,15 @@ def main(argv: list[str] | None = None) -> int:
         if args.out_dir is not None:
             spec.out_dir = args.out_dir
         trials = expand(spec)
+        check_parts(spec, args.part)
     except ConfigError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_USAGE
     if args.dry_run:
         for t in trials:
-            print(f"{t.trial_id}\t{'finished' if is_finished(t) else 'to run'}\t{t.run_dir}")
+            if args.part is None or t.part in args.part:
+                state = "finished" if is_finished(t) else "to run"
+                print(f"{t.trial_id}\t{state}\t{t.run_dir}" + (f"\t{t.part}" if t.part else ""))
         return 0
     if args.executor == "ray" and importlib.util.find_spec("ray") is None:
         print(
@@ -741,7 +632,7 @@ def main(argv: list[str] | None = None) -> int:
             file=sys.stderr,
         )
         return EXIT_USAGE
-    summary = run_sweep(spec, args.executor, args.address, argv)
+    summary = run_sweep(spec, args.executor, args.address, argv, parts=args.part)
     return _report(summary)
 
 

@@ -65,6 +65,8 @@ def test_task_config_trains_and_evaluates_beside_its_oracle(tmp_path: Path, name
     data = json.loads((run / "eval.json").read_text())
     assert set(data["conditions"]) == {"straight_20steps"}
     assert "policy" in data and "oracle" in data
+    # the floor: the uniform random policy on the same episodes
+    assert data["random"]["episodes"] == data["policy"]["episodes"] == 2
     task = data["task"]
     # on a physics backend the oracle also runs closed loop, on the same episodes
     physics = "CCKA" not in data["env_id"]
@@ -106,3 +108,50 @@ def test_oracle_script_rejects_bad_arguments(tmp_path: Path) -> None:
 def test_obstacle_failures_without_a_model_is_exit_2(tmp_path: Path) -> None:
     result = _run("training.evaluate.obstacle_failures", tmp_path)
     assert result.returncode == 2 and "best_model/model.zip" in result.stderr
+
+
+OFF_POLICY_TASK_CONFIGS = [
+    f"{algo}_{task}"
+    for task in (
+        "ccka_track",
+        "ccka_pose",
+        "ccka_obstacle",
+        "mujoco_reach",
+        "mujoco_track",
+        "mujoco_pose",
+        "mujoco_obstacle",
+    )
+    for algo in ("sac", "td3", "tqc")
+]
+
+
+@pytest.mark.slow  # 10-30 s each: a few hundred steps, then the evaluation beside the baselines
+@pytest.mark.parametrize("name", OFF_POLICY_TASK_CONFIGS)
+def test_off_policy_config_trains_and_evaluates_beside_the_baselines(
+    tmp_path: Path, name: str
+) -> None:
+    """The benchmark's SAC/TD3/TQC configs of the tasks train (a few gradient steps past
+    ``learning_starts``) and evaluate beside the oracle(s) and the random-policy floor."""
+    data = yaml.safe_load((REPO / "configs" / f"{name}.yaml").read_text())
+    algo = data["algo"]
+    data["env"]["n_envs"] = 2
+    data[algo].update(learning_starts=100, batch_size=32, buffer_size=2000)
+    data["eval"].update(freq=200, n_episodes=2)
+    data["checkpoint"]["freq"] = 200
+    data["evaluate"].update(initial_states=["straight"], horizons=[20])
+    cfg = tmp_path / f"{name}.yaml"
+    cfg.write_text(yaml.safe_dump(data))
+    run = tmp_path / "run"
+    result = _run("training.train", cfg, "--total-timesteps", 400, "--run-dir", run)
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert json.loads((run / "run.json").read_text())["status"] == "complete"
+    result = _run("training.evaluate", run, "--episodes", 2)
+    assert result.returncode == 0, result.stderr[-3000:]
+    out = json.loads((run / "eval.json").read_text())
+    head = out["conditions"]["straight_20steps"]
+    if "policy" in head:  # Track, Pose, Obstacle: the task's metrics beside the baselines
+        assert {"oracle", "random"} <= set(head)
+        assert head["random"]["episodes"] == head["policy"]["episodes"] == 2
+    else:  # Reach
+        assert {"ik", "random"} <= set(head)
+        assert "ik_closed_loop" in head  # MuJoCo: the IK also closed loop

@@ -343,21 +343,33 @@ CONFIG_DIGESTS = {
     "ppo_mujoco_reach": "114b713b3a22c084",
     "ppo_mujoco_track": "007270aea6066a48",
     "sac_bullet_reach": "f783acadb2fca2c6",
-    "sac_ccka_obstacle": "d2c92a2a3085a1e9",
-    "sac_ccka_pose": "f243c06fca103cde",
+    "sac_ccka_obstacle": "f7cec8d54ef7b9d6",
+    "sac_ccka_pose": "960f032cd607653e",
     "sac_ccka_reach": "0a6944a1e2910164",
-    "sac_ccka_track": "a671f10c9a2d87d7",
+    "sac_ccka_track": "3dfc7c38415a4ea0",
+    "sac_mujoco_obstacle": "7c9d024a9f724340",
+    "sac_mujoco_pose": "de5ae3e617570863",
+    "sac_mujoco_reach": "6578e6cd2edab74e",
+    "sac_mujoco_track": "900bd4ebd1801d9b",
     "td3_bullet_reach": "eff020b83e31872a",
-    "td3_ccka_obstacle": "55e416f788957801",
-    "td3_ccka_pose": "5081ef4dcc6b03dc",
+    "td3_ccka_obstacle": "5d7689fd5315e488",
+    "td3_ccka_pose": "3a7470219b105634",
     "td3_ccka_reach": "c09cb2c43441222f",
-    "td3_ccka_track": "831e9a5c8be7255e",
+    "td3_ccka_track": "a3861bea11027024",
+    "td3_mujoco_obstacle": "dc6b471c7d7f7e86",
+    "td3_mujoco_pose": "87eac26964d55b4b",
+    "td3_mujoco_reach": "d7f551f8489c0226",
+    "td3_mujoco_track": "2aa893cabd5784a6",
     "tqc_bullet_reach": "3f0234ba245e4417",
-    "tqc_ccka_obstacle": "9a161e960905f505",
-    "tqc_ccka_pose": "25e004dab8cd4c8c",
+    "tqc_ccka_obstacle": "3bf5338d9560001f",
+    "tqc_ccka_pose": "84b54029a15bd6b8",
     "tqc_ccka_reach": "7bed50c6ea9ff525",
-    "tqc_ccka_track": "486e0d8cb9dd6ed3",
+    "tqc_ccka_track": "4aa4e48bd8e67ab5",
     "tqc_her_ccka_goalreach": "12a9a558b6a81d82",
+    "tqc_mujoco_obstacle": "501f0ff3b9b26cca",
+    "tqc_mujoco_pose": "5bddf64795315c0d",
+    "tqc_mujoco_reach": "9ca3203354685d78",
+    "tqc_mujoco_track": "d0636651f9aaf5eb",
 }
 
 
@@ -371,6 +383,32 @@ def test_pinned_config_resolution() -> None:
         data = json.dumps(config_to_dict(load_config(path)), sort_keys=True, default=str)
         digests[path.stem] = hashlib.sha256(data.encode()).hexdigest()[:16]
     assert digests == CONFIG_DIGESTS
+
+
+@pytest.mark.parametrize("algo", ["sac", "td3", "tqc"])
+@pytest.mark.parametrize(
+    "task",
+    [
+        "ccka_track",
+        "ccka_pose",
+        "ccka_obstacle",
+        "mujoco_reach",
+        "mujoco_track",
+        "mujoco_pose",
+        "mujoco_obstacle",
+    ],
+)
+def test_off_policy_configs_share_the_ppo_configs_env_and_evaluation(algo: str, task: str) -> None:
+    """The benchmark compares learners on one env: an off-policy config of a task has its PPO
+    config's env (all but the number of envs), periodic-evaluation episodes and evaluation."""
+    import dataclasses
+
+    ppo = load_config(REPO / "configs" / f"ppo_{task}.yaml")
+    other = load_config(REPO / "configs" / f"{algo}_{task}.yaml")
+    assert other.algo == algo
+    assert dataclasses.replace(other.env, n_envs=ppo.env.n_envs) == ppo.env
+    assert dataclasses.replace(other.eval, freq=ppo.eval.freq) == ppo.eval
+    assert other.evaluate == ppo.evaluate
 
 
 #: eval_log.csv of the tiny run below (seed 3, 256 steps): (timesteps, mean_error_mm, mean_reward)

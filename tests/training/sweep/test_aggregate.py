@@ -327,3 +327,59 @@ def test_pinned_aggregate_numbers(sweep_dir: Path) -> None:
         if g.get(m)
     )
     assert rows == PINNED_GROUPS
+
+
+def test_a_sweep_in_parts_gets_a_parts_table_and_its_baseline_rows(tmp_path: Path) -> None:
+    """Parts: budgets per part, trials not run yet are neither scores nor failures; Reach's
+    baselines (analytic IK open and closed loop, random policy) become reference rows."""
+    root = tmp_path / "sweep"
+    records = []
+    for seed, err in enumerate([0.5, 0.7, 0.9, 1.1, 30.0]):
+        record = _fake_run(root, f"a_seed{seed}", "MuJoCoReach-v0", seed, [9.0, err])
+        record.update(part="mujoco_reach", start=f"2026-11-26T11:0{seed}:00+00:00",
+                      end=f"2026-11-26T11:1{seed}:00+00:00", wall_time_s=600.0)  # fmt: skip
+        eval_path = Path(record["run_dir"]) / "eval.json"
+        data = json.loads(eval_path.read_text())
+        for cond in data["conditions"].values():
+            for key, median in (("ik", 40.0), ("ik_closed_loop", 0.2), ("random", 150.0)):
+                cond[key] = {"success_rate": float(median < 5), "within_1mm": float(median < 1),
+                             "error_mm": {"median": median}}  # fmt: skip
+        eval_path.write_text(json.dumps(data))
+        records.append(record)
+    records.append({"trial_id": "p_seed0", "env_id": "cdcr_gym/CCKAPose-v0", "algo": "ppo",
+                    "seed": 0, "part": "ccka_pose", "status": "not run"})  # fmt: skip
+    summary = {
+        "name": "bench",
+        "command": "cdcr-gym sweep configs/sweeps/bench.yaml --part mujoco_reach",
+        "time": "2026-11-26T12:00:00",
+        "spec": {
+            "target": {"success_rate": 0.9},
+            "set": {"eval.freq": 25000},
+            "parts": {
+                "mujoco_reach": {"configs": ["x"], "set": {"runtime.max_wall_time_s": 120}},
+                "ccka_pose": {"configs": ["y"], "set": {"runtime.max_wall_time_s": 180}},
+            },
+        },
+        "trials": records,
+    }
+    (root / "sweep.json").write_text(json.dumps(summary))
+    page = tmp_path / "docs" / "bench.md"
+    assert main([str(root), "--doc", str(page), "--reps", "500"]) == 0
+    text = page.read_text()
+    lines = text.splitlines()
+    reach = next(line for line in lines if line.startswith("| mujoco_reach |"))
+    assert "| MuJoCoReach-v0 | 120 s | 5/5 | 2026-11-26 11:00 – 2026-11-26 11:14 |" in reach
+    assert "| 0.83 h |" in reach  # 5 trials x 600 s
+    pose = next(line for line in lines if line.startswith("| ccka_pose |"))
+    assert "| 180 s | 0/1 | not run yet |" in pose
+    assert "## Failed trials" not in text and "p_seed0" not in text.split("## Parts")[0]
+    # five runs: the IQM cuts one at each end (30 mm is the worst, 0.5 the best)
+    assert "With 5 runs per group the IQM drops the best and the worst runs" in text
+    assert "0.9 [" in text  # IQM of 0.7, 0.9, 1.1
+    for label, value in (
+        ("*analytic IK*", "40 mm"),
+        ("*analytic IK, closed loop*", "0.2 mm"),
+        ("*random policy*", "150 mm"),
+    ):
+        row = next(line for line in lines if line.startswith(f"| {label} | straight"))
+        assert value in row

@@ -258,15 +258,106 @@ def test_ray_executor_without_ray_names_the_extra(tmp_path: Path, monkeypatch, c
 
 
 def test_benchmark_sweep_covers_every_algorithm_and_task() -> None:
-    """configs/sweeps/benchmark.yaml: 4 algorithms x 5 (task, backend) x 3 seeds, one budget."""
+    """configs/sweeps/benchmark.yaml (v2): 4 algorithms x 4 tasks x {CCKA, MuJoCo} x 5 seeds,
+    one part per (backend, task) with one wall-time budget for every algorithm of the part."""
     spec = load_sweep(REPO / "configs" / "sweeps" / "benchmark.yaml")
     trials = expand(spec)
     pairs = {(t.algo, t.env_id.split("/")[-1]) for t in trials}
     algos = {"ppo", "sac", "td3", "tqc"}
-    envs = {"CCKAReach-v0", "CCKATrack-v0", "CCKAPose-v0", "CCKAObstacle-v0", "BulletReach-v0"}
+    tasks = ("Reach", "Track", "Pose", "Obstacle")
+    envs = {f"{backend}{task}-v0" for backend in ("CCKA", "MuJoCo") for task in tasks}
     assert pairs == {(a, e) for a in algos for e in envs}
-    assert len(trials) == len(pairs) * len(spec.seeds) and len(spec.seeds) >= 3
-    budgets = {t.config["runtime"]["max_wall_time_s"] for t in trials}
-    assert len(budgets) == 1 and budgets.pop() > 0
+    assert len(spec.seeds) >= 5
+    assert len(trials) == len(pairs) * len(spec.seeds)
+    for part in spec.parts:
+        members = [t for t in trials if t.part == part]
+        assert {t.algo for t in members} == algos and len({t.env_id for t in members}) == 1
+        budgets = {t.config["runtime"]["max_wall_time_s"] for t in members}
+        assert len(budgets) == 1 and budgets.pop() > 0
+        # the same evaluation episodes for every algorithm of a task
+        assert len({json.dumps(t.config["evaluate"], sort_keys=True) for t in members}) == 1
+        assert len({json.dumps(t.config["env"]["kwargs"], sort_keys=True) for t in members}) == 1
     # One trial per core of the 2-core machine the published numbers came from.
     assert spec.resources.max_concurrent * spec.resources.cpus_per_trial <= 2
+
+
+# -- parts: a sweep run over several sittings -----------------------------------------------------
+def test_parts_have_their_own_budget_and_run_one_at_a_time(
+    tmp_path: Path, configs, fake_commands, capsys
+) -> None:
+    path = _spec(
+        tmp_path,
+        configs=None,
+        seeds=[0, 2],
+        set={"total_timesteps": 4096, "runtime.max_wall_time_s": 10},
+        parts={
+            "fast": {"configs": ["a.yaml"], "set": {"runtime.max_wall_time_s": 30}},
+            "slow": {"configs": ["b.yaml"]},
+        },
+    )
+    data = yaml.safe_load(path.read_text())
+    del data["configs"]
+    path.write_text(yaml.safe_dump(data))
+    spec = load_sweep(path)
+    trials = expand(spec)
+    assert [(t.part, t.trial_id) for t in trials] == [
+        ("fast", "a_seed0"),
+        ("fast", "a_seed2"),
+        ("slow", "b_seed0"),
+        ("slow", "b_seed2"),
+    ]
+    budget = {t.trial_id: t.config["runtime"]["max_wall_time_s"] for t in trials}
+    assert budget == {"a_seed0": 30, "a_seed2": 30, "b_seed0": 10, "b_seed2": 10}
+    assert all(t.config["total_timesteps"] == 4096 for t in trials)
+
+    # one part: only its trials run; sweep.json lists every trial, the others "not run"
+    summary = run_sweep(spec, executor="serial", parts=["fast"])
+    calls = tmp_path / "out" / "calls.txt"
+    assert calls.read_text().split() == ["a_seed0", "a_seed2"]
+    status = {r["trial_id"]: (r["part"], r["status"]) for r in summary["trials"]}
+    assert status == {
+        "a_seed0": ("fast", "complete"),
+        "a_seed2": ("fast", "complete"),
+        "b_seed0": ("slow", "not run"),
+        "b_seed2": ("slow", "not run"),
+    }
+    assert sweep._report(summary) == 0  # parts not run yet are no failure
+    # the other part later (another sitting): the first part's trials stay, none reruns
+    summary = run_sweep(spec, executor="serial", parts=["slow"])
+    assert calls.read_text().split() == ["a_seed0", "a_seed2", "b_seed0", "b_seed2"]
+    assert [r["status"] for r in summary["trials"]] == ["complete"] * 4
+    assert [r["skipped"] for r in summary["trials"]] == [True, True, False, False]
+    # the CLI: a dry run of one part; an unknown part names the parts
+    capsys.readouterr()
+    assert sweep.main([str(path), "--part", "slow", "--dry-run"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert [line.split("\t")[0::3] for line in out] == [["b_seed0", "slow"], ["b_seed2", "slow"]]
+    assert sweep.main([str(path), "--part", "fats"]) == 2
+    assert (
+        "'fats' is not a part of the sweep 't' (its parts: fast, slow)" in capsys.readouterr().err
+    )
+
+
+@pytest.mark.parametrize(
+    ("parts", "message"),
+    [
+        ({"p": {"config": ["a.yaml"]}}, "unknown sweep key 'parts.p.config'"),
+        ({"p": {"configs": []}}, "parts.p.configs must be a non-empty list"),
+        ({"p q": {"configs": ["a.yaml"]}}, "a part's name must be a word"),
+        ({"p": {"configs": ["a.yaml"], "set": [1]}}, "parts.p.set must be a mapping"),
+    ],
+)
+def test_parts_are_strict(tmp_path: Path, configs, parts: dict, message: str) -> None:
+    path = _spec(tmp_path, parts=parts)
+    data = yaml.safe_load(path.read_text())
+    del data["configs"]
+    path.write_text(yaml.safe_dump(data))
+    with pytest.raises(ConfigError) as info:
+        expand(load_sweep(path))
+    assert message in str(info.value)
+    # configs and parts together: ambiguous
+    with pytest.raises(ConfigError, match="either configs or parts"):
+        load_sweep(_spec(tmp_path, parts={"p": {"configs": ["a.yaml"]}}))
+    # --part on a sweep without parts
+    with pytest.raises(ConfigError, match="has no parts"):
+        sweep.check_parts(load_sweep(_spec(tmp_path)), ["p"])
