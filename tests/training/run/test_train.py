@@ -338,7 +338,7 @@ CONFIG_DIGESTS = {
     "ppo_ccka_pose": "b048a896b43158ca",
     "ppo_ccka_reach": "e5f4cd3da26a16ea",
     "ppo_ccka_track": "745d8afb0307034a",
-    "ppo_mujoco_obstacle": "df3e9715485d8ec1",
+    "ppo_mujoco_obstacle": "d02d9adb32f83737",
     "ppo_mujoco_pose": "83660b425a479977",
     "ppo_mujoco_reach": "114b713b3a22c084",
     "ppo_mujoco_track": "007270aea6066a48",
