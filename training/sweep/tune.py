@@ -561,7 +561,10 @@ def _report(summary: dict[str, Any]) -> int:
     failed = [r for r in summary["trials"] if r.get("status") not in ("complete", "not run")]
     width = max(len(r["trial_id"]) for r in summary["trials"])
     for r in summary["trials"]:
-        note = "skipped (finished earlier)" if r.get("skipped") else ""
+        done = r.get("status") == "complete"
+        note = "skipped (finished earlier)" if r.get("skipped") and done else ""
+        if r.get("status") == "not run":
+            note = f"part {r['part']} not run yet" if r.get("part") else ""
         wall = f"{r['wall_time_s']:.0f} s" if "wall_time_s" in r else ""
         print(f"  {r['trial_id']:<{width}}  {r.get('status', '?'):<9} {wall:>7}  {note}")
     for r in failed:
@@ -571,7 +574,10 @@ def _report(summary: dict[str, Any]) -> int:
             file=sys.stderr,
         )
     n = len(summary["trials"])
-    print(f"\n{n - len(failed)}/{n} trials complete", flush=True)
+    complete = sum(r.get("status") == "complete" for r in summary["trials"])
+    waiting = sum(r.get("status") == "not run" for r in summary["trials"])
+    later = f" ({waiting} not run yet: their parts)" if waiting else ""
+    print(f"\n{complete}/{n} trials complete{later}", flush=True)
     return 1 if failed else 0
 
 

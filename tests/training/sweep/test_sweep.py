@@ -321,7 +321,11 @@ def test_parts_have_their_own_budget_and_run_one_at_a_time(
         "b_seed0": ("slow", "not run"),
         "b_seed2": ("slow", "not run"),
     }
+    capsys.readouterr()
     assert sweep._report(summary) == 0  # parts not run yet are no failure
+    out = capsys.readouterr().out
+    assert "2/4 trials complete (2 not run yet: their parts)" in out
+    assert "part slow not run yet" in out and "skipped" not in out
     # the other part later (another sitting): the first part's trials stay, none reruns
     summary = run_sweep(spec, executor="serial", parts=["slow"])
     assert calls.read_text().split() == ["a_seed0", "a_seed2", "b_seed0", "b_seed2"]
