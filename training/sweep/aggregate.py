@@ -467,7 +467,8 @@ def write_doc(
         "## Performance profiles",
         "",
         "Fraction of runs whose median final error (Track: median tracking RMS) is at most "
-        "τ, with 95 % bootstrap bands (grey lines: 1 mm and 5 mm).",
+        "τ, with 95 % bootstrap bands (grey lines: 1 mm and 5 mm; black dotted lines: the "
+        "task's reference rows on the straight start, oracles and random policy).",
         "",
         f"![performance profiles]({rel}/performance_profiles.png)",
         "",

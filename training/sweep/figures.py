@@ -24,11 +24,28 @@ def profile_score(scores: dict[str, float]) -> float:
     return scores.get("tracking_rms_mm", scores["median_error_mm"])
 
 
+def reference_errors(runs: list[RunResult]) -> dict[str, dict[str, float]]:
+    """Per task: each reference row's (oracles, random policy) error in the profiles' score
+    (:func:`profile_score`) on the task's first condition (the straight start)."""
+    out: dict[str, dict[str, float]] = {}
+    for r in runs:
+        if r.task in out or not r.baselines:
+            continue
+        cond = sorted(r.baselines, key=condition_order)[0]
+        out[r.task] = {
+            name: profile_score(scores)
+            for name, scores in r.baselines[cond].items()
+            if "median_error_mm" in scores
+        }
+    return out
+
+
 def plot_performance_profiles(
     runs: list[RunResult], path: Path, reps: int = 2_000, seed: int = 0
 ) -> Path:
     """Per task and condition: fraction of runs with median final error (Track: median tracking
-    RMS) ≤ τ (log τ), with bands."""
+    RMS) ≤ τ (log τ), with bands; the task's reference rows (oracles, random policy) as vertical
+    lines at their own error."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -37,8 +54,10 @@ def plot_performance_profiles(
     tasks, algos = tasks_algos(runs)
     conds = sorted({c for r in runs for c in r.scores}, key=condition_order)
     errors = [profile_score(r.scores[c]) for r in runs for c in r.scores]
+    references = reference_errors(runs)
     lo = max(min(errors) / 2, 1e-3) if errors else 0.01
-    hi = max(errors) * 2 if errors else 100.0
+    hi = max([*errors, *[v for refs in references.values() for v in refs.values()]]) * 2
+    hi = hi if errors else 100.0
     levels = np.geomspace(lo, hi, 200)
     fig, axes = plt.subplots(
         1, max(len(tasks), 1), figsize=(5.0 * max(len(tasks), 1), 3.8), squeeze=False
@@ -68,6 +87,17 @@ def plot_performance_profiles(
                 ax.fill_between(levels, low, high, step="post", color=color, alpha=0.12)
         ax.axvline(5.0, color="0.6", lw=0.8)
         ax.axvline(1.0, color="0.6", lw=0.8, ls=":")
+        for k, (name, value) in enumerate(sorted(references.get(task, {}).items())):
+            # the reference rows' errors (same episodes, first condition): vertical lines; an
+            # oracle more precise than the axis' left end sits on it, its value in the label
+            ax.axvline(
+                max(value, lo),
+                color="k",
+                lw=1.0,
+                ls=(0, (1 + k, 2)),
+                alpha=0.7,
+                label=f"{name}: {value:.3g} mm" + (" (off the axis)" if value < lo else ""),
+            )
         ax.set_xscale("log")
         ax.set_ylim(-0.02, 1.02)
         ax.set_xlabel("error level τ (mm)")

@@ -383,3 +383,25 @@ def test_a_sweep_in_parts_gets_a_parts_table_and_its_baseline_rows(tmp_path: Pat
     ):
         row = next(line for line in lines if line.startswith(f"| {label} | straight"))
         assert value in row
+
+
+def test_reference_rows_mark_the_performance_profiles(tmp_path: Path) -> None:
+    from training.sweep.figures import reference_errors
+
+    root = tmp_path / "sweep"
+    record = _fake_run(root, "a_seed0", "MuJoCoReach-v0", 0, [9.0, 1.0])
+    eval_path = Path(record["run_dir"]) / "eval.json"
+    data = json.loads(eval_path.read_text())
+    for cond, scale in zip(data["conditions"].values(), (1.0, 2.0), strict=True):
+        cond["ik_closed_loop"] = {"success_rate": 1.0, "within_1mm": 1.0,
+                                  "error_mm": {"median": 0.2 * scale}}  # fmt: skip
+        cond["random"] = {"success_rate": 0.0, "within_1mm": 0.0,
+                          "error_mm": {"median": 150.0 * scale}}  # fmt: skip
+    eval_path.write_text(json.dumps(data))
+    summary = {"name": "t", "command": "", "spec": {}, "trials": [record]}
+    (root / "sweep.json").write_text(json.dumps(summary))
+    _, runs = load_runs(root)
+    # the straight start's (the first condition's) values, one line per reference row
+    assert reference_errors(runs) == {
+        "MuJoCoReach-v0": {"analytic IK, closed loop": 0.2, "random policy": 150.0}
+    }
