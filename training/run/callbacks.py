@@ -183,6 +183,11 @@ def make_callbacks(config: ExperimentConfig, run: RunDir, state: dict[str, Any])
                 write_json(run.best / "info.json", {**row, "best_metric": metric})
                 self.logger.record("eval/best_step", self.num_timesteps)
 
+        def _on_training_start(self) -> None:
+            # A policy cloned from demonstrations is evaluated before PPO changes it (step 0).
+            if config.demonstrations.episodes and state["start_steps"] == 0:
+                self._evaluate()
+
         def _on_step(self) -> bool:
             if self.num_timesteps >= self.next_at and not state["stop_requested"]:
                 self._evaluate()

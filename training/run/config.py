@@ -88,6 +88,12 @@ valid name), wrong types and out-of-range values are errors that name the key an
     curriculum:                   # easier episodes early in training (tasks with one: Obstacle)
       steps: 0                    # env steps over which the difficulty rises to 1; 0: off
       start: 1.0                  # difficulty at step 0, in (0, 1] (Task.set_difficulty)
+    demonstrations:               # PPO only: clone the task oracle before training
+      episodes: 0                 # oracle episodes in the training envs; 0: off
+      epochs: 20                  # passes over them (policy mean -> oracle action)
+      batch_size: 1024
+      learning_rate: 1.0e-3
+      value: true                 # fit the critic to their discounted returns too
     runtime:
       device: cpu
       torch_threads: 1            # torch.set_num_threads (tiny MLPs are fastest single-threaded)
@@ -126,6 +132,7 @@ __all__ = [
     "EvaluateConfig",
     "RuntimeConfig",
     "CurriculumConfig",
+    "DemonstrationsConfig",
     "ExperimentConfig",
     "load_config",
     "load_yaml",
@@ -354,6 +361,19 @@ class CurriculumConfig:
 
 
 @dataclass
+class DemonstrationsConfig:
+    """Behaviour cloning of the task's oracle before PPO trains (training/run/demonstrations.py):
+    ``episodes`` oracle episodes in the training envs (0: off), then ``epochs`` passes in
+    minibatches of ``batch_size`` at ``learning_rate``; ``value``: fit the critic too."""
+
+    episodes: int = 0
+    epochs: int = 20
+    batch_size: int = 1024
+    learning_rate: float = 1.0e-3
+    value: bool = True
+
+
+@dataclass
 class ExperimentConfig:
     """One experiment: everything ``python -m training.train`` needs."""
 
@@ -372,6 +392,7 @@ class ExperimentConfig:
     evaluate: EvaluateConfig = field(default_factory=EvaluateConfig)
     runtime: RuntimeConfig = field(default_factory=RuntimeConfig)
     curriculum: CurriculumConfig = field(default_factory=CurriculumConfig)
+    demonstrations: DemonstrationsConfig = field(default_factory=DemonstrationsConfig)
 
     def validate(self) -> ExperimentConfig:
         """Check values (types are checked on parsing); raise :class:`ConfigError` naming the key."""
@@ -530,6 +551,16 @@ class ExperimentConfig:
             raise ConfigError(f"curriculum.steps must be an integer >= 0, got {c.steps!r}")
         if not 0.0 < c.start <= 1.0:
             raise ConfigError(f"curriculum.start must be in (0, 1], got {c.start!r}")
+        d = self.demonstrations
+        if isinstance(d.episodes, bool) or d.episodes < 0:
+            raise ConfigError(f"demonstrations.episodes must be an integer >= 0, got {d.episodes!r}")
+        if d.episodes and self.algo != "ppo":
+            raise ConfigError(
+                f"demonstrations.episodes: behaviour cloning is for PPO only, got algo {self.algo!r}"
+            )
+        _positive_int("demonstrations.epochs", d.epochs)
+        _positive_int("demonstrations.batch_size", d.batch_size)
+        _positive_float("demonstrations.learning_rate", d.learning_rate)
         _positive_int("eval.freq", self.eval.freq)
         _positive_int("eval.n_episodes", self.eval.n_episodes)
         if self.eval.seed < 0:

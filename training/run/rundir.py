@@ -24,6 +24,7 @@ ARTEFACTS = (
     "final_model",
     "vecnormalize.pkl",
     "learning_curve.png",
+    "demonstrations.json",
 )
 #: Off-policy checkpoints keep their (large) replay buffer for the newest this many.
 KEEP_REPLAY_BUFFERS = 2

@@ -240,6 +240,20 @@ def _train(
         venv = wrap_normalize(config, base, None)
         model = make_model(config, venv, device)
         model.set_random_seed(config.seed)
+        if config.demonstrations.episodes:
+            from training.run.demonstrations import pretrain
+
+            report = pretrain(config, model, venv)
+            write_json(run.root / "demonstrations.json", report)
+            meta["demonstrations"] = report
+            state["wall_before"] = report["wall_time_s"]
+            print(
+                f"cloned {report['episodes']} {report['oracle']} episodes "
+                f"({report['transitions']} transitions, oracle success "
+                f"{report['oracle_success_rate']:.0%}): action MSE "
+                f"{report['action_mse_before']:.3g} -> {report['action_mse_after']:.3g} "
+                f"in {report['wall_time_s']:.0f} s"
+            )
     else:
         _, model, venv, base = restored
         print(f"resuming {run.root} from step {model.num_timesteps}")

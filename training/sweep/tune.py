@@ -308,6 +308,11 @@ def is_finished(trial: Trial) -> bool:
     saved = record.get("resolved_config")
     if saved is None and (trial.run_dir / "config.yaml").is_file():
         saved = config_to_dict(load_config(trial.run_dir / "config.yaml"))
+    if saved is not None:
+        try:  # a config key added since, at its default, is the same experiment
+            saved = config_to_dict(config_from_dict(saved))
+        except ValueError:  # not loadable any more (a key removed or renamed): rerun
+            return False
     if saved is not None and _normalized(saved) != _normalized(trial.config):
         return False
     if record.get("evaluate", trial.evaluate) != trial.evaluate:

@@ -34,6 +34,8 @@ def _small(tmp_path: Path, name: str) -> Path:
     data["eval"].update(freq=256, n_episodes=2)
     data["checkpoint"]["freq"] = 256
     data["evaluate"].update(initial_states=["straight"], horizons=[20])
+    if data.get("demonstrations", {}).get("episodes"):  # cloning the oracle: a few episodes
+        data["demonstrations"].update(episodes=4, epochs=2)
     path = tmp_path / f"{name}.yaml"
     path.write_text(yaml.safe_dump(data))
     return path
@@ -58,6 +60,9 @@ def test_task_config_trains_and_evaluates_beside_its_oracle(tmp_path: Path, name
         "training.train", _small(tmp_path, name), "--total-timesteps", 512, "--run-dir", run
     )
     assert result.returncode == 0, result.stderr[-3000:]
+    if yaml.safe_load(_small(tmp_path, name).read_text()).get("demonstrations", {}).get("episodes"):
+        cloned = json.loads((run / "demonstrations.json").read_text())
+        assert cloned["episodes"] >= 4 and cloned["action_mse_after"] < cloned["action_mse_before"]
     rows = (run / "eval_log.csv").read_text().splitlines()
     assert len(rows) >= 2 and rows[0].startswith("timesteps,success_rate")
     result = _run("training.evaluate", run, "--episodes", 2)

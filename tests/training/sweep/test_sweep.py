@@ -171,6 +171,28 @@ def test_failures_are_reported_and_finished_trials_skipped(
     assert [is_finished(t) for t in expand(spec)] == [True, False, True]
 
 
+
+def test_a_config_key_added_since_at_its_default_keeps_a_trial_finished(
+    tmp_path: Path, configs, fake_commands
+) -> None:
+    """A trial recorded before a config section existed (here ``demonstrations``) is the same
+    experiment when the new section is at its default; with another value it runs again."""
+    spec = load_sweep(_spec(tmp_path, seeds=[0]))
+    run_sweep(spec, executor="serial")
+    trial = expand(spec)[0]
+    assert trial.config["demonstrations"]["episodes"] == 0
+    record = json.loads(trial.record_path.read_text())
+    del record["resolved_config"]["demonstrations"]  # as written before the section existed
+    trial.record_path.write_text(json.dumps(record))
+    assert is_finished(trial)
+    record["resolved_config"]["demonstrations"] = {"episodes": 5}
+    trial.record_path.write_text(json.dumps(record))
+    assert not is_finished(trial)
+    record["resolved_config"]["no_such_section"] = {}
+    trial.record_path.write_text(json.dumps(record))
+    assert not is_finished(trial)  # no longer loadable: rerun, no crash
+
+
 @pytest.mark.slow  # ~12 s: a real training stopped by its wall-time budget
 def test_wall_time_budget_stops_training(tmp_path: Path) -> None:
     """runtime.max_wall_time_s ends a run early, as complete, with a final evaluation."""
