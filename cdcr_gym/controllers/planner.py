@@ -8,6 +8,11 @@ free when its points every ``resolution`` (unit-box L∞ step) are. Trees grow b
 towards a random configuration (towards the other tree's root with probability 0.1) and the
 other tree tries the straight connection; the path is then shortened by random shortcuts. The
 generator of a plan is seeded from the scene, so the controller is deterministic per episode.
+With ``candidates`` > 1 that many plans are made (independent generator streams) and the
+shortest is kept (sum of the segments' L∞ lengths: the number of control steps it takes): a
+random plan may go round a sphere on either side, the shortest of several mostly takes the same
+side for similar scenes (what a policy cloned from the planner needs, see
+``training/run/demonstrations.py``).
 
 **Tracking**: in ``tension_delta`` mode the action moves the held tensions straight towards the
 next waypoint (scaled so the largest entry is ±1, as the reach IK controller does), so the
@@ -138,6 +143,7 @@ class ObstaclePlanner:
         feedback: False: open loop; True: closed loop on the measured tip once the plan's last
             waypoint is commanded (module docstring).
         gain: integrator gain per control step of the closed loop, in (0, 1].
+        candidates: plans made per scene, the shortest kept (>= 1; 1: the first found).
     """
 
     def __init__(
@@ -152,6 +158,7 @@ class ObstaclePlanner:
         seed: int = 0,
         feedback: bool = False,
         gain: float = FEEDBACK_GAIN,
+        candidates: int = 1,
     ) -> None:
         self.params = params
         self.spec = spec
@@ -163,6 +170,7 @@ class ObstaclePlanner:
         self.seed = validation.integer(seed, "seed", 0)
         self.feedback = validation.flag(feedback, "feedback")
         self.gain = validation.positive(gain, "gain", upper=1.0)
+        self.candidates = validation.integer(candidates, "candidates", 1)
         #: the closed-loop reach law used after the plan (feedback mode)
         self.reach = AnalyticIKController(
             params, spec, "tension_delta", self.tension_step, feedback=True, gain=self.gain
@@ -208,18 +216,26 @@ class ObstaclePlanner:
         target = solve_ik(goal, self.params).tensions / t_max
         s = np.clip(start / t_max, 0.0, 1.0)
         key = np.concatenate([goal, spheres.ravel()]).tobytes()
-        rng = np.random.default_rng([self.seed, zlib.crc32(key)])
-        path = rrt_connect(
-            s,
-            target,
-            lambda q: self.free(q, spheres),
-            rng,
-            self.step,
-            self.resolution,
-            self.iterations,
-        )
-        self.last_plan_found = path is not None
-        return [s, target] if path is None else path
+        best, best_length = None, np.inf
+        for c in range(self.candidates):
+            stream = [self.seed, zlib.crc32(key)] + ([c] if c else [])
+            path = rrt_connect(
+                s,
+                target,
+                lambda q: self.free(q, spheres),
+                np.random.default_rng(stream),
+                self.step,
+                self.resolution,
+                self.iterations,
+            )
+            if path is not None:
+                length = float(np.sum(np.max(np.abs(np.diff(path, axis=0)), axis=1)))
+                if length < best_length:
+                    best, best_length = path, length
+                if len(path) == 2:  # the straight edge is free: nothing is shorter
+                    break
+        self.last_plan_found = best is not None
+        return [s, target] if best is None else best
 
     def _row_action(self, obs: np.ndarray) -> np.ndarray:
         spec = self.spec

@@ -104,6 +104,33 @@ def test_reach_ik_collides_and_the_planner_succeeds_on_the_same_episodes():
     assert not any(c for _, c in results["planner"])
 
 
+def _path_steps(path: list[np.ndarray]) -> float:
+    return float(np.sum(np.max(np.abs(np.diff(path, axis=0)), axis=1)))
+
+
+def test_the_shortest_of_several_plans_is_kept_and_no_longer_than_the_first():
+    env = gym.make("cdcr_gym/CCKAObstacle-v0")
+    one = ObstaclePlanner.from_env(env)
+    four = ObstaclePlanner.from_env(env, candidates=4)
+    spec = env.unwrapped.observation_spec
+    shorter = 0
+    for seed in range(6):
+        obs, _ = env.reset(seed=seed)
+        goal = spec.decode(obs, "goal")
+        radii = spec.decode(obs, "obstacle_radii")
+        centres = spec.decode(obs, "obstacle_centres").reshape(-1, 3)
+        spheres = np.concatenate([centres, radii[:, None]], axis=1)[radii > 0]
+        first = one.plan(np.zeros(3), goal, spheres)
+        best = four.plan(np.zeros(3), goal, spheres)
+        assert four.last_plan_found and np.all(four.free(np.asarray(best), spheres))
+        # candidate 0 is the single planner's plan: the kept one is never longer
+        assert _path_steps(best) <= _path_steps(first) + 1e-12
+        shorter += _path_steps(best) < _path_steps(first) - 1e-9
+    assert shorter >= 1  # on some scene another candidate is shorter
+    with pytest.raises(ValueError, match="candidates must be an integer >= 1, got 0"):
+        ObstaclePlanner.from_env(env, candidates=0)
+
+
 def test_collision_penalty_success_and_termination():
     env = gym.make("cdcr_gym/CCKAObstacle-v0", terminate_on_collision=True, collision_penalty=2.0)
     ik = AnalyticIKController.from_env(env)

@@ -36,11 +36,12 @@ def is_physics(env: Any) -> bool:
     return float(env.unwrapped.backend.control_timestep) > 0.0
 
 
-def oracle_for(env: Any, kind: str = "oracle") -> Any:
+def oracle_for(env: Any, kind: str = "oracle", **options: Any) -> Any:
     """The oracle policy of ``env``'s task: ``kind="oracle"`` open loop (the model's solution
     commanded as is), ``"closed_loop"`` the same oracle with ``feedback=True`` (corrected from
     the measured tip: the strong baseline on a physics backend), or ``"reach_ik"`` the plain
-    reach IK controller on the task's goal (the baseline the Obstacle task must defeat)."""
+    reach IK controller on the task's goal (the baseline the Obstacle task must defeat).
+    ``options``: keyword arguments of the controller (e.g. the planner's ``candidates``)."""
     from cdcr_gym import controllers
 
     task = task_name(env)
@@ -48,12 +49,12 @@ def oracle_for(env: Any, kind: str = "oracle") -> Any:
         raise ValueError(f"kind must be 'oracle', 'closed_loop' or 'reach_ik', got {kind!r}")
     feedback = kind == "closed_loop"
     if kind == "reach_ik" or task == "Reach":
-        return controllers.AnalyticIKController.from_env(env, feedback=feedback)
+        return controllers.AnalyticIKController.from_env(env, feedback=feedback, **options)
     return {
         "Track": controllers.TrackingIKController,
         "Pose": controllers.PoseIKController,
         "Obstacle": controllers.ObstaclePlanner,
-    }[task].from_env(env, feedback=feedback)
+    }[task].from_env(env, feedback=feedback, **options)
 
 
 def run_task_episodes(

@@ -94,6 +94,7 @@ valid name), wrong types and out-of-range values are errors that name the key an
       batch_size: 1024
       learning_rate: 1.0e-3
       value: true                 # fit the critic to their discounted returns too
+      oracle_kwargs: {}           # options of the oracle, e.g. {candidates: 4} (the planner)
     runtime:
       device: cpu
       torch_threads: 1            # torch.set_num_threads (tiny MLPs are fastest single-threaded)
@@ -364,13 +365,15 @@ class CurriculumConfig:
 class DemonstrationsConfig:
     """Behaviour cloning of the task's oracle before PPO trains (training/run/demonstrations.py):
     ``episodes`` oracle episodes in the training envs (0: off), then ``epochs`` passes in
-    minibatches of ``batch_size`` at ``learning_rate``; ``value``: fit the critic too."""
+    minibatches of ``batch_size`` at ``learning_rate``; ``value``: fit the critic too;
+    ``oracle_kwargs``: options of the oracle (e.g. ``{candidates: 4}`` for the planner)."""
 
     episodes: int = 0
     epochs: int = 20
     batch_size: int = 1024
     learning_rate: float = 1.0e-3
     value: bool = True
+    oracle_kwargs: dict[str, Any] = field(default_factory=dict)
 
 
 @dataclass

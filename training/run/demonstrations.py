@@ -162,13 +162,18 @@ def pretrain(config: Any, model: Any, venv: Any) -> dict[str, Any]:
     as ``config.demonstrations`` says; returns the report written to ``demonstrations.json``."""
     from training.evaluate.metrics import is_physics, oracle_for
     from training.evaluate.rollout import make_env
+    from training.run.config import ConfigError
 
     d = config.demonstrations
     t0 = time.perf_counter()
     probe = make_env(config.env.id, dict(config.env.kwargs), config.env.max_episode_steps)
     kind = "closed_loop" if is_physics(probe) else "oracle"
-    oracle = oracle_for(probe, kind)
-    probe.close()
+    try:
+        oracle = oracle_for(probe, kind, **d.oracle_kwargs)
+    except (TypeError, ValueError) as exc:
+        raise ConfigError(f"demonstrations.oracle_kwargs {d.oracle_kwargs!r}: {exc}") from None
+    finally:
+        probe.close()
     demos = collect_demonstrations(venv, oracle, d.episodes)
     collected = time.perf_counter() - t0
     norm = _unwrap_normalize(venv)

@@ -177,3 +177,23 @@ def test_a_run_with_demonstrations_reports_them_and_counts_their_time(tmp_path: 
     # the cloning's wall time counts in the run's
     assert meta["total_wall_time_s"] >= report["wall_time_s"]
     assert "cloned 4 ObstaclePlanner (oracle) episodes" in result.stdout
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        ({"candidates": 0}, "candidates must be an integer >= 1, got 0"),
+        ({"no_such_option": 1}, "no_such_option"),
+    ],
+)
+def test_bad_oracle_options_are_a_config_error_naming_them(options: dict, message: str) -> None:
+    from training.run.demonstrations import pretrain
+
+    config = config_from_dict(
+        {
+            "env": {"id": "cdcr_gym/CCKAObstacle-v0", "kwargs": {"tension_step": 0.1}},
+            "demonstrations": {"episodes": 2, "oracle_kwargs": options},
+        }
+    )
+    with pytest.raises(ConfigError, match=r"demonstrations.oracle_kwargs .*" + message):
+        pretrain(config, None, None)  # refused before anything is collected
