@@ -556,7 +556,9 @@ class ExperimentConfig:
             raise ConfigError(f"curriculum.start must be in (0, 1], got {c.start!r}")
         d = self.demonstrations
         if isinstance(d.episodes, bool) or d.episodes < 0:
-            raise ConfigError(f"demonstrations.episodes must be an integer >= 0, got {d.episodes!r}")
+            raise ConfigError(
+                f"demonstrations.episodes must be an integer >= 0, got {d.episodes!r}"
+            )
         if d.episodes and self.algo != "ppo":
             raise ConfigError(
                 f"demonstrations.episodes: behaviour cloning is for PPO only, got algo {self.algo!r}"

@@ -171,7 +171,6 @@ def test_failures_are_reported_and_finished_trials_skipped(
     assert [is_finished(t) for t in expand(spec)] == [True, False, True]
 
 
-
 def test_a_config_key_added_since_at_its_default_keeps_a_trial_finished(
     tmp_path: Path, configs, fake_commands
 ) -> None:
