@@ -11,8 +11,8 @@ generator of a plan is seeded from the scene, so the controller is deterministic
 With ``candidates`` > 1 that many plans are made (independent generator streams) and the
 shortest is kept (sum of the segments' L∞ lengths: the number of control steps it takes): a
 random plan may go round a sphere on either side, the shortest of several mostly takes the same
-side for similar scenes (what a policy cloned from the planner needs, see
-``training/run/demonstrations.py``).
+side for similar scenes (tried for cloning the planner, ``training/run/demonstrations.py``:
+a closer clone, not a better policy; docs/tasks.md, BC11).
 
 **Tracking**: in ``tension_delta`` mode the action moves the held tensions straight towards the
 next waypoint (scaled so the largest entry is ±1, as the reach IK controller does), so the
