@@ -28,6 +28,7 @@ from gymnasium import spaces
 from cdcr_gym import defaults, validation
 from cdcr_gym.backends.base import Backend, Readings
 from cdcr_gym.envs.actuation import Actuation
+from cdcr_gym.envs.safety import SafetyFilter
 from cdcr_gym.model.workspace import sample_tensions_each
 from cdcr_gym.randomization import INFO_PREFIX, DomainRandomization, Imperfections
 from cdcr_gym.tasks.base import Task, one_env_info
@@ -62,6 +63,15 @@ class EnvCore:
             backend), 0 after a reset. A physics robot moves on after a command (it overshoots
             and settles); this tells a policy how. From the backend's readings (the
             ``imperfections`` noise acts on the task's fields, not on this difference).
+        safety_filter: correct every tension command whose CCKA-predicted shape would come
+            closer than ``safety_margin`` to an obstacle (``cdcr_gym.envs.safety``: a
+            control-barrier projection; exact on the frictionless analytic backend, a model
+            prediction on physics). Tasks with obstacles only, tension action modes only.
+            ``info`` gains ``safety_filtered`` (the command was changed) and
+            ``safety_correction`` (‖T_safe − T_cmd‖ / max_tension).
+        safety_margin: the clearance (m, >= 0) the filter keeps.
+        safety_penalty: reward subtracted per unit of ``safety_correction`` (>= 0; 0: none):
+            lets a policy learn to need the filter less.
     """
 
     def __init__(
@@ -78,6 +88,9 @@ class EnvCore:
         randomize: Mapping[str, Any] | None = None,
         imperfections: Mapping[str, Any] | None = None,
         observe_tip_velocity: bool = False,
+        safety_filter: bool = False,
+        safety_margin: float = 0.0,
+        safety_penalty: float = 0.0,
     ) -> None:
         if not isinstance(backend, Backend):
             raise ValueError(f"backend must be a cdcr_gym.backends.Backend, got {backend!r}")
@@ -145,6 +158,35 @@ class EnvCore:
         self._held_tensions = self._readings.tensions
         self._held_lengths = self._readings.cable_lengths
         self._init_realism(randomize, imperfections)
+        self._init_safety(safety_filter, safety_margin, safety_penalty)
+
+    def _init_safety(self, enabled: bool, margin: float, penalty: float) -> None:
+        """The safety filter (None when off) and its per-env correction (N,)."""
+        enabled = validation.flag(enabled, "safety_filter")
+        margin = validation.positive(margin, "safety_margin", allow_zero=True)
+        self.safety_penalty = validation.positive(penalty, "safety_penalty", allow_zero=True)
+        self.safety: SafetyFilter | None = None
+        self.safety_correction = np.zeros(self.num_envs)
+        if not enabled:
+            if self.safety_penalty or margin:
+                raise ValueError(
+                    f"safety_margin={margin!r} and safety_penalty={penalty!r} need "
+                    f"safety_filter=True"
+                )
+            return
+        if not self.task.has_obstacles:
+            raise ValueError(
+                f"safety_filter=True needs a task with obstacles (Obstacle); "
+                f"{type(self.task).__name__} has none"
+            )
+        act = self.actuation
+        if act.commands_lengths:
+            raise ValueError(
+                "safety_filter=True needs a tension action mode ('tension' or "
+                "'tension_delta'), got action_mode='length_delta'"
+            )
+        step = None if act.mode == "tension" else act.tension_step * act.max_tension
+        self.safety = SafetyFilter(self.task.model_clearance, act.max_tension, step, margin)
 
     def _init_realism(
         self, randomize: Mapping[str, Any] | None, imperfections: Mapping[str, Any] | None
@@ -273,6 +315,8 @@ class EnvCore:
         if self.imperfections is not None:
             self.imperfections.reset(idx, r.tensions[idx])
         self._tip_velocity[:, idx] = 0.0
+        if self.safety is not None:
+            self.safety_correction[idx] = 0.0
 
     # -- step -----------------------------------------------------------------------------------
     def step(self, action: np.ndarray, active: np.ndarray | None = None) -> None:
@@ -292,7 +336,13 @@ class EnvCore:
             self.backend.apply_cable_lengths(self._held_lengths)
             self._readings = self.backend.read()
         else:
-            self._held_tensions = act.tensions(action, self._held_tensions)
+            commanded = act.tensions(action, self._held_tensions)
+            if self.safety is not None:
+                safe, _ = self.safety(commanded, self._held_tensions)
+                diff = safe - commanded
+                self.safety_correction = np.sqrt(np.sum(diff * diff, axis=1)) / act.max_tension
+                commanded = safe
+            self._held_tensions = commanded
             if imp is not None and imp.actuates:
                 shape, actuator = imp.actuate(self._held_tensions, self._rngs, active)
                 self.backend.apply_tensions(shape)
@@ -357,6 +407,11 @@ class EnvCore:
             if self.randomized:
                 for name, values in self.randomized.items():
                     info[INFO_PREFIX + name] = values.item()
+            if self.safety is not None:
+                correction = float(self.safety_correction[0])
+                info["safety_filtered"] = correction > 0.0
+                info["safety_correction"] = correction
+                value -= self.safety_penalty * correction
             return flat[0], value, ok, info
         reward, success, info = task.evaluate(r)
         if self.goal_conditioned:
@@ -377,6 +432,10 @@ class EnvCore:
         if self.randomized:
             for name, values in self.randomized.items():
                 info[INFO_PREFIX + name] = values.copy()
+        if self.safety is not None:  # (a task with obstacles: not goal-conditioned)
+            info["safety_filtered"] = self.safety_correction > 0.0
+            info["safety_correction"] = self.safety_correction.copy()
+            reward = reward - self.safety_penalty * self.safety_correction
         if single:  # goal-conditioned: env 0 of the batch
             obs = {key: value[0] for key, value in obs.items()}
             return obs, float(reward[0]), bool(success[0]), one_env_info(info)

@@ -99,6 +99,9 @@ class CDCREnv(gym.Env):
     | ``randomize`` | None | per-episode parameter ranges (domain randomisation, ``cdcr_gym.randomization``) |
     | ``imperfections`` | None | sensor noise/bias, action delay, tension rate limit, actuator noise (``cdcr_gym.randomization``) |
     | ``observe_tip_velocity`` | False | append ``tip_velocity`` (3, m/s): the tip's displacement over the last control step / the control timestep (0.02 s on CCKA), 0 after a reset |
+    | ``safety_filter`` | False | Obstacle: correct commands whose CCKA-predicted shape would touch a sphere (``cdcr_gym.envs.safety``); ``info`` gains ``safety_filtered``, ``safety_correction`` |
+    | ``safety_margin`` | 0.0 | clearance (m) the filter keeps |
+    | ``safety_penalty`` | 0.0 | reward − penalty × ``safety_correction`` (‖T_safe − T_cmd‖ / T_max) |
 
     ## Version History
     * v0: initial release (one-section reach); the n-section core keeps its layout and results.
@@ -125,6 +128,9 @@ class CDCREnv(gym.Env):
         randomize: Mapping[str, Any] | None = None,
         imperfections: Mapping[str, Any] | None = None,
         observe_tip_velocity: bool = False,
+        safety_filter: bool = False,
+        safety_margin: float = 0.0,
+        safety_penalty: float = 0.0,
     ) -> None:
         if not isinstance(backend, Backend):
             raise ValueError(f"backend must be a cdcr_gym.backends.Backend, got {backend!r}")
@@ -146,6 +152,9 @@ class CDCREnv(gym.Env):
             randomize=randomize,
             imperfections=imperfections,
             observe_tip_velocity=observe_tip_velocity,
+            safety_filter=safety_filter,
+            safety_margin=safety_margin,
+            safety_penalty=safety_penalty,
         )
         self.task = task
         self.action_mode = action_mode

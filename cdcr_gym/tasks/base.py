@@ -261,6 +261,18 @@ class Task(abc.ABC):
             f"Obstacle"
         )
 
+    #: Whether :meth:`model_clearance` is implemented (the env's ``safety_filter`` needs it).
+    has_obstacles = False
+
+    def model_clearance(self, tensions: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """Predicted clearance (M,) m to the obstacles of envs ``rows`` (M,) of the model's
+        shapes held by ``tensions`` (M, C) N (negative: a collision). Tasks without obstacles
+        (:attr:`has_obstacles` False) raise ``ValueError``."""
+        raise ValueError(
+            f"the {type(self).__name__} task has no obstacles (model_clearance); tasks with "
+            f"obstacles: Obstacle"
+        )
+
     def render_markers(self, index: int = 0) -> dict[str, Any]:
         """What the renderer draws for env ``index`` besides the robot (e.g. ``goal``)."""
         return {}

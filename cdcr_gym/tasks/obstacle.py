@@ -141,6 +141,7 @@ class Obstacle(GoalTask):
     """
 
     has_curriculum = True
+    has_obstacles = True
 
     name = "Obstacle"
     goal_size = 0
@@ -380,6 +381,12 @@ class Obstacle(GoalTask):
         if self.terminate_on_collision:
             return self.collision.copy()
         return np.zeros(self.num_envs, dtype=bool)
+
+    def model_clearance(self, tensions: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """Clearance (M,) m of the PCC/CCKA shapes held by ``tensions`` (M, C) N to the spheres
+        of envs ``rows`` (M,) (the env's ``safety_filter`` predicts with it)."""
+        geometry = model_geometry(self._model, self._model.bending_from_tensions(tensions))
+        return clearance(geometry, self.obstacles[rows], self._rod, self._disk).min(1)
 
     # -- per step -------------------------------------------------------------------------------
     def observe_extra(

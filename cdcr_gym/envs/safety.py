@@ -1,0 +1,164 @@
+"""A model-based safety filter: tension commands corrected so that the predicted shape keeps
+clear of the task's obstacles (a control-barrier-function projection, batched).
+
+Every step, the commanded tensions T_cmd (N, C) N are checked on the model before the backend
+gets them: the clearance h(T) (m) of the PCC/CCKA shape held by tensions T to the episode's
+spheres (``Task.model_clearance``; negative = a collision). A command with h(T_cmd) >= margin
+passes unchanged. Otherwise, from the held tensions T_0 (what the robot holds now):
+
+1. the gradient g = ∂h/∂T at T_0 by central differences (step 0.1 % of max_tension, one-sided
+   at the tension bounds);
+2. the command is projected onto the half-space of the linearised barrier condition
+   h(T_0) + g·(T − T_0) >= margin + γ·max(h(T_0) − margin, 0) (γ = 1/2: at most half of the
+   remaining slack is used in a step), within what the action can command (T_0 ± the largest
+   tension change per step in ``tension_delta`` mode, and [0, max_tension]): the nearest such
+   command (Euclidean, in N), T = clip(T_cmd + μ g, bounds) with the least μ >= 0
+   (:func:`project_onto_half_space`) — motion along the sphere's surface is kept, only the
+   motion into it removed;
+3. the result is checked on the model; if it still violates the margin (the barrier is not
+   linear), the step from T_0 is halved (1/2, 1/4, 1/8)
+   and finally dropped (hold T_0). If T_0 itself violates the margin (a physics robot that
+   drifted), the candidate with the largest predicted clearance is taken.
+
+On the analytic backend without friction the prediction is the backend itself: the robot never
+touches a sphere that the held shape is clear of. On a physics backend (gravity, dynamics) or
+with friction it is the CCKA model's prediction — a margin > 0 absorbs part of the difference;
+collisions stay possible and are measured as usual.
+
+This is a deployment layer, not a learned behaviour: a policy under the filter is a different
+agent from the policy alone (docs/tasks.md reports both, and the greedy reach IK under the
+same filter).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+__all__ = ["SafetyFilter"]
+
+#: Fraction γ of the remaining clearance slack one step may use (the barrier's decay rate).
+SLACK_FRACTION = 0.5
+#: Shrink factors of the projected step tried before holding the tensions.
+STEP_FRACTIONS = (0.5, 0.25, 0.125)
+#: Finite-difference step of the clearance gradient, as a fraction of max_tension.
+GRADIENT_STEP = 1e-3
+
+
+def project_onto_half_space(
+    point: np.ndarray, normal: np.ndarray, offset: np.ndarray, lo: np.ndarray, hi: np.ndarray
+) -> np.ndarray:
+    """Row-wise nearest point (M, C) to ``point`` (M, C) with normal·x >= offset (M,) and
+    lo <= x <= hi: x = clip(point + μ·normal, lo, hi) with the least μ >= 0 that satisfies the
+    half-space (KKT of the box-constrained projection), μ found by bisection (φ(μ) = normal·x
+    is non-decreasing). Rows where the box cannot reach the half-space get the box point
+    farthest along ``normal``."""
+
+    def along(mu: np.ndarray) -> np.ndarray:
+        return np.sum(normal * np.clip(point + mu[:, None] * normal, lo, hi), axis=1)
+
+    norm2 = np.sum(normal * normal, axis=1)
+    safe_norm2 = np.where(norm2 > 0.0, norm2, 1.0)
+    low = np.zeros(len(point))
+    high = np.maximum(offset - np.sum(normal * point, axis=1), 0.0) / safe_norm2
+    for _ in range(64):  # the unclipped solution, doubled until the clipped one gets there
+        short = along(high) < offset
+        if not short.any():
+            break
+        high = np.where(short, 2.0 * high + 1e-12, high)
+    for _ in range(60):
+        mid = 0.5 * (low + high)
+        reached = along(mid) >= offset
+        high = np.where(reached, mid, high)
+        low = np.where(reached, low, mid)
+    return np.clip(point + high[:, None] * normal, lo, hi)
+
+
+class SafetyFilter:
+    """Corrects tension commands whose predicted shape comes closer than ``margin`` to an
+    obstacle (see the module docstring).
+
+    Args:
+        clearance: ``clearance(tensions (M, C) N, rows (M,) env indices) -> (M,) m``: the
+            predicted clearance of env ``rows[k]``'s robot held by ``tensions[k]``.
+        max_tension: largest cable tension (N).
+        max_step: largest tension change per step (N) a command can make, or None (absolute
+            tension commands: any change within [0, max_tension]).
+        margin: the clearance (m, >= 0) a command must keep.
+    """
+
+    def __init__(
+        self,
+        clearance: Callable[[np.ndarray, np.ndarray], np.ndarray],
+        max_tension: float,
+        max_step: float | None,
+        margin: float,
+    ) -> None:
+        self.clearance = clearance
+        self.max_tension = float(max_tension)
+        self.max_step = None if max_step is None else float(max_step)
+        self.margin = float(margin)
+
+    def bounds(self, held: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Lowest and highest tensions (M, C) N a command can reach from ``held`` (M, C)."""
+        if self.max_step is None:
+            return np.zeros_like(held), np.full_like(held, self.max_tension)
+        lo = np.maximum(held - self.max_step, 0.0)
+        hi = np.minimum(held + self.max_step, self.max_tension)
+        return lo, hi
+
+    def gradient(self, held: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """∂(clearance)/∂(tensions) (M, C) m/N at ``held`` (M, C), by central differences
+        (one-sided where a tension is at a bound)."""
+        m, c = held.shape
+        h = GRADIENT_STEP * self.max_tension
+        eye = np.eye(c)[None]  # (1, C, C)
+        up = np.clip(held[:, None, :] + h * eye, 0.0, self.max_tension)  # (M, C, C)
+        down = np.clip(held[:, None, :] - h * eye, 0.0, self.max_tension)
+        both = np.concatenate([up, down], axis=1).reshape(2 * m * c, c)
+        gaps = self.clearance(both, np.repeat(rows, 2 * c)).reshape(m, 2, c)
+        width = np.diagonal(up - down, axis1=1, axis2=2)  # (M, C): 2h, or h at a bound
+        return (gaps[:, 0] - gaps[:, 1]) / width
+
+    def __call__(self, commanded: np.ndarray, held: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Safe tensions (N, C) N for ``commanded`` (N, C) N given the ``held`` ones (N, C), and
+        which envs' commands were changed ((N,) bool). Neither input is modified."""
+        n = commanded.shape[0]
+        rows = np.arange(n)
+        gap = self.clearance(commanded, rows)
+        unsafe = gap < self.margin
+        if not unsafe.any():
+            return commanded, unsafe
+        out = commanded.copy()
+        idx = np.flatnonzero(unsafe)
+        out[idx] = self._correct(commanded[idx], held[idx], idx)
+        return out, unsafe
+
+    def _correct(self, commanded: np.ndarray, held: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """The projection and its fall-backs for the M unsafe commands (M, C) of envs ``rows``."""
+        margin = self.margin
+        now = self.clearance(held, rows)  # (M,)
+        grad = self.gradient(held, rows)
+        target = margin + SLACK_FRACTION * np.maximum(now - margin, 0.0)
+        lo, hi = self.bounds(held)
+        projected = project_onto_half_space(
+            commanded, grad, target - now + np.sum(grad * held, 1), lo, hi
+        )
+        candidates = [projected]
+        candidates += [held + f * (projected - held) for f in STEP_FRACTIONS]
+        candidates.append(held)
+        best = held.copy()
+        best_gap = now.copy()
+        chosen = np.zeros(len(rows), dtype=bool)
+        for tensions in candidates:
+            gap = self.clearance(tensions, rows)
+            take = ~chosen & (gap >= margin)
+            best[take] = tensions[take]
+            chosen |= take
+            better = ~chosen & (gap > best_gap)  # nothing safe yet: keep the clearest
+            best[better] = tensions[better]
+            best_gap[better] = gap[better]
+            if chosen.all():
+                break
+        return best
