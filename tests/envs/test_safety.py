@@ -194,3 +194,19 @@ def test_batched_env_filters_like_single_envs():
 def test_bad_arguments_are_value_errors(env_id, kwargs, message):
     with pytest.raises(ValueError, match=message):
         gym.make(env_id, **kwargs)
+
+
+def test_task_metrics_report_the_share_of_filtered_steps():
+    from training.evaluate.metrics import run_task_episodes, summarize_task
+
+    def env_fn(**extra):
+        return lambda: gym.make(ENV_ID, tension_step=0.1, max_episode_steps=100, **extra)
+
+    safe = run_task_episodes(env_fn(safety_filter=True), None, 4, 1_000_000)
+    ik = oracle_for(env_fn(safety_filter=True)(), "reach_ik")
+    pushed = summarize_task(run_task_episodes(env_fn(safety_filter=True), ik, 4, 1_000_000))
+    assert 0.0 < pushed["filtered_step_fraction"] <= 1.0
+    assert pushed["collision_rate"] == 0.0
+    assert "filtered_step_fraction" in summarize_task(safe)
+    plain = summarize_task(run_task_episodes(env_fn(), ik, 4, 1_000_000))
+    assert "filtered_step_fraction" not in plain

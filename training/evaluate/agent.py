@@ -590,6 +590,8 @@ def _print_task_table(result: dict[str, Any]) -> None:
                     f"  collision rate {100 * s['collision_rate']:.1f} %, collisions in "
                     f"successes {s['collisions_in_successful_episodes']}"
                 )
+            if "filtered_step_fraction" in s:
+                extra += f", safety filter on {100 * s['filtered_step_fraction']:.1f} % of steps"
             print(
                 f"  {who:18s} success {100 * s['success_rate']:5.1f} %  final distance median "
                 f"{s['final_distance_mm']['median']:.3f} mm{extra}"

@@ -76,17 +76,19 @@ def run_task_episodes(
     paths = []
     for i in range(episodes):
         obs, info = env.reset(seed=seed + i)
-        total, clearance, collided = 0.0, np.inf, False
+        total, clearance, collided, filtered, steps = 0.0, np.inf, False, 0, 0
         tips, targets = [info["tip"]], [info.get("target", info.get("goal"))]
         done = False
         while not done:
             action = np.asarray(act(obs[None]))[0]
             obs, reward, terminated, truncated, info = env.step(action)
             total += reward
+            steps += 1
             done = terminated or truncated
             if task == "Obstacle":
                 clearance = min(clearance, info["min_clearance"])
                 collided = collided or bool(info["collision"])
+                filtered += bool(info.get("safety_filtered", False))
             if i < record:
                 tips.append(info["tip"])
                 targets.append(info.get("target", info.get("goal")))
@@ -103,6 +105,8 @@ def run_task_episodes(
         elif task == "Obstacle":
             row["collided"] = float(collided)
             row["min_clearance_mm"] = 1e3 * clearance
+            if "safety_filtered" in info:  # the env's safety filter is on
+                row["filtered_step_fraction"] = filtered / max(steps, 1)
         for key, value in row.items():
             rows.setdefault(key, []).append(float(value))
         if i < record:
@@ -152,4 +156,6 @@ def summarize_task(metrics: dict[str, Any]) -> dict[str, Any]:
         out["collision_rate"] = float(np.mean(collided))
         out["collisions_in_successful_episodes"] = int(np.sum(collided & success))
         out["min_clearance_mm"] = _stats(metrics["min_clearance_mm"])
+        if "filtered_step_fraction" in metrics:  # the env's safety filter was on
+            out["filtered_step_fraction"] = float(np.mean(metrics["filtered_step_fraction"]))
     return out

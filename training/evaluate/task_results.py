@@ -4,6 +4,10 @@ Usage::
 
     python -m training.task_results RUN [RUN ...] --out docs/figures/tasks/ppo_results.json
 
+``--tag TAG`` collects ``eval_<TAG>.json`` instead (an evaluation with ``cdcr-gym evaluate RUN
+--tag TAG``, e.g. under other env kwargs such as ``--env-kwarg safety_filter=true``); each
+record then names the tag and the evaluated env kwargs.
+
 Each ``RUN`` is a training run directory evaluated by ``python -m training.evaluate RUN``
 (it holds ``eval.json`` with the task's metrics for the policy beside its oracle's on the same
 episodes, and ``run.json`` with the training steps and wall time). Writes ``--out``: per run
@@ -36,24 +40,28 @@ class ResultsError(ValueError):
     """A run directory that cannot be collected (missing or non-task evaluation)."""
 
 
-def collect(run_dirs: list[Path]) -> list[dict[str, Any]]:
-    """One record per run (see the module docstring), in the given order.
+def collect(run_dirs: list[Path], tag: str | None = None) -> list[dict[str, Any]]:
+    """One record per run (see the module docstring), in the given order; ``tag``: read
+    ``eval_<tag>.json`` instead of ``eval.json``.
 
     Raises:
         ResultsError: a run without ``eval.json``/``run.json``, or evaluated on Reach.
     """
     records = []
+    name = "eval.json" if tag is None else f"eval_{tag}.json"
     for run in run_dirs:
-        ev_path, meta_path = run / "eval.json", run / "run.json"
+        ev_path, meta_path = run / name, run / "run.json"
         for path in (ev_path, meta_path):
             if not path.is_file():
                 raise ResultsError(f"RUN {str(run)!r}: {path.name} does not exist")
         ev = read_eval(ev_path)
         if "task" not in ev:
-            raise ResultsError(f"RUN {str(run)!r}: eval.json is not a task evaluation (Reach?)")
+            raise ResultsError(f"RUN {str(run)!r}: {name} is not a task evaluation (Reach?)")
         meta = json.loads(meta_path.read_text())
+        tagged = {} if tag is None else {"eval_tag": tag, "env_kwargs": ev.get("env_kwargs")}
         records.append(
             {
+                **tagged,
                 "run": run.name,
                 "task": ev["task"],
                 "env_id": ev["env_id"],
@@ -83,10 +91,12 @@ def headline(task: str, s: dict[str, Any]) -> str:
             f"angle median {s['final_angle_deg']['median']:.2f}°"
         )
     if task == "Obstacle":
+        filtered = s.get("filtered_step_fraction")
         return (
             f"{success}; collisions {100 * s['collision_rate']:.0f} % of episodes "
             f"({s['collisions_in_successful_episodes']} in successful ones); distance median "
             f"{s['final_distance_mm']['median']:.1f} mm"
+            + ("" if filtered is None else f"; filter on {100 * filtered:.1f} % of steps")
         )
     return f"{success}; distance median {s['final_distance_mm']['median']:.2f} mm"
 
@@ -94,15 +104,16 @@ def headline(task: str, s: dict[str, Any]) -> str:
 def markdown_table(records: list[dict[str, Any]]) -> str:
     """Rows: task, seed, condition, training steps and wall time, policy, oracle."""
     lines = [
-        "| task | seed | start | training | PPO policy | oracle (same episodes) |",
-        "|---|---|---|---|---|---|",
+        "| task | seed | start | training | PPO policy | oracle (same episodes) | reach IK |",
+        "|---|---|---|---|---|---|---|",
     ]
     for r in records:
         for name, rows in r["conditions"].items():
             lines.append(
                 f"| {r['task']} | {r['seed']} | {name} | {r['train_steps'] / 1e6:.1f} M steps, "
                 f"{r['train_wall_time_s']:.0f} s | {headline(r['task'], rows['policy'])} | "
-                f"{headline(r['task'], rows['oracle'])} |"
+                f"{headline(r['task'], rows['oracle'])} | "
+                f"{headline(r['task'], rows['reach_ik']) if 'reach_ik' in rows else '–'} |"
             )
     return "\n".join(lines)
 
@@ -115,9 +126,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("runs", nargs="+", type=Path, metavar="RUN")
     parser.add_argument("--out", type=Path, required=True, help="output JSON file")
     parser.add_argument("--figures", type=Path, default=None, help="copy path figures here")
+    parser.add_argument(
+        "--tag", default=None, help="collect eval_<TAG>.json (cdcr-gym evaluate --tag) instead"
+    )
     args = parser.parse_args(argv)
     try:
-        records = collect(args.runs)
+        records = collect(args.runs, args.tag)
     except ResultsError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
@@ -126,15 +140,17 @@ def main(argv: list[str] | None = None) -> int:
     args.out.write_text(json.dumps({"command": command, "runs": records}, indent=1) + "\n")
     if args.figures is not None:
         args.figures.mkdir(parents=True, exist_ok=True)
+        fig_dir = "eval" if args.tag is None else f"eval_{args.tag}"
         for run, r in zip(args.runs, records, strict=True):
             for name in r["conditions"]:
-                src = run / "eval" / f"{name}_paths.png"
-                old = [p for p in (run / "eval").glob("*_paths.png") if p.stem[:-6] != name]
+                src = run / fig_dir / f"{name}_paths.png"
+                old = [p for p in (run / fig_dir).glob("*_paths.png") if p.stem[:-6] != name]
                 for path in old:  # an evaluation of before the renaming: straight_h100_paths.png
                     if canonical_condition(path.stem[: -len("_paths")]) == name:
                         src = path
                 if src.is_file():
-                    dst = f"ppo_{r['task'].lower()}_seed{r['seed']}_{name}_paths.png"
+                    suffix = "" if args.tag is None else f"_{args.tag}"
+                    dst = f"ppo_{r['task'].lower()}_seed{r['seed']}_{name}{suffix}_paths.png"
                     shutil.copyfile(src, args.figures / dst)
     print(markdown_table(records))
     return 0

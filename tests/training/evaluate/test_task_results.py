@@ -106,3 +106,31 @@ def test_condition_names_read_for_what_they_are_and_old_keys_still_read(tmp_path
     docs = Path(__file__).resolve().parents[3] / "docs" / "figures"
     seen = [n for path in docs.rglob("*.json") for n in names(json.loads(path.read_text()))]
     assert seen and all(re.fullmatch(r"[a-z]+_\d+steps", canonical_condition(n)) for n in seen)
+
+
+def test_tag_collects_the_tagged_evaluation_with_its_env_kwargs(tmp_path, capsys):
+    run = _fake_run(tmp_path, "a", "Obstacle", 1, 2.0)
+    ev = json.loads((run / "eval.json").read_text())
+    condition = ev["conditions"]["straight_h100"]
+    for who in ("policy", "oracle"):
+        condition[who] = {**condition[who], "collision_rate": 0.0, "filtered_step_fraction": 0.04}
+    condition["reach_ik"] = {**condition["policy"], "success_rate": 0.5}
+    ev["env_kwargs"] = {"safety_filter": True}
+    (run / "eval_safe.json").write_text(json.dumps(ev))
+    (run / "eval_safe").mkdir()
+    (run / "eval_safe" / "straight_100steps_paths.png").write_bytes(b"safe")
+    out, figs = tmp_path / "r.json", tmp_path / "figs"
+    argv = [str(run), "--out", str(out), "--tag", "safe", "--figures", str(figs)]
+    assert task_results.main(argv) == 0
+    record = json.loads(out.read_text())["runs"][0]
+    assert record["eval_tag"] == "safe" and record["env_kwargs"] == {"safety_filter": True}
+    policy = record["conditions"]["straight_100steps"]["policy"]
+    assert policy["filtered_step_fraction"] == 0.04
+    assert (figs / "ppo_obstacle_seed1_straight_100steps_safe_paths.png").read_bytes() == b"safe"
+    table = capsys.readouterr().out
+    assert "filter on 4.0 % of steps" in table
+    assert "success 50 %" in table  # the reach IK column
+    # an untagged collection of the same run reads eval.json (no filter numbers)
+    assert "eval_tag" not in task_results.collect([run])[0]
+    with pytest.raises(task_results.ResultsError, match="eval_other.json"):
+        task_results.collect([run], "other")
