@@ -338,7 +338,8 @@ class EnvCore:
         else:
             commanded = act.tensions(action, self._held_tensions)
             if self.safety is not None:
-                safe, _ = self.safety(commanded, self._held_tensions)
+                measured = self.task.measured_clearance()  # after the last step or reset
+                safe, _ = self.safety(commanded, self._held_tensions, measured)
                 diff = safe - commanded
                 self.safety_correction = np.sqrt(np.sum(diff * diff, axis=1)) / act.max_tension
                 commanded = safe

@@ -20,10 +20,12 @@ passes unchanged. Otherwise, from the held tensions T_0 (what the robot holds no
    and finally dropped (hold T_0). If T_0 itself violates the margin (a physics robot that
    drifted), the candidate with the largest predicted clearance is taken.
 
-On the analytic backend without friction the prediction is the backend itself: the robot never
-touches a sphere that the held shape is clear of. On a physics backend (gravity, dynamics) or
-with friction it is the CCKA model's prediction — a margin > 0 absorbs part of the difference;
-collisions stay possible and are measured as usual.
+The env passes the clearance measured on the robot after the last step; every prediction is
+shifted by (measured − model at T_0), the model's shape error taken as constant over a step. On
+the analytic backend without friction the offset is 0 and the prediction is the backend itself:
+the robot never touches a sphere that the held shape is clear of. On a physics backend
+(gravity, dynamics) or with friction it is a corrected model prediction — a margin > 0 absorbs
+part of what remains (overshoot); collisions stay possible and are measured as usual.
 
 This is a deployment layer, not a learned behaviour: a policy under the filter is a different
 agent from the policy alone (docs/tasks.md reports both, and the greedy reach IK under the
@@ -121,24 +123,38 @@ class SafetyFilter:
         width = np.diagonal(up - down, axis1=1, axis2=2)  # (M, C): 2h, or h at a bound
         return (gaps[:, 0] - gaps[:, 1]) / width
 
-    def __call__(self, commanded: np.ndarray, held: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def __call__(
+        self, commanded: np.ndarray, held: np.ndarray, measured: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Safe tensions (N, C) N for ``commanded`` (N, C) N given the ``held`` ones (N, C), and
-        which envs' commands were changed ((N,) bool). Neither input is modified."""
+        which envs' commands were changed ((N,) bool). Neither input is modified.
+
+        ``measured`` (N,) m: the clearance measured on the robot now (None: the model's). The
+        model's predictions are then shifted by measured − model(held) per env — the shape
+        error of the model (gravity, friction) taken as constant over one step.
+        """
         n = commanded.shape[0]
         rows = np.arange(n)
-        gap = self.clearance(commanded, rows)
+        offset = np.zeros(n)
+        if measured is not None:
+            offset = np.asarray(measured, dtype=np.float64) - self.clearance(held, rows)
+            offset[~np.isfinite(offset)] = 0.0
+        gap = self.clearance(commanded, rows) + offset
         unsafe = gap < self.margin
         if not unsafe.any():
             return commanded, unsafe
         out = commanded.copy()
         idx = np.flatnonzero(unsafe)
-        out[idx] = self._correct(commanded[idx], held[idx], idx)
+        out[idx] = self._correct(commanded[idx], held[idx], idx, offset[idx])
         return out, unsafe
 
-    def _correct(self, commanded: np.ndarray, held: np.ndarray, rows: np.ndarray) -> np.ndarray:
-        """The projection and its fall-backs for the M unsafe commands (M, C) of envs ``rows``."""
+    def _correct(
+        self, commanded: np.ndarray, held: np.ndarray, rows: np.ndarray, offset: np.ndarray
+    ) -> np.ndarray:
+        """The projection and its fall-backs for the M unsafe commands (M, C) of envs ``rows``
+        (``offset`` (M,) m added to every predicted clearance)."""
         margin = self.margin
-        now = self.clearance(held, rows)  # (M,)
+        now = self.clearance(held, rows) + offset  # (M,)
         grad = self.gradient(held, rows)
         target = margin + SLACK_FRACTION * np.maximum(now - margin, 0.0)
         lo, hi = self.bounds(held)
@@ -152,7 +168,7 @@ class SafetyFilter:
         best_gap = now.copy()
         chosen = np.zeros(len(rows), dtype=bool)
         for tensions in candidates:
-            gap = self.clearance(tensions, rows)
+            gap = self.clearance(tensions, rows) + offset
             take = ~chosen & (gap >= margin)
             best[take] = tensions[take]
             chosen |= take

@@ -273,6 +273,12 @@ class Task(abc.ABC):
             f"obstacles: Obstacle"
         )
 
+    def measured_clearance(self) -> np.ndarray:
+        """Clearance (N,) m of each robot to its obstacles as measured on the backend after the
+        last reset or step (negative: a collision). Tasks without obstacles raise
+        ``ValueError``."""
+        raise ValueError(f"the {type(self).__name__} task has no obstacles (measured_clearance)")
+
     def render_markers(self, index: int = 0) -> dict[str, Any]:
         """What the renderer draws for env ``index`` besides the robot (e.g. ``goal``)."""
         return {}

@@ -388,6 +388,11 @@ class Obstacle(GoalTask):
         geometry = model_geometry(self._model, self._model.bending_from_tensions(tensions))
         return clearance(geometry, self.obstacles[rows], self._rod, self._disk).min(1)
 
+    def measured_clearance(self) -> np.ndarray:
+        """The smallest robot–sphere clearance (N,) m after the last step (``info``'s
+        ``min_clearance``: the backend's geometry, or the simulator's own on MuJoCo)."""
+        return self.min_clearance
+
     # -- per step -------------------------------------------------------------------------------
     def observe_extra(
         self, readings: Readings, out: np.ndarray, s: dict[str, slice], goal_conditioned: bool

@@ -70,6 +70,22 @@ def test_projection_stays_within_the_tension_bounds():
     np.testing.assert_allclose(out, [[(2.0 - target) * np.sqrt(2.0), 0.0, 3.0]], atol=1e-9)
 
 
+def test_measured_clearance_shifts_every_prediction():
+    # the model says h = 1 − T_0 (0.5 at the held 0.5); the robot measures 0.3: the model is
+    # 0.2 optimistic, so a command the model finds safe (h = 0.1) is unsafe, and the projection
+    # keeps the measured slack's half: measured h after the step = 0.15
+    f = SafetyFilter(linear_barrier([1.0, 0.0, 0.0], 1.0), 80.0, None, 0.0)
+    held, commanded = np.array([[0.5, 0.0, 0.0]]), np.array([[0.9, 2.0, 0.0]])
+    out, changed = f(commanded, held)
+    assert not changed.any()
+    out, changed = f(commanded, held, measured=np.array([0.3]))
+    assert changed.tolist() == [True]
+    np.testing.assert_allclose(out, [[0.5 + 0.15, 2.0, 0.0]], atol=1e-9)
+    # an infinite measurement (no sphere) leaves the model's prediction alone
+    out, changed = f(commanded, held, measured=np.array([np.inf]))
+    assert not changed.any()
+
+
 def test_gradient_is_one_sided_at_a_tension_bound():
     f = SafetyFilter(linear_barrier([2.0, -1.0, 0.5], 5.0), 80.0, None, 0.0)
     held = np.array([[0.0, 80.0, 40.0]])  # at the lower bound, the upper bound, inside
