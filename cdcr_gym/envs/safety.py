@@ -9,16 +9,18 @@ passes unchanged. Otherwise, from the held tensions T_0 (what the robot holds no
 1. the gradient g = ∂h/∂T at T_0 by central differences (step 0.1 % of max_tension, one-sided
    at the tension bounds);
 2. the command is projected onto the half-space of the linearised barrier condition
-   h(T_0) + g·(T − T_0) >= margin + γ·max(h(T_0) − margin, 0) (γ = 1/2: at most half of the
-   remaining slack is used in a step), within what the action can command (T_0 ± the largest
+   h(T_0) + g·(T − T_0) >= margin + γ·(h(T_0) − margin) (γ = 1/2: at most half of the
+   remaining slack is used in a step; inside the margin, h(T_0) < margin, the condition is
+   h >= h(T_0): no closer than now), within what the action can command (T_0 ± the largest
    tension change per step in ``tension_delta`` mode, and [0, max_tension]): the nearest such
    command (Euclidean, in N), T = clip(T_cmd + μ g, bounds) with the least μ >= 0
    (:func:`project_onto_half_space`) — motion along the sphere's surface is kept, only the
    motion into it removed;
-3. the result is checked on the model; if it still violates the margin (the barrier is not
-   linear), the step from T_0 is halved (1/2, 1/4, 1/8)
-   and finally dropped (hold T_0). If T_0 itself violates the margin (a physics robot that
-   drifted), the candidate with the largest predicted clearance is taken.
+3. the result is checked on the model against h >= min(margin, h(T_0)); if it fails (the
+   barrier is not linear), the step from T_0 is halved (1/2, 1/4, 1/8) and finally dropped:
+   holding T_0 always satisfies it.
+
+A command passes unchanged when h(T_cmd) >= min(margin, h(T_0)).
 
 The env passes the clearance measured on the robot after the last step; every prediction is
 shifted by (measured − model at T_0), the model's shape error taken as constant over a step. On
@@ -135,46 +137,47 @@ class SafetyFilter:
         """
         n = commanded.shape[0]
         rows = np.arange(n)
+        model_now = self.clearance(held, rows)
         offset = np.zeros(n)
         if measured is not None:
-            offset = np.asarray(measured, dtype=np.float64) - self.clearance(held, rows)
+            offset = np.asarray(measured, dtype=np.float64) - model_now
             offset[~np.isfinite(offset)] = 0.0
+        now = model_now + offset
         gap = self.clearance(commanded, rows) + offset
-        unsafe = gap < self.margin
+        unsafe = gap < np.minimum(self.margin, now)
         if not unsafe.any():
             return commanded, unsafe
         out = commanded.copy()
         idx = np.flatnonzero(unsafe)
-        out[idx] = self._correct(commanded[idx], held[idx], idx, offset[idx])
+        out[idx] = self._correct(commanded[idx], held[idx], idx, offset[idx], now[idx])
         return out, unsafe
 
     def _correct(
-        self, commanded: np.ndarray, held: np.ndarray, rows: np.ndarray, offset: np.ndarray
+        self,
+        commanded: np.ndarray,
+        held: np.ndarray,
+        rows: np.ndarray,
+        offset: np.ndarray,
+        now: np.ndarray,
     ) -> np.ndarray:
         """The projection and its fall-backs for the M unsafe commands (M, C) of envs ``rows``
-        (``offset`` (M,) m added to every predicted clearance)."""
+        (``offset`` (M,) m added to every predicted clearance, ``now`` (M,) m the clearance at
+        the held tensions)."""
         margin = self.margin
-        now = self.clearance(held, rows) + offset  # (M,)
+        required = np.minimum(margin, now)
         grad = self.gradient(held, rows)
-        target = margin + SLACK_FRACTION * np.maximum(now - margin, 0.0)
+        target = np.where(now >= margin, margin + SLACK_FRACTION * (now - margin), now)
         lo, hi = self.bounds(held)
         projected = project_onto_half_space(
             commanded, grad, target - now + np.sum(grad * held, 1), lo, hi
         )
-        candidates = [projected]
-        candidates += [held + f * (projected - held) for f in STEP_FRACTIONS]
-        candidates.append(held)
-        best = held.copy()
-        best_gap = now.copy()
+        best = held.copy()  # holding always keeps the required clearance
         chosen = np.zeros(len(rows), dtype=bool)
-        for tensions in candidates:
-            gap = self.clearance(tensions, rows) + offset
-            take = ~chosen & (gap >= margin)
+        for f in (1.0, *STEP_FRACTIONS):
+            tensions = held + f * (projected - held)
+            take = ~chosen & (self.clearance(tensions, rows) + offset >= required)
             best[take] = tensions[take]
             chosen |= take
-            better = ~chosen & (gap > best_gap)  # nothing safe yet: keep the clearest
-            best[better] = tensions[better]
-            best_gap[better] = gap[better]
             if chosen.all():
                 break
         return best

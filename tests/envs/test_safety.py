@@ -100,22 +100,26 @@ def test_step_bound_then_fallbacks_hold_the_tensions_when_nothing_is_safe():
 
     f = SafetyFilter(bowl, 80.0, 4.0, 0.0)
     held = np.ones((1, 3))
-    commanded = np.array([[5.0, 1.0, 1.0]])  # h = −15.9
-    out, changed = f(commanded, held)
+    out, changed = f(np.array([[3.0, 1.0, 1.0]]), held)  # h = −3.9; halved thrice: 0.0375
     assert changed.tolist() == [True]
-    assert bowl(out, None)[0] >= 0.0
-    # a command that is unsafe by any amount of motion: the filter holds
-    f_tight = SafetyFilter(lambda t, r: -np.sum((t - 1.0) ** 2, axis=1), 80.0, 4.0, 0.0)
-    out, _ = f_tight(commanded, held)
+    np.testing.assert_allclose(out, [[1.25, 1.0, 1.0]])
+    commanded = np.array([[5.0, 1.0, 1.0]])  # h = −15.9: even 1/8 of the step is unsafe
+    out, _ = f(commanded, held)
+    np.testing.assert_allclose(out, held)
+    # every motion lowers the clearance (a peak at the held tensions, below the margin): hold
+    f_peak = SafetyFilter(lambda t, r: -np.sum((t - 1.0) ** 2, axis=1), 80.0, 4.0, 0.01)
+    out, _ = f_peak(commanded, held)
     np.testing.assert_allclose(out, held)
 
 
-def test_a_held_state_inside_the_margin_takes_the_clearest_candidate():
+def test_inside_the_margin_motion_may_slide_but_not_come_closer():
     f = SafetyFilter(linear_barrier([1.0, 0.0, 0.0], 1.0), 80.0, None, 5.0)  # never >= 5
     held = np.array([[0.5, 0.0, 0.0]])  # h = 0.5 < margin
-    out, _ = f(np.array([[3.0, 0.0, 0.0]]), held)
-    assert 1.0 - out[0, 0] >= 0.5  # no worse than holding
-    assert out[0, 0] < 0.5  # the projection moves away from the barrier
+    out, changed = f(np.array([[3.0, 2.0, 0.0]]), held)
+    assert changed.tolist() == [True]
+    np.testing.assert_allclose(out, [[0.5, 2.0, 0.0]], atol=1e-9)
+    out, changed = f(np.array([[0.2, 2.0, 0.0]]), held)  # moving away passes unchanged
+    assert not changed.any()
 
 
 def run(env, policy, seeds):
