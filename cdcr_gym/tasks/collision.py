@@ -27,6 +27,7 @@ __all__ = [
     "model_geometry",
     "clearance",
     "nearest_backbone_points",
+    "route_clearance",
 ]
 
 
@@ -115,3 +116,54 @@ def nearest_backbone_points(geometry: RobotGeometry, spheres: np.ndarray) -> np.
     d2 = np.sum((c - nearest) ** 2, -1)
     best = np.argmin(d2, axis=-1)  # (M, K)
     return np.take_along_axis(nearest, best[..., None, None], axis=2)[:, :, 0]
+
+
+def route_clearance(
+    model: PCCModel,
+    start: np.ndarray,
+    goal: np.ndarray,
+    spheres: np.ndarray,
+    rod_radius: float,
+    disk_radius: float,
+    samples: int = 9,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """How each sphere lies against the *direct route*: the straight line in tension space
+    from ``start`` to ``goal`` (what the reach IK commands), sampled at ``samples`` evenly
+    spaced tensions (both ends included) and shaped on the PCC/CCKA ``model``.
+
+    Args:
+        model: the robot model.
+        start: (M, C) N, the tensions now.
+        goal: (M, C) N, the tensions at the route's end (the goal's IK tensions).
+        spheres: (M, K, 4) rows (x, y, z, radius) m; a radius <= 0 marks padding.
+        rod_radius: backbone radius (m).
+        disk_radius: disk radius (m).
+        samples: points along the route, >= 2.
+
+    Returns:
+        ``clearances`` (M, K) m: each sphere's smallest clearance to the route's shapes
+        (negative: the route runs through it; +inf for padding); ``fractions`` (M, K) in
+        [0, 1]: where along the route that smallest clearance is (0: now, 1: at the goal; 0
+        for padding); ``directions`` (M, K, 3): the unit vector from the sphere's centre to
+        the nearest backbone point of that shape — the side on which the route passes the
+        sphere (0 for padding, and where the backbone runs through the centre).
+    """
+    start = np.asarray(start, dtype=np.float64)
+    goal = np.asarray(goal, dtype=np.float64)
+    spheres = np.asarray(spheres, dtype=np.float64)
+    m, c = start.shape
+    k = spheres.shape[1]
+    lam = np.linspace(0.0, 1.0, samples)
+    tensions = start[:, None, :] + lam[None, :, None] * (goal - start)[:, None, :]
+    geometry = model_geometry(model, model.bending_from_tensions(tensions.reshape(-1, c)))
+    repeated = np.repeat(spheres, samples, axis=0)  # (M * R, K, 4), route-major per env
+    per = clearance(geometry, repeated, rod_radius, disk_radius).reshape(m, samples, k)
+    deepest = np.argmin(per, axis=1)  # (M, K)
+    nearest = nearest_backbone_points(geometry, repeated).reshape(m, samples, k, 3)
+    points = np.take_along_axis(nearest, deepest[:, None, :, None], axis=1)[:, 0]
+    away = points - spheres[:, :, :3]
+    norm = np.linalg.norm(away, axis=-1, keepdims=True)
+    present = spheres[:, :, 3:4] > 0.0
+    directions = np.divide(away, norm, out=np.zeros_like(away), where=present & (norm > 0.0))
+    fractions = np.where(present[..., 0], lam[deepest], 0.0)
+    return per.min(axis=1), fractions, directions

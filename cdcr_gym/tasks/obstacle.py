@@ -23,6 +23,7 @@ from cdcr_gym.tasks.collision import (
     clearance,
     model_geometry,
     nearest_backbone_points,
+    route_clearance,
 )
 from cdcr_gym.tasks.observation import Field
 
@@ -30,6 +31,8 @@ __all__ = ["Obstacle", "ObstacleSceneError"]
 
 #: Attempts to place a blocking sphere before an episode's scene is given up (then an error).
 _ATTEMPTS = 400
+#: Tensions sampled along the direct route for ``route_features`` (both ends included).
+ROUTE_SAMPLES = 9
 
 
 class ObstacleSceneError(RuntimeError):
@@ -88,6 +91,16 @@ class Obstacle(GoalTask):
     succeed, which the sphere centres alone leave it to learn (docs/tasks.md measures the
     effect).
 
+    With ``route_features=True`` three more fields follow (before the robot state): they look
+    *ahead* along the direct route from the tensions now to the goal's IK tensions (the route
+    the reach IK would command from here; sampled at 9 tensions, shaped on the CCKA/PCC model,
+    ``cdcr_gym.tasks.collision.route_clearance``): ``route_clearances`` (one per sphere, m,
+    clipped to [−ℓ, 2ℓ]; negative: going straight on runs through that sphere; padding 2ℓ),
+    ``route_fractions`` (one per sphere, in [0, 1]: where along the route it comes closest; 0
+    now, 1 at the goal; padding 0) and ``route_directions`` (3 per sphere: the unit vector from
+    the sphere's centre to the route's backbone where it comes closest — the side on which the
+    straight way passes, i.e. which way is out; padding 0). Recomputed after every step.
+
     **Reward**: ``"dense"``: −‖goal − tip‖ (m) − ``collision_penalty`` on every step in
     collision − ``penetration_weight``·(penetration depth, m: −min_clearance when negative);
     ``"sparse"``: −1 until success, then 0, minus the same penalties. Both can add a shaping
@@ -128,6 +141,8 @@ class Obstacle(GoalTask):
             when a scene is made (>= 0).
         clearance_features: add the per-sphere clearances, the directions out of the spheres
             and the ``collided`` flag to the observation (see above).
+        route_features: add the per-sphere clearances, positions and sides of the direct route
+            from the tensions now to the goal's to the observation (see above).
         proximity_margin: distance (m, >= 0) to a sphere below which the proximity cost
             starts.
         proximity_weight: reward subtracted per metre closer than ``proximity_margin`` (1/m·m,
@@ -158,6 +173,7 @@ class Obstacle(GoalTask):
         radius_range: tuple[float, float] | None = None,
         clearance_margin: float = 0.01,
         clearance_features: bool = False,
+        route_features: bool = False,
         proximity_margin: float = 0.0,
         proximity_weight: float = 0.0,
         success_bonus: float = 0.0,
@@ -188,6 +204,7 @@ class Obstacle(GoalTask):
             clearance_margin, "clearance_margin", allow_zero=True
         )
         self.clearance_features = validation.flag(clearance_features, "clearance_features")
+        self.route_features = validation.flag(route_features, "route_features")
         self.proximity_margin = validation.positive(
             proximity_margin, "proximity_margin", allow_zero=True
         )
@@ -208,6 +225,10 @@ class Obstacle(GoalTask):
         self.contact_force = np.zeros(n)
         self.clearances = np.full((n, k), np.inf)  # per sphere (clearance_features)
         self.directions = np.zeros((n, k, 3))  # unit vectors out of each sphere
+        self.goal_tensions = np.zeros((n, params.n_cables))  # the goal's IK tensions, N
+        self.route_clearances = np.full((n, k), np.inf)  # route_features
+        self.route_fractions = np.zeros((n, k))
+        self.route_directions = np.zeros((n, k, 3))
         ell = params.length
         self.radii = self.radius_range or (0.06 * ell, 0.12 * ell)
         self._rod = 0.5 * params.backbone_diameter
@@ -228,6 +249,7 @@ class Obstacle(GoalTask):
                 "min_clearance", 1, -ell, 2 * ell, "m", "smallest robot–sphere clearance"
             ),
             *(self.clearance_fields() if self.clearance_features else []),
+            *(self.route_fields() if self.route_features else []),
             *robot_state_fields(self.params),
         ]
 
@@ -249,6 +271,38 @@ class Obstacle(GoalTask):
                 labels,
             ),
             Field.uniform("collided", 1, 0.0, 1.0, "–", "1: a sphere was touched this episode"),
+        ]
+
+    def route_fields(self) -> list[Field]:
+        """The fields ``route_features`` adds (see the class docstring)."""
+        ell, k = self.params.length, self.max_obstacles
+        labels = tuple(f"{i}{a}" for i in range(k) for a in ("x", "y", "z"))
+        return [
+            Field.uniform(
+                "route_clearances",
+                k,
+                -ell,
+                2 * ell,
+                "m",
+                "per sphere: smallest clearance along the direct route to the goal",
+            ),
+            Field.uniform(
+                "route_fractions",
+                k,
+                0.0,
+                1.0,
+                "–",
+                "per sphere: where along the direct route it comes closest (0 now, 1 goal)",
+            ),
+            Field.uniform(
+                "route_directions",
+                3 * k,
+                -1.0,
+                1.0,
+                "–",
+                "per sphere: unit vector from its centre to the route's backbone there",
+                labels,
+            ),
         ]
 
     def set_difficulty(self, difficulty: float) -> None:
@@ -337,6 +391,9 @@ class Obstacle(GoalTask):
         start = backend.read().tensions
         for i, rng in zip(idx.tolist(), rngs):
             self.goal[i], self.obstacles[i] = self.make_scene(rng, start[i], backend)
+        if self.route_features:
+            self.goal_tensions[idx] = solve_ik(self.goal[idx], self.params).tensions
+            self._route(start, idx)
         if backend.supports_obstacles:  # the spheres become the simulator's own geometry
             backend.set_obstacles(idx, self.obstacles[idx])
         self.collided[idx] = False
@@ -374,8 +431,27 @@ class Obstacle(GoalTask):
         self.directions[rows] = unit
         self.clearances[rows] = per_sphere[rows]
 
+    def _route(self, tensions: np.ndarray, idx: np.ndarray | None = None) -> None:
+        """Store the direct-route features (``route_features``) from ``tensions`` (N, C) N, the
+        tensions now, for envs ``idx`` (all if None)."""
+        rows = slice(None) if idx is None else idx
+        clear, where, side = route_clearance(
+            self._model,
+            tensions[rows],
+            self.goal_tensions[rows],
+            self.obstacles[rows],
+            self._rod,
+            self._disk,
+            ROUTE_SAMPLES,
+        )
+        self.route_clearances[rows] = clear
+        self.route_fractions[rows] = where
+        self.route_directions[rows] = side
+
     def advance(self, backend: Backend, readings: Readings) -> None:
         self._check(backend)
+        if self.route_features:
+            self._route(readings.tensions)
 
     def terminal(self) -> np.ndarray:
         if self.terminate_on_collision:
@@ -406,6 +482,10 @@ class Obstacle(GoalTask):
             out[s["obstacle_clearances"]] = np.clip(self.clearances, -ell, 2 * ell).T
             out[s["obstacle_directions"]] = self.directions.reshape(n, 3 * k).T
             out[s["collided"]] = self.collided[None]
+        if self.route_features:
+            out[s["route_clearances"]] = np.clip(self.route_clearances, -ell, 2 * ell).T
+            out[s["route_fractions"]] = self.route_fractions.T
+            out[s["route_directions"]] = self.route_directions.reshape(n, 3 * k).T
 
     def evaluate(self, readings: Readings) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
         distance = self.distance(readings)

@@ -21,7 +21,12 @@ from cdcr_gym.controllers import AnalyticIKController, ObstaclePlanner
 from cdcr_gym.model.ik import solve_ik
 from cdcr_gym.model.statics import cached_model
 from cdcr_gym.params import RobotParams
-from cdcr_gym.tasks.collision import clearance, model_geometry, nearest_backbone_points
+from cdcr_gym.tasks.collision import (
+    clearance,
+    model_geometry,
+    nearest_backbone_points,
+    route_clearance,
+)
 from cdcr_gym.tasks.obstacle import Obstacle
 
 COMBOS = combos("Obstacle")
@@ -172,6 +177,7 @@ def test_render_draws_the_obstacles():
         ({"radius_range": (0.0, 0.01)}, "radius_range"),
         ({"clearance_margin": -0.01}, "clearance_margin"),
         ({"clearance_features": "yes"}, "clearance_features"),
+        ({"route_features": 1}, "route_features"),
         ({"proximity_margin": -0.01}, "proximity_margin"),
         ({"proximity_weight": float("nan")}, "proximity_weight"),
         ({"success_bonus": -1.0}, "success_bonus"),
@@ -241,6 +247,92 @@ def test_clearance_features_describe_each_sphere_and_the_collided_flag(env_id):
         obs, _, _, _, info = env.step(ik(obs))
     assert seen_collision  # the reach IK runs into the blocking sphere: the flag was exercised
     assert env.observation_space.contains(obs)
+
+
+def test_route_clearance_matches_a_dense_walk_along_the_route():
+    params = RobotParams.preset("paper")
+    model = cached_model(params)
+    rng = np.random.default_rng(5)
+    start = rng.uniform(0.0, params.max_tension, (3, 3))
+    goal = rng.uniform(0.0, params.max_tension, (3, 3))
+    spheres = np.concatenate([rng.uniform(-0.3, 0.6, (3, 2, 3)), np.full((3, 2, 1), 0.06)], -1)
+    spheres[2, 1] = 0.0  # padding
+    clear, where, side = route_clearance(model, start, goal, spheres, 0.0025, 0.01, samples=5)
+    lam = np.linspace(0.0, 1.0, 5)
+    for m in range(3):
+        shapes = model.bending_from_tensions(start[m] + lam[:, None] * (goal[m] - start[m]))
+        per = clearance(model_geometry(model, shapes), spheres[m], 0.0025, 0.01)  # (5, K)
+        np.testing.assert_allclose(clear[m], per.min(0), rtol=0, atol=1e-12)
+        for k in range(2 if m < 2 else 1):
+            j = int(np.argmin(per[:, k]))
+            assert where[m, k] == lam[j]
+            geometry = model_geometry(model, shapes[j : j + 1])
+            point = nearest_backbone_points(geometry, spheres[m, k : k + 1])[0, 0]
+            away = point - spheres[m, k, :3]
+            np.testing.assert_allclose(side[m, k], away / np.linalg.norm(away), atol=1e-12)
+    assert clear[2, 1] == np.inf and where[2, 1] == 0.0 and np.all(side[2, 1] == 0.0)
+    # a route of one point (start = goal) is the shape now: the clearance now, at fraction 0
+    same, at, _ = route_clearance(model, start, start, spheres, 0.0025, 0.01)
+    now = clearance(
+        model_geometry(model, model.bending_from_tensions(start)), spheres, 0.0025, 0.01
+    )
+    np.testing.assert_allclose(same, now, rtol=0, atol=1e-12)
+    assert np.all(at == 0.0)
+
+
+@pytest.mark.parametrize("env_id", ["cdcr_gym/CCKAObstacle-v0", "cdcr_gym/MuJoCoObstacle-v0"])
+def test_route_features_see_the_blocking_sphere_ahead(env_id):
+    env = gym.make(env_id, clearance_features=True, route_features=True, max_obstacles=3)
+    spec = env.unwrapped.observation_spec
+    assert env.observation_space.shape == (47 + 15,)
+    task = env.unwrapped.task
+    ik = AnalyticIKController.from_env(env)
+    for seed in range(4):
+        obs, info = env.reset(seed=seed)
+        s = spec.slices
+        present = info["obstacles"][:, 3] > 0
+        route = obs[s["route_clearances"]]
+        # the scene is built so that the direct route runs through sphere 0, ahead of the robot
+        assert route[0] < 0.0 < obs[s["obstacle_clearances"]][0]
+        assert 0.0 < obs[s["route_fractions"]][0] <= 1.0
+        np.testing.assert_allclose(
+            task.goal_tensions[0], solve_ik(info["goal"], task.params).tensions
+        )
+        directions = obs[s["route_directions"]].reshape(3, 3)
+        np.testing.assert_allclose(np.linalg.norm(directions[present], axis=1), 1.0, rtol=1e-5)
+        assert np.all(directions[~present] == 0.0)
+        assert np.all(route[~present] == np.float32(2 * 0.641))
+        # the reach IK walks the direct route: the deepest clearance it meets on sphere 0 is
+        # the one the route features predicted at reset (CCKA: the model is the robot; both
+        # sample the route, 9 points against the IK's steps: a few mm apart)
+        ahead, met = route[0], np.inf
+        for _ in range(40):
+            obs, _, _, _, info = env.step(ik(obs))
+            assert env.observation_space.contains(obs)
+            met = min(met, obs[s["obstacle_clearances"]][0])
+        if env_id.startswith("cdcr_gym/CCKA"):
+            assert info["collided"]
+            assert abs(met - ahead) < 0.006
+
+
+def test_route_features_in_the_batched_env_equal_single_envs():
+    kwargs = {"route_features": True, "clearance_features": True}
+    batched = gym.make_vec(
+        "cdcr_gym/CCKAObstacle-v0", num_envs=3, vectorization_mode="vector_entry_point", **kwargs
+    )
+    obs, _ = batched.reset(seed=[7, 8, 9])
+    rng = np.random.default_rng(0)
+    actions = rng.uniform(-1, 1, (5, 3, 3)).astype(np.float32)
+    trace = [obs]
+    for a in actions:
+        trace.append(batched.step(a)[0])
+    for i, seed in enumerate((7, 8, 9)):
+        single = gym.make("cdcr_gym/CCKAObstacle-v0", **kwargs)
+        o, _ = single.reset(seed=seed)
+        np.testing.assert_allclose(o, trace[0][i], atol=1e-6)
+        for step, a in enumerate(actions):
+            o = single.step(a[i])[0]
+            np.testing.assert_allclose(o, trace[step + 1][i], atol=1e-6)
 
 
 def test_proximity_cost_and_success_bonus_shape_the_reward_as_documented():
