@@ -28,6 +28,7 @@ __all__ = [
     "clearance",
     "nearest_backbone_points",
     "route_clearance",
+    "directions_out",
 ]
 
 
@@ -161,9 +162,14 @@ def route_clearance(
     deepest = np.argmin(per, axis=1)  # (M, K)
     nearest = nearest_backbone_points(geometry, repeated).reshape(m, samples, k, 3)
     points = np.take_along_axis(nearest, deepest[:, None, :, None], axis=1)[:, 0]
+    fractions = np.where(spheres[:, :, 3] > 0.0, lam[deepest], 0.0)
+    return per.min(axis=1), fractions, directions_out(points, spheres)
+
+
+def directions_out(points: np.ndarray, spheres: np.ndarray) -> np.ndarray:
+    """Unit vectors (M, K, 3) from each sphere's centre to ``points`` (M, K, 3) m, the way out
+    of it; 0 for padding spheres (radius <= 0) and where a point is the centre itself."""
     away = points - spheres[:, :, :3]
     norm = np.linalg.norm(away, axis=-1, keepdims=True)
     present = spheres[:, :, 3:4] > 0.0
-    directions = np.divide(away, norm, out=np.zeros_like(away), where=present & (norm > 0.0))
-    fractions = np.where(present[..., 0], lam[deepest], 0.0)
-    return per.min(axis=1), fractions, directions
+    return np.divide(away, norm, out=np.zeros_like(away), where=present & (norm > 0.0))

@@ -21,6 +21,7 @@ from cdcr_gym.tasks.collision import (
     RobotGeometry,
     backend_geometry,
     clearance,
+    directions_out,
     model_geometry,
     nearest_backbone_points,
     route_clearance,
@@ -423,12 +424,8 @@ class Obstacle(GoalTask):
         """Store the per-sphere clearances (N, K) m and unit directions (N, K, 3) out of each
         sphere for envs ``idx`` (all if None)."""
         rows = slice(None) if idx is None else idx
-        centres = self.obstacles[rows, :, :3]
-        away = nearest_backbone_points(geometry, self.obstacles)[rows] - centres
-        norm = np.linalg.norm(away, axis=-1, keepdims=True)
-        present = self.obstacles[rows, :, 3:4] > 0.0
-        unit = np.divide(away, norm, out=np.zeros_like(away), where=present & (norm > 0.0))
-        self.directions[rows] = unit
+        nearest = nearest_backbone_points(geometry, self.obstacles)[rows]
+        self.directions[rows] = directions_out(nearest, self.obstacles[rows])
         self.clearances[rows] = per_sphere[rows]
 
     def _route(self, tensions: np.ndarray, idx: np.ndarray | None = None) -> None:
