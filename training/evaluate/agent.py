@@ -5,7 +5,8 @@ Usage::
     python -m training.evaluate RUN_DIR [--episodes N] [--env-id ID] [--video]
                                 [--model best|final] [--env-kwarg KEY=VALUE ...] [--tag NAME]
 
-Loads the run's best model (``best_model/``, or ``--model final``) with its VecNormalize
+Loads the run's best model (``best_model/``; ``final_model/`` with ``--model final`` or the
+config's ``evaluate.model: final``) with its VecNormalize
 statistics, and runs, for every starting state × horizon of the config's ``evaluate`` section
 (default: straight and random starting shapes × 100 and 200 steps), N episodes on goals and
 starting shapes drawn with reset seeds ``evaluate.seed + i`` — the same for every run, model and
@@ -474,8 +475,8 @@ def _parse_args(argv: list[str]) -> argparse.Namespace:
     parser.add_argument(
         "--model",
         choices=("best", "final"),
-        default="best",
-        help="which saved model to evaluate (default: best)",
+        default=None,
+        help="which saved model to evaluate (default: the config's evaluate.model, normally best)",
     )
     parser.add_argument(
         "--seed",
@@ -502,13 +503,15 @@ def main(argv: list[str] | None = None) -> int:
         if not (run_dir / "config.yaml").is_file():
             raise ConfigError(f"RUN_DIR {str(run_dir)!r} is not a training run (no config.yaml)")
         check_writable_directory(run_dir, "RUN_DIR")
+        config = load_config(run_dir / "config.yaml")
+        if args.model is None:  # the config's choice (evaluate.model), normally best
+            args.model = config.evaluate.model
         model_dir = run_dir / ("best_model" if args.model == "best" else "final_model")
         if not (model_dir / "model.zip").is_file():
             raise ConfigError(
                 f"--model {args.model}: {model_dir / 'model.zip'} does not exist "
                 f"(has the run evaluated/finished yet?)"
             )
-        config = load_config(run_dir / "config.yaml")
         if args.episodes is not None and args.episodes <= 0:
             raise ConfigError(f"--episodes must be a positive integer, got {args.episodes}")
         if args.seed is not None and args.seed < 0:

@@ -85,6 +85,7 @@ valid name), wrong types and out-of-range values are errors that name the key an
       initial_states: [straight, random]
       horizons: [100, 200]        # episode lengths; the first is the headline condition
       video_episodes: 3
+      model: best                 # best (best_model/) | final (final_model/): evaluate's --model
     curriculum:                   # easier episodes early in training (tasks with one: Obstacle)
       steps: 0                    # env steps over which the difficulty rises to 1; 0: off
       start: 1.0                  # difficulty at step 0, in (0, 1] (Task.set_difficulty)
@@ -144,6 +145,7 @@ __all__ = [
 
 VEC_ENVS = ("dummy", "subproc", "batched")
 LR_SCHEDULES = ("constant", "linear")
+EVALUATE_MODELS = ("best", "final")
 ACTIVATIONS = ("tanh", "relu", "elu")
 BEST_METRICS = ("mean_error", "median_error", "success_rate", "mean_reward")
 INITIAL_STATES = ("straight", "random")
@@ -334,6 +336,9 @@ class EvaluateConfig:
     initial_states: list[str] = field(default_factory=lambda: ["straight", "random"])
     horizons: list[int] = field(default_factory=lambda: [100, 200])
     video_episodes: int = 3
+    #: which saved model ``evaluate`` loads by default: "best" (``best_model/``, chosen by the
+    #: periodic evaluation) or "final" (``final_model/``, the last step)
+    model: str = "best"
 
 
 @dataclass
@@ -590,6 +595,7 @@ class ExperimentConfig:
             _positive_int("evaluate.horizons[]", h)
         if v.video_episodes < 0:
             raise ConfigError(f"evaluate.video_episodes must be >= 0, got {v.video_episodes!r}")
+        _choice("evaluate.model", v.model, EVALUATE_MODELS)
         if self.runtime.device not in ("cpu", "auto") and not re.fullmatch(
             r"cuda(:\d+)?", str(self.runtime.device)
         ):

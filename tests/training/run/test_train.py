@@ -149,6 +149,22 @@ def test_evaluate_cli_names_the_bad_argument(tmp_path: Path, args: list[str], me
     assert message in result.stderr
 
 
+def test_evaluate_loads_the_model_the_config_names(tmp_path: Path) -> None:
+    """``evaluate.model: final`` makes ``final_model/`` evaluate's default (``--model`` wins)."""
+    run = tmp_path / "run"  # a best model only: the final one is asked for and missing
+    (run / "best_model").mkdir(parents=True)
+    (run / "best_model" / "model.zip").write_bytes(b"")
+    config = load_config(_tiny_config(tmp_path))
+    config.evaluate.model = "final"
+    save_config(config, run / "config.yaml")
+    result = _run("training.evaluate", run, timeout=60)
+    assert result.returncode == 2, result.stderr[-2000:]
+    assert "--model final" in result.stderr and "final_model" in result.stderr
+    # --model best overrides it: it gets past the model choice (to the empty model file)
+    result = _run("training.evaluate", run, "--model", "best", timeout=60)
+    assert result.returncode == 2 and "--model final" not in result.stderr
+
+
 # -- smoke runs ---------------------------------------------------------------------------------
 EVAL_KEYS = {"success_rate", "within_1mm", "error_mm", "ik", "conditions", "headline_condition"}
 STAT_KEYS = {"mean", "median", "p95", "max"}
@@ -328,48 +344,48 @@ def test_fast_config_trains_one_rollout(tmp_path: Path, name: str) -> None:
 # -- pins: the numbers a restructuring of training/ must leave unchanged ------------------------
 #: sha256 (first 16 hex digits) of every packaged config as resolved (every default filled in)
 CONFIG_DIGESTS = {
-    "ppo_bullet_fast": "5b56e639448e8087",
-    "ppo_bullet_friction_reach": "3575c7c8647bc91c",
-    "ppo_bullet_reach": "9ea6ced8f3788295",
-    "ppo_bullet_track": "11e21582256ef067",
-    "ppo_ccka_dr_reach": "1a3d978bb5752ee9",
-    "ppo_ccka_fast": "49202a2ceb5bddfa",
-    "ppo_ccka_obstacle": "f92c3af77f0ff8d4",
-    "ppo_ccka_pose": "fd2cd61dbec437f6",
-    "ppo_ccka_reach": "75a0bf8c1cd2cdfb",
-    "ppo_ccka_track": "3c39b24b8fa3c909",
-    "ppo_mujoco_obstacle": "3023210c666a1330",
-    "ppo_mujoco_pose": "66ecbcb0982bb578",
-    "ppo_mujoco_reach": "a4e2c7ad793700f0",
-    "ppo_mujoco_track": "b47ca448390fc369",
-    "sac_bullet_reach": "7009b3bebc7dcf99",
-    "sac_ccka_obstacle": "704b67f5809ede43",
-    "sac_ccka_pose": "7f6fb1d89cc00de5",
-    "sac_ccka_reach": "4ec628f8b6607cec",
-    "sac_ccka_track": "128d8c0f21dd6b64",
-    "sac_mujoco_obstacle": "57fcc92b863dd5cc",
-    "sac_mujoco_pose": "1e3b69d98a66e977",
-    "sac_mujoco_reach": "c3756557eef47940",
-    "sac_mujoco_track": "5b6c2371af75174d",
-    "td3_bullet_reach": "dbc6951c4c3c5a7b",
-    "td3_ccka_obstacle": "81863d0a9c20aa74",
-    "td3_ccka_pose": "2d6d48074c8fa7e5",
-    "td3_ccka_reach": "4a79e49b04e3bc39",
-    "td3_ccka_track": "d3e0d3223575ad02",
-    "td3_mujoco_obstacle": "69706a582a5c98df",
-    "td3_mujoco_pose": "bc561f7dcc521b8c",
-    "td3_mujoco_reach": "ddccb72d8f4f6044",
-    "td3_mujoco_track": "dcae0e2404f74f51",
-    "tqc_bullet_reach": "8d0c4db3961ca45c",
-    "tqc_ccka_obstacle": "401def78692545b1",
-    "tqc_ccka_pose": "8bf91f7c945cf16c",
-    "tqc_ccka_reach": "09e86ef6ad6b2237",
-    "tqc_ccka_track": "fee8968f89670b59",
-    "tqc_her_ccka_goalreach": "0034a88acd2185a6",
-    "tqc_mujoco_obstacle": "93c89f0d76b56701",
-    "tqc_mujoco_pose": "24879bfe0b10948d",
-    "tqc_mujoco_reach": "1ecfbf06b39afb3b",
-    "tqc_mujoco_track": "9f4138f9e89a70fd",
+    "ppo_bullet_fast": "b9f39a4e4b5d1796",
+    "ppo_bullet_friction_reach": "e6bfa8c80d23fbfa",
+    "ppo_bullet_reach": "aa099e8406e0dc4c",
+    "ppo_bullet_track": "a6dd709859b5b456",
+    "ppo_ccka_dr_reach": "e23ce3133363d0c5",
+    "ppo_ccka_fast": "42e5b5026ff0e64e",
+    "ppo_ccka_obstacle": "92efcc917cfe443a",
+    "ppo_ccka_pose": "dc802fb881ccbe77",
+    "ppo_ccka_reach": "67fa928070089b48",
+    "ppo_ccka_track": "3f579c6028f359f1",
+    "ppo_mujoco_obstacle": "d8d112df7fbbdfa2",
+    "ppo_mujoco_pose": "e2fad0f851f72e49",
+    "ppo_mujoco_reach": "09e9246691df1e56",
+    "ppo_mujoco_track": "786cf703938c01fd",
+    "sac_bullet_reach": "35e2a3912018c436",
+    "sac_ccka_obstacle": "94f6bc3bb9459e1c",
+    "sac_ccka_pose": "0a245a4dea3cdd98",
+    "sac_ccka_reach": "75270037d2567790",
+    "sac_ccka_track": "3a94bfecc327b310",
+    "sac_mujoco_obstacle": "136503a22cf0d8a7",
+    "sac_mujoco_pose": "bfb9155d06697265",
+    "sac_mujoco_reach": "7cb51ba263af4573",
+    "sac_mujoco_track": "790203b3813273a2",
+    "td3_bullet_reach": "4eaee8b0a7b57bb1",
+    "td3_ccka_obstacle": "438b9f5957bf513d",
+    "td3_ccka_pose": "00a7bab3dfe74b78",
+    "td3_ccka_reach": "4c6d14012f87372f",
+    "td3_ccka_track": "c5486e9babaf57b3",
+    "td3_mujoco_obstacle": "dc917d0cd853f530",
+    "td3_mujoco_pose": "26a87742868a54af",
+    "td3_mujoco_reach": "8050d89743bc22da",
+    "td3_mujoco_track": "3f535685daa7a571",
+    "tqc_bullet_reach": "aad89fa8d481be60",
+    "tqc_ccka_obstacle": "453da35c39278fc1",
+    "tqc_ccka_pose": "2eeaf19ce9c747b3",
+    "tqc_ccka_reach": "8e4616c1ef43e077",
+    "tqc_ccka_track": "7bd0403e1aee72cb",
+    "tqc_her_ccka_goalreach": "c30848fa71c41652",
+    "tqc_mujoco_obstacle": "8b43aa0c7d733bf8",
+    "tqc_mujoco_pose": "083e323b72e2ac6a",
+    "tqc_mujoco_reach": "3aaed0dffeb9737c",
+    "tqc_mujoco_track": "3916322e6e61918c",
 }
 
 
@@ -397,7 +413,8 @@ OFF_POLICY_TWINS = sorted(
 @pytest.mark.parametrize(("algo", "task"), OFF_POLICY_TWINS)
 def test_off_policy_configs_share_the_ppo_configs_env_and_evaluation(algo: str, task: str) -> None:
     """The benchmark compares learners on one env: an off-policy config of a task has its PPO
-    config's env (all but the number of envs), periodic-evaluation episodes and evaluation."""
+    config's env (all but the number of envs), periodic-evaluation episodes and evaluation
+    episodes (the saved model evaluated may differ)."""
     import dataclasses
 
     ppo = load_config(REPO / "configs" / f"ppo_{task}.yaml")
@@ -405,7 +422,8 @@ def test_off_policy_configs_share_the_ppo_configs_env_and_evaluation(algo: str, 
     assert other.algo == algo
     assert dataclasses.replace(other.env, n_envs=ppo.env.n_envs) == ppo.env
     assert dataclasses.replace(other.eval, freq=ppo.eval.freq) == ppo.eval
-    assert other.evaluate == ppo.evaluate
+    # the same evaluation episodes; which saved model is evaluated (best or final) is the learner's
+    assert dataclasses.replace(other.evaluate, model=ppo.evaluate.model) == ppo.evaluate
 
 
 #: eval_log.csv of the tiny run below (seed 3, 256 steps): (timesteps, mean_error_mm, mean_reward)

@@ -79,6 +79,8 @@ def _train_fails(
         ({"curriculum": {"steps": -1}}, "curriculum.steps must be an integer >= 0"),
         ({"curriculum": {"steps": 10, "start": 0.0}}, "curriculum.start must be in (0, 1]"),
         ({"curriculum": {"stps": 10}}, "did you mean 'steps'"),
+        # which saved model evaluate loads
+        ({"evaluate": {"model": "last"}}, "evaluate.model must be one of"),
     ],
 )
 def test_bad_config_is_exit_2_before_the_run_dir(
