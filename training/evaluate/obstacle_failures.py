@@ -1,8 +1,11 @@
-"""Why an Obstacle policy fails: its best model replayed on evaluate's episodes, failures sorted.
+"""Why an Obstacle policy fails: its model replayed on evaluate's episodes, failures sorted.
 
     python -m training.evaluate.obstacle_failures RUN [--episodes 100] [--seed 1000000]
+                                                      [--model best|final]
 
-Runs ``RUN/best_model`` (with its normalisation) on the episodes ``cdcr-gym evaluate`` uses
+Runs ``RUN/best_model`` (``final_model`` with ``--model final``; by default the model the run's
+config names in ``evaluate.model``, as ``cdcr-gym evaluate`` does), with its normalisation and
+for any algorithm, on the episodes ``cdcr-gym evaluate`` uses
 (reset seeds ``seed + i``, the run's env arguments, straight start) and sorts every failed
 episode into one of three kinds, printed with counts and per-episode lines:
 
@@ -26,18 +29,20 @@ import numpy as np
 __all__ = ["classify", "main"]
 
 
-def classify(run: Path, episodes: int, seed: int) -> dict[str, Any]:
-    """Per-episode outcome of ``run``'s best model: {"success": n, "collided": [...],
-    "waited": [...], "missed": [...]} (lists of per-episode dicts)."""
+def classify(run: Path, episodes: int, seed: int, model: str = "best") -> dict[str, Any]:
+    """Per-episode outcome of ``run``'s ``model`` ("best" or "final"): {"success": n,
+    "collided": [...], "waited": [...], "missed": [...]} (lists of per-episode dicts)."""
     import cdcr_gym  # noqa: F401  (registers the ids)
     from training.evaluate.rollout import PPOPolicy
     from training.run.config import load_config
 
     config = load_config(run / "config.yaml")
     kwargs = {**config.env.kwargs, "initial_state": "straight"}
-    model_dir = run / "best_model"
+    model_dir = run / f"{model}_model"
     vecnorm = model_dir / "vecnormalize.pkl"
-    policy = PPOPolicy(model_dir / "model.zip", vecnorm if vecnorm.exists() else None)
+    policy = PPOPolicy(
+        model_dir / "model.zip", vecnorm if vecnorm.exists() else None, algo=config.algo
+    )
     env = gym.make(config.env.id, **kwargs)
     out: dict[str, Any] = {"success": 0, "collided": [], "waited": [], "missed": []}
     for i in range(episodes):
@@ -77,16 +82,28 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("run", type=Path)
     parser.add_argument("--episodes", type=int, default=100)
     parser.add_argument("--seed", type=int, default=1_000_000)
+    parser.add_argument(
+        "--model",
+        choices=("best", "final"),
+        default=None,
+        help="which saved model (default: the config's evaluate.model, normally best)",
+    )
     args = parser.parse_args(argv)
-    if not (args.run / "best_model" / "model.zip").exists():
-        print(f"error: run: no best_model/model.zip in {args.run}", file=sys.stderr)
+    if args.model is None:
+        args.model = "best"
+        if (args.run / "config.yaml").is_file():
+            from training.run.config import load_config
+
+            args.model = load_config(args.run / "config.yaml").evaluate.model
+    if not (args.run / f"{args.model}_model" / "model.zip").exists():
+        print(f"error: run: no {args.model}_model/model.zip in {args.run}", file=sys.stderr)
         return 2
     if args.episodes < 1:
         print(f"error: --episodes must be >= 1, got {args.episodes}", file=sys.stderr)
         return 2
-    result = classify(args.run, args.episodes, args.seed)
+    result = classify(args.run, args.episodes, args.seed, args.model)
     print(
-        f"{args.run}: success {result['success']} of {args.episodes}; failures: "
+        f"{args.run} ({args.model} model): success {result['success']} of {args.episodes}; failures: "
         f"collided {len(result['collided'])}, waited {len(result['waited'])}, "
         f"missed {len(result['missed'])}"
     )
