@@ -207,7 +207,7 @@ def evaluate(
     where = f"{env_id.split('/')[-1]}, {headline}"
     figures = {
         "histogram": plots.plot_error_histogram(
-            {"PPO policy": pol_mm, "analytic IK": ik_mm},
+            {f"{config.algo.upper()} policy": pol_mm, "analytic IK": ik_mm},
             fig_dir / "error_histogram.png",
             f"final tip error ({where}, {episodes} goals)",
         ),

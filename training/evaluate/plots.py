@@ -171,7 +171,7 @@ def plot_policy_vs_ik(policy_mm: np.ndarray, ik_mm: np.ndarray, out: Path, title
     ax.set_xlim(lo, hi)
     ax.set_ylim(lo, hi)
     ax.set_xlabel("analytic IK final error (mm)")
-    ax.set_ylabel("PPO policy final error (mm)")
+    ax.set_ylabel("learned policy final error (mm)")
     ax.set_title(title)
     ax.legend()
     ax.grid(alpha=0.3, which="both")

@@ -104,7 +104,7 @@ def headline(task: str, s: dict[str, Any]) -> str:
 def markdown_table(records: list[dict[str, Any]]) -> str:
     """Rows: task, seed, condition, training steps and wall time, policy, oracle."""
     lines = [
-        "| task | seed | start | training | PPO policy | oracle (same episodes) | reach IK |",
+        "| task | seed | start | training | learned policy | oracle (same episodes) | reach IK |",
         "|---|---|---|---|---|---|---|",
     ]
     for r in records:
