@@ -242,6 +242,8 @@ def expand(spec: SweepSpec) -> list[Trial]:
                 for key, value in {**spec.set, **part_set, **variant}.items():
                     set_dotted(data, key, value)
                 data["seed"] = seed
+                if spec.evaluate.enabled:  # the run's config names the model the sweep evaluates
+                    set_dotted(data, "evaluate.model", spec.evaluate.model)
                 where = f"config {str(path)!r}" + (f", variant {variant}" if variant else "")
                 try:
                     config = config_from_dict(data)

@@ -127,7 +127,7 @@ OFF_POLICY_TASK_CONFIGS = [
         "mujoco_obstacle",
     )
     for algo in ("sac", "td3", "tqc")
-]
+] + ["sac_ccka_obstacle_600k"]  # the Obstacle target's config (evaluates its final model)
 
 
 @pytest.mark.slow  # 10-30 s each: a few hundred steps, then the evaluation beside the baselines

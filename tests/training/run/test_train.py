@@ -359,7 +359,8 @@ CONFIG_DIGESTS = {
     "ppo_mujoco_reach": "09e9246691df1e56",
     "ppo_mujoco_track": "786cf703938c01fd",
     "sac_bullet_reach": "35e2a3912018c436",
-    "sac_ccka_obstacle": "94f6bc3bb9459e1c",
+    "sac_ccka_obstacle": "f682e2b0d8a5c01d",
+    "sac_ccka_obstacle_600k": "d06f809cb020c35a",
     "sac_ccka_pose": "0a245a4dea3cdd98",
     "sac_ccka_reach": "75270037d2567790",
     "sac_ccka_track": "3a94bfecc327b310",
@@ -424,6 +425,28 @@ def test_off_policy_configs_share_the_ppo_configs_env_and_evaluation(algo: str, 
     assert dataclasses.replace(other.eval, freq=ppo.eval.freq) == ppo.eval
     # the same evaluation episodes; which saved model is evaluated (best or final) is the learner's
     assert dataclasses.replace(other.evaluate, model=ppo.evaluate.model) == ppo.evaluate
+
+
+def test_the_600k_obstacle_config_is_the_benchmark_config_trained_longer() -> None:
+    """sac_ccka_obstacle_600k (the config that meets the Obstacle target) is the benchmark's
+    sac_ccka_obstacle with more steps, a buffer for all of them and the final model evaluated."""
+    import dataclasses
+
+    base = load_config(REPO / "configs" / "sac_ccka_obstacle.yaml")
+    long = load_config(REPO / "configs" / "sac_ccka_obstacle_600k.yaml")
+    assert (long.total_timesteps, long.sac.buffer_size, long.evaluate.model) == (
+        600_000,
+        600_000,
+        "final",
+    )
+    same = dataclasses.replace(
+        long,
+        name=base.name,
+        total_timesteps=base.total_timesteps,
+        sac=dataclasses.replace(long.sac, buffer_size=base.sac.buffer_size),
+        evaluate=dataclasses.replace(long.evaluate, model=base.evaluate.model),
+    )
+    assert same == base
 
 
 #: eval_log.csv of the tiny run below (seed 3, 256 steps): (timesteps, mean_error_mm, mean_reward)

@@ -41,6 +41,18 @@ def _spec(tmp_path: Path, **data: object) -> Path:
     return _write(tmp_path / "sweep.yaml", base)
 
 
+def test_trial_config_names_the_model_the_sweep_evaluates(tmp_path: Path) -> None:
+    """A config whose evaluate.model is final, swept with the sweep's evaluate.model best: the
+    trial's config (and so its run directory's config.yaml) says best, as its --model does."""
+    _write(
+        tmp_path / "a.yaml",
+        {"name": "a", "env": {"id": "cdcr_gym/CCKAReach-v0"}, "evaluate": {"model": "final"}},
+    )
+    (trial,) = expand(load_sweep(_spec(tmp_path, evaluate={"model": "best"})))
+    assert trial.config["evaluate"]["model"] == "best"
+    assert trial.commands()[1][-2:] == ["--model", "best"]
+
+
 # -- the grid -----------------------------------------------------------------------------------
 def test_grid_is_configs_x_overrides_x_grid_x_seeds(tmp_path: Path, configs) -> None:
     path = _spec(
