@@ -319,8 +319,9 @@ class Obstacle(GoalTask):
 
     def make_scene(
         self, rng: np.random.Generator, start_tensions: np.ndarray, backend: Backend
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """A goal (3,) m and spheres (max_obstacles, 4) for one env (see the class docstring)."""
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """A goal (3,) m, spheres (max_obstacles, 4) and the goal's IK tensions (C,) N for one
+        env (see the class docstring)."""
         model, params = self._model, self.params
         t_max = params.max_tension
         start_w = model.bending_from_tensions(start_tensions[None])
@@ -375,7 +376,7 @@ class Obstacle(GoalTask):
                 f"could place only {placed} of {count} spheres (min_obstacles="
                 f"{self.min_obstacles}, radius_range={self.radii})"
             )
-        return goal, spheres
+        return goal, spheres, ik
 
     def reset_goals(
         self,
@@ -391,9 +392,10 @@ class Obstacle(GoalTask):
             )
         start = backend.read().tensions
         for i, rng in zip(idx.tolist(), rngs):
-            self.goal[i], self.obstacles[i] = self.make_scene(rng, start[i], backend)
-        if self.route_features:
-            self.goal_tensions[idx] = solve_ik(self.goal[idx], self.params).tensions
+            self.goal[i], self.obstacles[i], self.goal_tensions[i] = self.make_scene(
+                rng, start[i], backend
+            )
+        if self.route_features:  # the goal's IK from the scene, not solved again
             self._route(start, idx)
         if backend.supports_obstacles:  # the spheres become the simulator's own geometry
             backend.set_obstacles(idx, self.obstacles[idx])
