@@ -157,11 +157,11 @@ def test_off_policy_config_trains_and_evaluates_beside_the_baselines(
     if "policy" in head:  # Track, Pose, Obstacle: the task's metrics beside the baselines
         assert {"oracle", "random"} <= set(head)
         assert head["random"]["episodes"] == head["policy"]["episodes"] == 2
-    if out["task"] == "Obstacle":  # its failures sorted, the config's model, an off-policy algo
+    else:  # Reach
+        assert {"ik", "random"} <= set(head)
+        assert "ik_closed_loop" in head  # MuJoCo: the IK also closed loop
+    if out.get("task") == "Obstacle":  # its failures sorted: the config's model, any algorithm
         replay = _run("training.evaluate.obstacle_failures", run, "--episodes", 2)
         assert replay.returncode == 0, replay.stderr[-3000:]
         model = data["evaluate"].get("model", "best")
         assert f"({model} model)" in replay.stdout.splitlines()[0]
-    else:  # Reach
-        assert {"ik", "random"} <= set(head)
-        assert "ik_closed_loop" in head  # MuJoCo: the IK also closed loop
