@@ -51,7 +51,13 @@ import numpy as np
 
 from training.evaluate.conditions import condition_name
 from training.evaluate.rollout import parse_env_kwarg
-from training.run.config import ConfigError, ExperimentConfig, check_writable_directory, load_config
+from training.run.config import (
+    EVALUATE_MODELS,
+    ConfigError,
+    ExperimentConfig,
+    check_writable_directory,
+    load_config,
+)
 from training.run.envs import registered_steps
 
 __all__ = ["main", "evaluate"]
@@ -474,7 +480,7 @@ def _parse_args(argv: list[str]) -> argparse.Namespace:
     parser.add_argument("--video", action="store_true", help="write an H.264 MP4 of a few episodes")
     parser.add_argument(
         "--model",
-        choices=("best", "final"),
+        choices=EVALUATE_MODELS,
         default=None,
         help="which saved model to evaluate (default: the config's evaluate.model, normally best)",
     )

@@ -26,6 +26,8 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from training.run.config import EVALUATE_MODELS, load_config
+
 __all__ = ["classify", "main"]
 
 
@@ -34,7 +36,6 @@ def classify(run: Path, episodes: int, seed: int, model: str = "best") -> dict[s
     "collided": [...], "waited": [...], "missed": [...]} (lists of per-episode dicts)."""
     import cdcr_gym  # noqa: F401  (registers the ids)
     from training.evaluate.rollout import PPOPolicy
-    from training.run.config import load_config
 
     config = load_config(run / "config.yaml")
     kwargs = {**config.env.kwargs, "initial_state": "straight"}
@@ -84,16 +85,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=1_000_000)
     parser.add_argument(
         "--model",
-        choices=("best", "final"),
+        choices=EVALUATE_MODELS,
         default=None,
         help="which saved model (default: the config's evaluate.model, normally best)",
     )
     args = parser.parse_args(argv)
-    if args.model is None:
+    if args.model is None:  # the config's evaluate.model, as cdcr-gym evaluate
         args.model = "best"
         if (args.run / "config.yaml").is_file():
-            from training.run.config import load_config
-
             args.model = load_config(args.run / "config.yaml").evaluate.model
     if not (args.run / f"{args.model}_model" / "model.zip").exists():
         print(f"error: run: no {args.model}_model/model.zip in {args.run}", file=sys.stderr)

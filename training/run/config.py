@@ -129,6 +129,7 @@ __all__ = [
     "TD3Config",
     "TQCConfig",
     "ALGOS",
+    "EVALUATE_MODELS",
     "EvalConfig",
     "CheckpointConfig",
     "EvaluateConfig",

@@ -14,7 +14,7 @@ from typing import Any
 
 import yaml
 
-from training.run.config import ConfigError
+from training.run.config import EVALUATE_MODELS, ConfigError
 
 __all__ = [
     "TARGET_KEYS",
@@ -157,7 +157,7 @@ def sweep_from_dict(data: Any, name: str = "sweep", base_dir: Path | None = None
     evaluate = EvaluateSpec(**ev)
     if not isinstance(evaluate.enabled, bool):
         raise ConfigError(f"evaluate.enabled must be true or false, got {evaluate.enabled!r}")
-    if evaluate.model not in ("best", "final"):
+    if evaluate.model not in EVALUATE_MODELS:
         raise ConfigError(f"evaluate.model must be 'best' or 'final', got {evaluate.model!r}")
     if evaluate.episodes is not None and (
         not isinstance(evaluate.episodes, int)
