@@ -1,8 +1,8 @@
 """Rollouts of every MuJoCo id on fixed seeds and actions, pinned when the backend landed.
 
 ``python tests/pinned_trajectories_mujoco.py`` writes ``tests/data/pinned_mujoco_v1.npz`` from
-the code as it is; ``tests/test_pinned.py`` checks that the current code reproduces it bit for
-bit. Written once, on the commit that wired the MuJoCo backend into the tasks (before the
+the code as it is; ``tests/test_pinned.py`` checks that the current code reproduces it within the
+tolerances of ``tests/tolerances.py``. Written once, on the commit that wired the MuJoCo backend into the tasks (before the
 single-env speed work on the core), and not to be regenerated to make a refactor pass.
 
 Pinned (the quantities of ``pinned_trajectories_v1``: observation, reward, terminated,

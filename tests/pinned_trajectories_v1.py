@@ -2,7 +2,7 @@
 refactor (issue 22).
 
 ``python tests/pinned_trajectories_v1.py`` writes ``tests/data/pinned_v1.npz`` from the code as
-it is; ``tests/test_pinned.py`` checks that the current code reproduces it bit for bit. The file
+it is; ``tests/test_pinned.py`` checks that the current code reproduces it within the tolerances of ``tests/tolerances.py``. The file
 was written once, before the scalar lane was deleted (commit "Pin every registered id (v1)"),
 and must not be regenerated to make a refactor pass (v0 keeps the older, paper-robot pin).
 

@@ -454,7 +454,9 @@ PINNED_EVAL_LOG = [(128, 228.553791, -22.681192), (256, 229.84247, -22.750727)]
 
 
 def test_pinned_tiny_training_run(tmp_path: Path) -> None:
-    """A tiny PPO run on a fixed seed: its periodic evaluations, to the last printed digit."""
+    """A tiny PPO run on a fixed seed: its periodic evaluations as pinned on another machine,
+    to 1e-5 relative (torch's CPU kernels differ in the last bits between machines; the same
+    seed repeats bit for bit on one machine: ``test_train_resume``)."""
     run = tmp_path / "run"
     result = _run("training.run.train", _tiny_config(tmp_path), "--run-dir", run, timeout=120)
     assert result.returncode == 0, result.stderr[-3000:]
@@ -466,7 +468,9 @@ def test_pinned_tiny_training_run(tmp_path: Path) -> None:
         )
         for r in _csv_rows(run / "eval_log.csv")
     ]
-    assert rows == PINNED_EVAL_LOG
+    assert [r[0] for r in rows] == [p[0] for p in PINNED_EVAL_LOG]
+    for got, want in zip(rows, PINNED_EVAL_LOG):
+        assert got[1:] == pytest.approx(want[1:], rel=1e-5), (got, want)
 
 
 @pytest.mark.slow  # two tiny trainings: 8-25 s
