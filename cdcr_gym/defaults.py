@@ -11,6 +11,9 @@ __all__ = [
     "TENSION_STEP",
     "LENGTH_STEP",
     "INITIAL_STATE",
+    "INITIAL_STATES",
+    "REWARD_TYPE",
+    "RENDER_SIZE",
     "MAX_EPISODE_STEPS",
     "DISTANCE_THRESHOLD",
     "NOMINAL_TIMESTEP",
@@ -22,8 +25,14 @@ ACTION_MODE = "tension_delta"
 TENSION_STEP = 0.05
 #: Largest cable displacement per step in ``length_delta`` mode (m).
 LENGTH_STEP = 0.002
-#: Start shape: ``"straight"`` (zero tensions) or ``"random"``.
+#: Start shapes: ``"straight"`` (zero tensions) or ``"random"`` (a shape drawn like the goals).
+INITIAL_STATES = ("straight", "random")
+#: Default start shape (one of :data:`INITIAL_STATES`).
 INITIAL_STATE = "straight"
+#: Reward type of the goal tasks (``"dense"`` or ``"sparse"``).
+REWARD_TYPE = "dense"
+#: Width and height (px) of a rendered image.
+RENDER_SIZE = 480
 #: Episode length (steps) of the registered ids (Gymnasium's ``max_episode_steps``).
 MAX_EPISODE_STEPS = 100
 #: Success radius (m) of the goal tasks.

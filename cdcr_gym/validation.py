@@ -18,7 +18,6 @@ __all__ = [
     "per_cable",
     "action_array",
     "clipped_action",
-    "clipped_action_values",
     "positive",
     "choice",
     "flag",
@@ -99,42 +98,10 @@ def clipped_action(action: Any, shape: tuple[int, ...]) -> np.ndarray:
     Raises:
         ValueError: naming ``action``.
     """
-    if (
-        type(action) is np.ndarray
-        and action.dtype.kind == "f"
-        and action.shape == shape
-        and action.size <= 16
-    ):
-        # a few numbers are checked and clipped faster one by one than by numpy calls
-        return np.array(clipped_action_values(action, shape)).reshape(shape)
     arr = action_array(action, shape)
     np.maximum(arr, -1.0, out=arr)
     np.minimum(arr, 1.0, out=arr)
     return arr
-
-
-def clipped_action_values(action: Any, shape: tuple[int, ...]) -> list[float]:
-    """One env's action, checked and clipped to [−1, 1], as a flat list of Python floats: the
-    values of ``clipped_action(action, shape)``.
-
-    A small float array (the common case) is handled in Python floats: at a few numbers each
-    numpy call costs more than the arithmetic.
-
-    Raises:
-        ValueError: naming ``action``.
-    """
-    if (
-        type(action) is np.ndarray
-        and action.dtype.kind == "f"
-        and action.shape == shape
-        and action.size <= 16
-    ):
-        values = action.tolist() if action.ndim == 1 else action.ravel().tolist()
-        for x in values:
-            if not math.isfinite(x):
-                raise ValueError(f"action must be finite, got {action!r}")
-        return [-1.0 if x < -1.0 else 1.0 if x > 1.0 else x for x in values]
-    return clipped_action(action, shape).ravel().tolist()
 
 
 def positive(

@@ -2,6 +2,6 @@
 
 from __future__ import annotations
 
-from cdcr_gym.envs.env import CDCREnv, GoalCDCREnv, GoalReachEnv, ReachEnv
+from cdcr_gym.envs.env import CDCREnv, GoalCDCREnv
 
-__all__ = ["CDCREnv", "GoalCDCREnv", "ReachEnv", "GoalReachEnv"]
+__all__ = ["CDCREnv", "GoalCDCREnv"]

@@ -60,19 +60,6 @@ class Actuation:
     def tensions(self, action: np.ndarray, held: np.ndarray) -> np.ndarray:
         """Tensions (N, C) N commanded by clipped ``action`` (N, C) given the ``held`` ones."""
         t_max = self.max_tension
-        if action.shape[0] == 1:
-            # one env: the same operations on a few Python floats (cheaper than numpy calls),
-            # the same bits (np.maximum/np.minimum return their second argument on a tie)
-            if self.mode == "tension":
-                scale = t_max * 0.5
-                return np.array([[scale * (a + 1.0) for a in action.tolist()[0]]])
-            step = self._tension_increment
-            values = []
-            for h, a in zip(held.tolist()[0], action.tolist()[0]):
-                t = h + a * step
-                t = t if t > 0.0 else 0.0
-                values.append(t if t < t_max else t_max)
-            return np.array([values])
         if self.mode == "tension":
             return t_max * 0.5 * (action + 1.0)
         t = held + action * self._tension_increment

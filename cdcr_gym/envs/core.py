@@ -29,15 +29,16 @@ from cdcr_gym import defaults, validation
 from cdcr_gym.backends.base import Backend, Readings
 from cdcr_gym.envs.actuation import Actuation
 from cdcr_gym.envs.safety import SafetyFilter
+from cdcr_gym.model.params import RobotParams
 from cdcr_gym.model.workspace import sample_tensions_each
 from cdcr_gym.randomization import INFO_PREFIX, DomainRandomization, Imperfections
-from cdcr_gym.tasks.base import Task, one_env_info
+from cdcr_gym.tasks.base import Task
 from cdcr_gym.tasks.observation import Field, ObservationSpec
 
-__all__ = ["EnvCore", "INITIAL_STATES", "OPTION_KEYS"]
+__all__ = ["EnvCore", "CoreAttributes", "INITIAL_STATES", "OPTION_KEYS"]
 
 #: Start shapes: straight (zero tensions) or a shape drawn like the goals.
-INITIAL_STATES = ("straight", "random")
+INITIAL_STATES = defaults.INITIAL_STATES
 #: Keys of ``reset(options=...)`` (the vector env also takes Gymnasium's ``reset_mask``).
 OPTION_KEYS = ("goal", "initial_tensions")
 
@@ -356,12 +357,9 @@ class EnvCore:
             np.multiply(diff.T, self._inv_timestep, out=self._tip_velocity)
         self.task.advance(self.backend, self._readings)
 
-    def terminated(self, success: Any) -> Any:
+    def terminated(self, success: np.ndarray) -> np.ndarray:
         """(N,) bool: the envs whose episode ends now: a success with ``terminate_on_success``,
-        or the task's own end (``Task.terminal``, e.g. a collision). A fresh array; for the
-        single env's ``success`` (a bool: :meth:`observe` with ``single``), a bool."""
-        if not isinstance(success, np.ndarray):
-            return bool(self.task.terminal()[0]) or (self.terminate_on_success and bool(success))
+        or the task's own end (``Task.terminal``, e.g. a collision). A fresh array."""
         if self.terminate_on_success:
             return success | self.task.terminal()
         return self.task.terminal().copy()
@@ -372,17 +370,13 @@ class EnvCore:
         return self._readings
 
     # -- outputs --------------------------------------------------------------------------------
-    def observe(self, single: bool = False) -> tuple[Any, Any, Any, dict[str, Any]]:
+    def observe(self) -> tuple[Any, np.ndarray, np.ndarray, dict[str, Any]]:
         """(observation, reward (N,), success (N,), info) of the current state, batched.
 
         The observation is an (N, size) float32 array (the transpose of a field-major buffer),
         or the Dict of (N, ·) float32 arrays.
         ``info`` holds the task's entries plus ``tip`` (N, 3) m, ``tensions`` (N, C) N and
         ``cable_lengths`` (N, C) m.
-
-        ``single`` (the single env, N = 1): env 0's outputs, built once: the observation (size,)
-        (or the Dict of (·,)), the reward a float, success a bool, ``info`` with Python scalars
-        for per-env numbers and env 0's rows (views) for per-env arrays.
         """
         r = self._readings
         task = self.task
@@ -398,22 +392,6 @@ class EnvCore:
             buffer[self._task_rows :] = self._tip_velocity
         flat = buffer.T  # (N, size), Fortran-ordered (like Gymnasium's CartPoleVectorEnv)
         obs: Any
-        if single and not self.goal_conditioned:
-            value, ok, info = task.evaluate_single(r)
-            info["tip"] = r.tip[0]
-            info["tensions"] = r.tensions[0]
-            info["cable_lengths"] = r.cable_lengths[0]
-            if r.anchor_tensions is not None:
-                info["anchor_tensions"] = r.anchor_tensions[0]
-            if self.randomized:
-                for name, values in self.randomized.items():
-                    info[INFO_PREFIX + name] = values.item()
-            if self.safety is not None:
-                correction = float(self.safety_correction[0])
-                info["safety_filtered"] = correction > 0.0
-                info["safety_correction"] = correction
-                value -= self.safety_penalty * correction
-            return flat[0], value, ok, info
         reward, success, info = task.evaluate(r)
         if self.goal_conditioned:
             obs = {
@@ -437,7 +415,63 @@ class EnvCore:
             info["safety_filtered"] = self.safety_correction > 0.0
             info["safety_correction"] = self.safety_correction.copy()
             reward = reward - self.safety_penalty * self.safety_correction
-        if single:  # goal-conditioned: env 0 of the batch
-            obs = {key: value[0] for key, value in obs.items()}
-            return obs, float(reward[0]), bool(success[0]), one_env_info(info)
         return obs, reward, success, info
+
+
+class CoreAttributes:
+    """What both Gymnasium faces (the single env and the vector env) read from their core,
+    written once: the robot, the task and the env's settings (read-only)."""
+
+    core: EnvCore
+
+    @property
+    def params(self) -> RobotParams:
+        """The robot (``backend.params``)."""
+        return self.core.params
+
+    @property
+    def backend(self) -> Backend:
+        """The robot model (N = 1 for the single env)."""
+        return self.core.backend
+
+    @property
+    def task(self) -> Task:
+        """The task object."""
+        return self.core.task
+
+    @property
+    def observation_spec(self) -> ObservationSpec:
+        """The flat observation's layout (``observation_spec.table()`` prints it)."""
+        return self.core.spec
+
+    @property
+    def action_mode(self) -> str:
+        """``tension``, ``tension_delta`` or ``length_delta``."""
+        return self.core.actuation.mode
+
+    @property
+    def tension_step(self) -> float:
+        """Largest tension change per step (fraction of max_tension)."""
+        return self.core.actuation.tension_step
+
+    @property
+    def length_step(self) -> float:
+        """Largest cable displacement per step (m)."""
+        return self.core.actuation.length_step
+
+    @property
+    def terminate_on_success(self) -> bool:
+        """Whether an episode ends once the task succeeds."""
+        return self.core.terminate_on_success
+
+    @property
+    def initial_state(self) -> str | tuple[str, ...]:
+        """The start shape (``straight`` or ``random``), or one per env where they differ."""
+        states = self.core.initial_states
+        return states[0] if len(set(states)) == 1 else states
+
+    def set_difficulty(self, difficulty: float) -> None:
+        """The task's curriculum: episodes from the next reset on are drawn at ``difficulty``
+        in (0, 1] (``Task.set_difficulty``, for every env; ``ValueError`` for a task without
+        one)."""
+        self.core.task.set_difficulty(difficulty)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import inspect
 from typing import Any
 
 import gymnasium as gym
@@ -10,16 +10,33 @@ import numpy as np
 
 from cdcr_gym import defaults, validation
 from cdcr_gym.backends.base import Backend
-from cdcr_gym.envs.core import EnvCore
+from cdcr_gym.envs.core import CoreAttributes, EnvCore
 from cdcr_gym.tasks.base import Task
 from cdcr_gym.tasks.reach import Reach
 
-__all__ = ["CDCREnv", "GoalCDCREnv", "ReachEnv", "GoalReachEnv"]
+__all__ = ["CDCREnv", "GoalCDCREnv", "RENDER_KEYS"]
 
 _ONE = np.array([0])
 
+#: The single env's own arguments (the vector env does not render); the others are
+#: :class:`~cdcr_gym.envs.core.EnvCore`'s.
+RENDER_KEYS = ("render_mode", "render_width", "render_height")
 
-class CDCREnv(gym.Env):
+
+def one_env(outputs: tuple[Any, np.ndarray, np.ndarray, dict[str, Any]]) -> tuple[Any, ...]:
+    """Env 0 of the core's batched (observation, reward, success, info) at N = 1: the
+    observation's row (or the Dict of rows), the reward a float, success a bool, and ``info``
+    with a Python scalar for a per-env number and env 0's row (a view) for a per-env array."""
+    obs, reward, success, info = outputs
+    if isinstance(obs, dict):
+        obs = {key: value[0] for key, value in obs.items()}
+    else:
+        obs = obs[0]
+    info = {key: value.item() if value.ndim == 1 else value[0] for key, value in info.items()}
+    return obs, reward.item(), success.item(), info
+
+
+class CDCREnv(CoreAttributes, gym.Env):
     r"""A cable-driven continuum robot that must do a task, by pulling its cables.
 
     ## Description
@@ -117,51 +134,22 @@ class CDCREnv(gym.Env):
         backend: Backend,
         task: Task | None = None,
         *,
-        action_mode: str = defaults.ACTION_MODE,
-        tension_step: float = defaults.TENSION_STEP,
-        length_step: float = defaults.LENGTH_STEP,
-        initial_state: str = defaults.INITIAL_STATE,
-        terminate_on_success: bool = False,
         render_mode: str | None = None,
-        render_width: int = 480,
-        render_height: int = 480,
-        randomize: Mapping[str, Any] | None = None,
-        imperfections: Mapping[str, Any] | None = None,
-        observe_tip_velocity: bool = False,
-        safety_filter: bool = False,
-        safety_margin: float = 0.0,
-        safety_penalty: float = 0.0,
+        render_width: int = defaults.RENDER_SIZE,
+        render_height: int = defaults.RENDER_SIZE,
+        **options: Any,
     ) -> None:
+        # options: the keyword arguments of EnvCore (the signature shown is built from it)
         if not isinstance(backend, Backend):
             raise ValueError(f"backend must be a cdcr_gym.backends.Backend, got {backend!r}")
         if backend.num_robots != 1:
             raise ValueError(f"backend must hold one robot, got num_robots={backend.num_robots}")
+        if "goal_conditioned" in options:
+            raise ValueError(
+                "goal_conditioned is chosen by the class (GoalCDCREnv) or by gymnasium.make"
+            )
         task = Reach() if task is None else task
-        validation.choice(initial_state, "initial_state", ("straight", "random"))
-        self.backend = backend
-        self.params = backend.params
-        self.core = EnvCore(
-            backend,
-            task,
-            action_mode=action_mode,
-            tension_step=tension_step,
-            length_step=length_step,
-            initial_state=initial_state,
-            goal_conditioned=self.goal_conditioned,
-            terminate_on_success=terminate_on_success,
-            randomize=randomize,
-            imperfections=imperfections,
-            observe_tip_velocity=observe_tip_velocity,
-            safety_filter=safety_filter,
-            safety_margin=safety_margin,
-            safety_penalty=safety_penalty,
-        )
-        self.task = task
-        self.action_mode = action_mode
-        self.tension_step = self.core.actuation.tension_step
-        self.length_step = self.core.actuation.length_step
-        self.initial_state = initial_state
-        self.terminate_on_success = self.core.terminate_on_success
+        self.core = EnvCore(backend, task, goal_conditioned=self.goal_conditioned, **options)
         if render_mode is not None:
             validation.choice(render_mode, "render_mode", tuple(self.metadata["render_modes"]))
         if render_mode == "human":
@@ -179,18 +167,12 @@ class CDCREnv(gym.Env):
         self._action_shape = (self.params.n_cables,)
         self.action_space = self.core.action_space
         self.observation_space = self.core.observation_space
-        self.observation_spec = self.core.spec
 
     # -- task API -------------------------------------------------------------------------------
     @property
     def goal(self) -> np.ndarray:
         """The current goal of the task (a copy)."""
         return self.task.desired_goal()[0].copy()
-
-    def set_difficulty(self, difficulty: float) -> None:
-        """The task's curriculum: episodes from the next reset on are drawn at ``difficulty``
-        in (0, 1] (``Task.set_difficulty``; ``ValueError`` for a task without one)."""
-        self.task.set_difficulty(difficulty)
 
     # -- Gymnasium API --------------------------------------------------------------------------
     def reset(
@@ -205,16 +187,18 @@ class CDCREnv(gym.Env):
         return obs, info
 
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
-        self.core.step(np.array([validation.clipped_action_values(action, self._action_shape)]))
+        self.core.step(validation.clipped_action(action, self._action_shape)[None])
         obs, reward, terminated, info = self._observe()
         if self.render_mode == "human":
             self.render()
         return obs, reward, terminated, False, info
 
-    def _observe(self) -> tuple[Any, float, bool, dict[str, Any]]:
+    def _observe(self) -> tuple[Any, ...]:
         """The core's outputs for its one env: (observation, reward, terminated, info)."""
-        obs, reward, success, info = self.core.observe(single=True)
-        return obs, reward, self.core.terminated(success), info
+        core = self.core
+        obs, reward, success, info = core.observe()
+        terminated = core.terminated(success)
+        return one_env((obs, reward, terminated, info))
 
     def render(self) -> np.ndarray | None:
         if self.render_mode is None:
@@ -264,21 +248,18 @@ class GoalCDCREnv(CDCREnv):
         return float(reward) if np.ndim(reward) == 0 else reward
 
 
-def _reach(kwargs: dict[str, Any]) -> Reach:
-    task_kwargs = {k: kwargs.pop(k) for k in ("reward_type", "distance_threshold") if k in kwargs}
-    return Reach(**task_kwargs)
+def _signature() -> inspect.Signature:
+    """:class:`CDCREnv`'s signature as ``inspect`` shows it: ``backend``, ``task``, then
+    :class:`EnvCore`'s options (their one source) and the rendering arguments."""
+    own = inspect.signature(CDCREnv.__init__).parameters
+    core = inspect.signature(EnvCore.__init__).parameters
+    options = [
+        p for name, p in core.items() if p.kind is p.KEYWORD_ONLY and name != "goal_conditioned"
+    ]
+    render = [own[name] for name in RENDER_KEYS]
+    return inspect.Signature(
+        [own["self"], own["backend"], own["task"], *options, *render], return_annotation=None
+    )
 
 
-class ReachEnv(CDCREnv):
-    """:class:`CDCREnv` with the :class:`~cdcr_gym.tasks.reach.Reach` task, built from the
-    reach arguments (``reward_type``, ``distance_threshold``) and the env's."""
-
-    def __init__(self, backend: Backend, **kwargs: Any) -> None:
-        super().__init__(backend, _reach(kwargs), **kwargs)
-
-
-class GoalReachEnv(GoalCDCREnv):
-    """:class:`GoalCDCREnv` with the :class:`~cdcr_gym.tasks.reach.Reach` task."""
-
-    def __init__(self, backend: Backend, **kwargs: Any) -> None:
-        super().__init__(backend, _reach(kwargs), **kwargs)
+CDCREnv.__init__.__signature__ = _signature()  # type: ignore[attr-defined]

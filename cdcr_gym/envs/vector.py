@@ -18,12 +18,13 @@ from gymnasium.vector.utils import batch_space
 
 from cdcr_gym import defaults, validation
 from cdcr_gym.envs import factory
-from cdcr_gym.envs.core import EnvCore
+from cdcr_gym.envs.core import CoreAttributes, EnvCore
+from cdcr_gym.envs.env import RENDER_KEYS
 
-__all__ = ["CDCRVectorEnv", "CCKAReachVectorEnv"]
+__all__ = ["CDCRVectorEnv"]
 
 
-class CDCRVectorEnv(VectorEnv):
+class CDCRVectorEnv(CoreAttributes, VectorEnv):
     r"""``num_envs`` copies of a ``CCKA*-v0`` env stepped together with numpy (no Python loop).
 
     Same robot, task, spaces, rewards, goals and seeding as ``gymnasium.make(id, **kwargs)``
@@ -98,40 +99,30 @@ class CDCRVectorEnv(VectorEnv):
         self.max_episode_steps = max_episode_steps
         self.render_mode = None
         self.goal_conditioned = validation.flag(goal_conditioned, "goal_conditioned")
-        params = factory.resolve_params(
-            kwargs.pop("robot", None),
-            kwargs.pop("params", None),
-            factory.default_robot(backend, task),
+        robots, task_object, env_kw = factory.assemble(
+            backend,
+            task,
+            kwargs,
+            robot=kwargs.pop("robot", None),
+            params=kwargs.pop("params", None),
+            num_robots=n,
         )
-        backend_class, backend_kw, task_class, task_kw, env_kw = factory.split_kwargs(
-            backend, task, kwargs
-        )
-        if "num_robots" not in factory.keyword_names(backend_class):
-            raise ValueError(
-                f"backend {backend!r} holds one robot: the batched env needs a backend with "
-                f"num_robots (CCKA, MuJoCo); use gymnasium.make_vec(..., vectorization_mode='sync')"
-            )
-        for key in ("render_width", "render_height"):
+        for key in RENDER_KEYS:  # accepted (as gymnasium.make accepts them), nothing to render
             env_kw.pop(key, None)
-        self.task = task_class(**task_kw)
-        robots = backend_class(params=params, num_robots=n, **backend_kw)
-        self.core = EnvCore(robots, self.task, goal_conditioned=self.goal_conditioned, **env_kw)
-        self.terminate_on_success = self.core.terminate_on_success
-        self.params = params
-        self.observation_spec = self.core.spec
-        actuation = self.core.actuation
-        self.action_mode = actuation.mode
-        self.tension_step = actuation.tension_step
-        self.length_step = actuation.length_step
-        states = self.core.initial_states
-        self.initial_state = states[0] if len(set(states)) == 1 else states
+        try:
+            self.core = EnvCore(
+                robots, task_object, goal_conditioned=self.goal_conditioned, **env_kw
+            )
+        except Exception:
+            robots.close()
+            raise
         self.single_action_space = self.core.action_space
         self.single_observation_space = self.core.observation_space
         self.action_space = batch_space(self.single_action_space, n)
         self.observation_space = batch_space(self.single_observation_space, n)
         self.metadata = dict(self.metadata)
         self.metadata["autoreset_mode"] = self.autoreset_mode
-        self._action_shape = (n, self.params.n_cables)
+        self._action_shape = (n, self.core.n_cables)
         self._rngs: list[np.random.Generator | None] = [None] * n
         self._rng_seeds: list[int | None] = [None] * n
         self._steps = np.zeros(n, dtype=np.int64)
@@ -286,13 +277,5 @@ class CDCRVectorEnv(VectorEnv):
         """Goal-conditioned reward, vectorised over leading dimensions (as the single env's)."""
         return self.task.compute_reward(achieved_goal, desired_goal, info)
 
-    def set_difficulty(self, difficulty: float) -> None:
-        """The task's curriculum, for every env (as ``CDCREnv.set_difficulty``)."""
-        self.task.set_difficulty(difficulty)
-
     def close_extras(self, **kwargs: Any) -> None:
         self.core.backend.close()
-
-
-#: The name of the batched reach env before tasks became objects (kept for imports).
-CCKAReachVectorEnv = CDCRVectorEnv

@@ -204,10 +204,8 @@ class PCCModel:
         return bending_from_arc(as_finite("theta", theta), as_finite("phi", phi))
 
     # -- forward kinematics ----------------------------------------------------------------------
-    # One kernel (:func:`_tip_and_direction`) serves every caller: plain arithmetic on "numbers"
-    # that are numpy arrays of the batch shape, or Python floats for a single shape (at one
-    # number a numpy call costs ~20x the arithmetic). The same operations in the same order give
-    # the same bits either way.
+    # One kernel (:func:`_tip_and_direction`) serves every caller: plain arithmetic on numpy
+    # arrays of the batch shape (one per bending component).
     def _components(self, w) -> tuple[list[np.ndarray], tuple[int, ...]]:
         """The bending components (wx_0, wy_0, wx_1, …) of w (..., S, 2) as 2S arrays of the
         batch shape (views), and the batch shape."""
@@ -219,19 +217,8 @@ class PCCModel:
 
     def _kinematics(self, comp) -> tuple[tuple, tuple]:
         """(tip (x, y, z) m, unit tip tangent (x, y, z)) of the bending components ``comp``
-        (2S numbers or arrays of one shape), each a 3-tuple of the same kind."""
-        if type(comp) is np.ndarray and comp.ndim == 2 and comp.shape[1] == 1:
-            # one robot: Python floats
-            return _tip_and_direction(
-                comp.ravel().tolist(), self._section_length_list, math.sqrt, math.tan
-            )
-        numbers = isinstance(comp[0], float)
-        return _tip_and_direction(
-            comp,
-            self._section_length_list,
-            math.sqrt if numbers else np.sqrt,
-            math.tan if numbers else np.tan,
-        )
+        (2S arrays of one shape), each a 3-tuple of arrays."""
+        return _tip_and_direction(comp, self._section_length_list, np.sqrt, np.tan)
 
     def tip_from_bending(self, w) -> np.ndarray:
         """Tip position (..., 3) (m) in R0 of the shape w (..., S, 2) (rad)."""
@@ -274,9 +261,6 @@ class PCCModel:
         tip, direction = self._kinematics(comp)
         lengths = self._lengths_map @ comp
         lengths += self._straight_column
-        if m == 1:  # Python floats: one array for both
-            both = np.array(tip + direction).reshape(2, 3, 1)
-            return both[0], both[1], lengths
         return np.array(tip).reshape(3, m), np.array(direction).reshape(3, m), lengths
 
     def section_frames(self, w) -> np.ndarray:

@@ -5,22 +5,20 @@ fields, and turns the backend's :class:`~cdcr_gym.backends.base.Readings` into o
 rewards, success flags and ``info`` entries. It reads the robot only through the readings and
 ``Backend.equilibrium`` (to draw goals the backend can reach); it never commands the robot.
 
-Everything is batched over the N envs of the core (the single env is N = 1): goals are (N, ·)
-arrays, readings (N, ·) arrays. The per-step arithmetic of :class:`GoalTask` is written once on
-*columns* (:func:`columns`): the m columns of an (N, m) array, as m (N,) rows for a batch or as
-m Python floats for one env — the same operations in the same order, so the same bits, without
-paying a numpy call (~0.3 µs) per number at N = 1.
+Everything is batched over the N envs of the core (the single env is N = 1, on the same code):
+goals are (N, ·) arrays, readings (N, ·) arrays, observations written into a field-major
+(size, N) buffer.
 """
 
 from __future__ import annotations
 
 import abc
-import math
 from typing import Any
 
 import numpy as np
 from gymnasium import spaces
 
+from cdcr_gym import defaults
 from cdcr_gym.backends.base import Backend, Readings
 from cdcr_gym.model.params import RobotParams
 from cdcr_gym.tasks.observation import Field, ObservationSpec
@@ -30,10 +28,7 @@ __all__ = [
     "GoalTask",
     "robot_state_fields",
     "fill_robot_state",
-    "robot_state_values",
-    "columns",
     "goal_distance",
-    "one_env_info",
     "REWARD_TYPES",
     "ERROR_SCALE",
 ]
@@ -68,50 +63,15 @@ def robot_state_fields(params: RobotParams) -> list[Field]:
 
 
 class RobotStateScale:
-    """Constants of :func:`robot_state_values` for a robot (precomputed once)."""
+    """Constants of :func:`fill_robot_state` for a robot (precomputed once)."""
 
     def __init__(self, params: RobotParams) -> None:
         sections = np.asarray(params.cable_section)
         self.inv_max_tension = 1.0 / params.max_tension
         self.run_lengths = np.asarray(params.cable_run_lengths)
         self.inv_length_span = 1.0 / (np.pi * np.asarray(params.cable_radii) * (sections + 1))
-        self.run_lengths_list = self.run_lengths.tolist()
-        self.inv_span_list = self.inv_length_span.tolist()
-        self.length_lists = (self.run_lengths_list, self.inv_span_list)
         self.inv_length_span_col = self.inv_length_span[:, None]  # (C, 1): per field row
         self.run_lengths_col = self.run_lengths[:, None]
-
-
-def columns(values: np.ndarray, numbers: bool) -> list[Any]:
-    """The m columns of an (N, m) array: m Python floats if ``numbers`` (N = 1), else m (N,)
-    row views."""
-    return values.tolist()[0] if numbers else list(values.T)
-
-
-def robot_state_values(
-    readings: Readings, scale: RobotStateScale, numbers: bool = True
-) -> dict[str, list[Any]]:
-    """The ``tensions`` and ``cable_lengths`` fields of ``readings``, as :func:`columns`."""
-    inv_t = scale.inv_max_tension
-    if numbers:  # (columns() inlined: this runs every step of the single env)
-        tensions, lengths = readings.tensions.tolist()[0], readings.cable_lengths.tolist()[0]
-    else:
-        tensions, lengths = list(readings.tensions.T), list(readings.cable_lengths.T)
-    return {
-        "tensions": [t * inv_t for t in tensions],
-        "cable_lengths": list(map(_normalised, lengths, *scale.length_lists)),
-    }
-
-
-def _normalised(length: Any, run: float, inv: float) -> Any:
-    return (length - run) * inv
-
-
-def _index(rows: np.ndarray) -> slice | np.ndarray:
-    """``rows`` (sorted indices) as a slice when consecutive (basic indexing is faster)."""
-    if rows.size and np.array_equal(rows, np.arange(rows[0], rows[0] + rows.size)):
-        return slice(int(rows[0]), int(rows[0]) + rows.size)
-    return rows
 
 
 def fill_robot_state(
@@ -134,25 +94,12 @@ def fill_robot_state(
     )
 
 
-def _distance(a: list[Any], d: list[Any], sqrt: Any) -> Any:
-    """‖a − d‖ of two 3-vectors given by coordinates (numbers or arrays)."""
-    e0, e1, e2 = a[0] - d[0], a[1] - d[1], a[2] - d[2]
-    return sqrt(e0 * e0 + e1 * e1 + e2 * e2)
-
-
 def goal_distance(achieved_goal: np.ndarray, desired_goal: np.ndarray) -> np.ndarray:
     """Euclidean distance (m) between points (..., 3), over the last axis, in float64 (shape
     (...)): the one distance of every goal task (reward, success, ``info``, HER)."""
     e = np.subtract(achieved_goal, desired_goal, dtype=np.float64)
     e *= e
     return np.sqrt(e[..., 0] + e[..., 1] + e[..., 2])
-
-
-def one_env_info(info: dict[str, np.ndarray]) -> dict[str, Any]:
-    """Env 0's entries of a batched ``info`` (N = 1): a Python scalar for an (1,) entry, else
-    the env's row (a view)."""
-    # N = 1: a 1-D entry is an (N,) = (1,) one
-    return {key: value.item() if value.ndim == 1 else value[0] for key, value in info.items()}
 
 
 class Task(abc.ABC):
@@ -209,14 +156,6 @@ class Task(abc.ABC):
     @abc.abstractmethod
     def evaluate(self, readings: Readings) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
         """(reward (N,), success (N,) bool, task info entries of (N, ...) arrays)."""
-
-    def evaluate_single(self, readings: Readings) -> tuple[float, bool, dict[str, Any]]:
-        """:meth:`evaluate` for the single env (N = 1): (reward float, success bool, info with
-        Python scalars for per-env numbers and env 0's rows for per-env arrays). Default: env 0
-        of :meth:`evaluate`; a task may compute it directly (:class:`GoalTask`), with the same
-        arithmetic (the same bits)."""
-        reward, success, info = self.evaluate(readings)
-        return float(reward[0]), bool(success[0]), one_env_info(info)
 
     def compute_reward(
         self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any = None
@@ -291,8 +230,8 @@ class GoalTask(Task):
     field-major rows :attr:`goal_rows` (3, N), updated in place), the position block of the
     observation (fields ``tip``, the goal (:attr:`goal_name`), ``error`` = goal − tip and
     ``error_tanh`` = tanh(error / :data:`ERROR_SCALE`): :meth:`position_fields`) and its
-    filling with the robot state (:meth:`observe`: for a batch as row blocks, for one env as
-    Python floats written at once, :meth:`common_values`), the distance (:func:`goal_distance`), the dense/sparse reward of a distance
+    filling with the robot state (:meth:`observe`, as row blocks), the distance
+    (:func:`goal_distance`), the dense/sparse reward of a distance
     (:meth:`reward_from_distance`) and :meth:`compute_reward`, vectorised over the last axis so
     that HER can relabel batches, and the base of ``info`` (:meth:`evaluate`).
 
@@ -305,8 +244,8 @@ class GoalTask(Task):
     goal_name = "goal"
     goal_description = "goal position x, y, z in R0"
 
-    reward_type = "dense"
-    distance_threshold = 0.005
+    reward_type = defaults.REWARD_TYPE
+    distance_threshold = defaults.DISTANCE_THRESHOLD
 
     def __getstate__(self) -> dict[str, Any]:
         """Pickling (env snapshots, copies) keeps :attr:`goal` a view of :attr:`goal_rows`:
@@ -329,19 +268,6 @@ class GoalTask(Task):
         self._scale = RobotStateScale(params)
         self._specs = {gc: ObservationSpec(self.fields(gc)) for gc in (False, True)}
         self._slices = {gc: spec.slices for gc, spec in self._specs.items()}
-        common = set(self.position_fields()) | {"tensions", "cable_lengths"}
-        #: The position block's and robot state's field names (observation order) and rows.
-        self._common = {
-            gc: tuple(n for n in spec.names if n in common) for gc, spec in self._specs.items()
-        }
-        self._common_rows = {
-            gc: _index(
-                np.concatenate(
-                    [np.arange(spec.slices[n].start, spec.slices[n].stop) for n in self._common[gc]]
-                )
-            )
-            for gc, spec in self._specs.items()
-        }
 
     # -- observation ----------------------------------------------------------------------------
     def position_fields(self) -> dict[str, Field]:
@@ -372,37 +298,9 @@ class GoalTask(Task):
 
     def observe(self, readings: Readings, out: np.ndarray, goal_conditioned: bool) -> None:
         s = self._slices[goal_conditioned]
-        if out.shape[1] == 1:
-            # one env: the position block and the robot state on Python floats, written at once
-            # (a float64 array is written ~5x faster than a list of Python floats)
-            out[self._common_rows[goal_conditioned], 0] = np.array(
-                self.common_values(readings, goal_conditioned)
-            )
-        else:
-            self.fill_position(out, s, readings, goal_conditioned)
-            fill_robot_state(out, s["tensions"], s["cable_lengths"], readings, self._scale)
+        self.fill_position(out, s, readings, goal_conditioned)
+        fill_robot_state(out, s["tensions"], s["cable_lengths"], readings, self._scale)
         self.observe_extra(readings, out, s, goal_conditioned)
-
-    def common_values(self, readings: Readings, goal_conditioned: bool) -> list[float]:
-        """One env's position block and robot state (the fields of :meth:`position_fields` and
-        :func:`robot_state_fields`, in observation order) as Python floats: the arithmetic of
-        :meth:`fill_position` and :func:`fill_robot_state`, for one env."""
-        tip = readings.tip.tolist()[0]
-        values = robot_state_values(readings, self._scale, True)
-        values["tip"] = tip
-        if not goal_conditioned:
-            g0, g1, g2 = goal = self.goal_rows[:, 0].tolist()
-            t0, t1, t2 = tip
-            e0, e1, e2 = error = [g0 - t0, g1 - t1, g2 - t2]
-            inv = 1.0 / ERROR_SCALE
-            tanh = math.tanh
-            values[self.goal_name] = goal
-            values["error"] = error
-            values["error_tanh"] = [tanh(e0 * inv), tanh(e1 * inv), tanh(e2 * inv)]
-        out: list[float] = []
-        for name in self._common[goal_conditioned]:  # (2x faster than itertools.chain here)
-            out += values[name]
-        return out
 
     def fill_position(
         self, out: np.ndarray, s: dict[str, slice], readings: Readings, goal_conditioned: bool
@@ -430,17 +328,11 @@ class GoalTask(Task):
 
     def distance(self, readings: Readings) -> np.ndarray:
         """(N,) distance (m) from the tip to the goal (:func:`goal_distance`)."""
-        if self.num_envs == 1:
-            return np.array([self._distance_value(readings)])
         return goal_distance(readings.tip, self.goal)
-
-    def _distance_value(self, readings: Readings) -> float:
-        """One env's :meth:`distance` as a Python float (the same bits)."""
-        return _distance(readings.tip.tolist()[0], self.goal_rows[:, 0].tolist(), math.sqrt)
 
     def reward_from_distance(self, distance: Any) -> Any:
         """``"dense"``: −distance (m); ``"sparse"``: −1 while distance > distance_threshold,
-        else 0. Elementwise: (N,) arrays, or a Python float for one env."""
+        else 0. Elementwise on arrays."""
         if self.reward_type == "dense":
             return -distance
         return -((distance > self.distance_threshold) * 1.0)
@@ -451,26 +343,11 @@ class GoalTask(Task):
         return self.reward_from_distance(goal_distance(achieved_goal, desired_goal))
 
     def evaluate(self, readings: Readings) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
-        if self.num_envs == 1:  # on a Python float (numpy calls cost more at one number)
-            d = self._distance_value(readings)
-            distance = np.array([d])
-            success = np.array([d <= self.distance_threshold])
-            reward = np.array([self.reward_from_distance(d)])
-        else:
-            distance = goal_distance(readings.tip, self.goal)
-            success = distance <= self.distance_threshold
-            reward = self.reward_from_distance(distance)
+        distance = goal_distance(readings.tip, self.goal)
+        success = distance <= self.distance_threshold
+        reward = self.reward_from_distance(distance)
         info = {"distance": distance, "is_success": success, self.goal_name: self.goal.copy()}
         return reward, success, info
-
-    def evaluate_single(self, readings: Readings) -> tuple[float, bool, dict[str, Any]]:
-        if type(self).evaluate is not GoalTask.evaluate:  # a subclass's own evaluate: its info
-            return super().evaluate_single(readings)
-        # :meth:`evaluate`'s arithmetic on Python floats, without the (1,) arrays
-        d = self._distance_value(readings)
-        success = d <= self.distance_threshold
-        info = {"distance": d, "is_success": success, self.goal_name: self.goal_rows[:, 0].copy()}
-        return self.reward_from_distance(d), success, info
 
     def info_keys(self) -> tuple[str, ...]:
         return ("distance", "is_success", self.goal_name)

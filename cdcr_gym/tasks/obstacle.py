@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-from cdcr_gym import validation
+from cdcr_gym import defaults, validation
 from cdcr_gym.backends.base import Backend, Readings
 from cdcr_gym.model.ik import solve_ik
 from cdcr_gym.model.statics import cached_model
@@ -164,8 +164,8 @@ class Obstacle(GoalTask):
 
     def __init__(
         self,
-        reward_type: str = "dense",
-        distance_threshold: float = 0.005,
+        reward_type: str = defaults.REWARD_TYPE,
+        distance_threshold: float = defaults.DISTANCE_THRESHOLD,
         collision_penalty: float = 0.5,
         penetration_weight: float = 0.0,
         terminate_on_collision: bool = False,

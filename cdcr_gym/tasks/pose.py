@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from cdcr_gym import validation
+from cdcr_gym import defaults, validation
 from cdcr_gym.backends.base import Backend, Readings
 from cdcr_gym.model.ik import solve_pose_ik
 from cdcr_gym.model.workspace import sample_tensions_each
@@ -98,8 +98,8 @@ class Pose(GoalTask):
 
     def __init__(
         self,
-        reward_type: str = "dense",
-        distance_threshold: float = 0.005,
+        reward_type: str = defaults.REWARD_TYPE,
+        distance_threshold: float = defaults.DISTANCE_THRESHOLD,
         angle_threshold: float = float(np.deg2rad(5.0)),
         angle_weight: float = 0.05,
     ) -> None:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cdcr_gym import validation
+from cdcr_gym import defaults, validation
 from cdcr_gym.backends.base import Backend
 from cdcr_gym.model.ik import solve_ik
 from cdcr_gym.model.workspace import sample_tensions_each
@@ -40,7 +40,11 @@ class Reach(GoalTask):
     name = "Reach"
     goal_size = 3
 
-    def __init__(self, reward_type: str = "dense", distance_threshold: float = 0.005) -> None:
+    def __init__(
+        self,
+        reward_type: str = defaults.REWARD_TYPE,
+        distance_threshold: float = defaults.DISTANCE_THRESHOLD,
+    ) -> None:
         self.reward_type = validation.choice(reward_type, "reward_type", REWARD_TYPES)
         self.distance_threshold = validation.positive(distance_threshold, "distance_threshold")
 

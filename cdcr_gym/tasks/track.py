@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-from cdcr_gym import validation
+from cdcr_gym import defaults, validation
 from cdcr_gym.backends.base import Backend, Readings
 from cdcr_gym.defaults import NOMINAL_TIMESTEP
 from cdcr_gym.model.workspace import sample_tensions
@@ -150,7 +150,7 @@ class Track(GoalTask):
         self,
         speed: float = 0.05,
         settle_steps: int = 25,
-        distance_threshold: float = 0.005,
+        distance_threshold: float = defaults.DISTANCE_THRESHOLD,
         n_waypoints: int = 6,
         timestep: float | None = None,
     ) -> None:

@@ -15,7 +15,7 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 import cdcr_gym
 from cdcr_gym import kinematics as K
 from cdcr_gym.backends.analytic import AnalyticBackend
-from cdcr_gym.envs.env import GoalCDCREnv, ReachEnv
+from cdcr_gym.envs.env import CDCREnv, GoalCDCREnv
 from cdcr_gym.model.statics import bending_limit
 from cdcr_gym.params import RobotParams
 
@@ -272,10 +272,11 @@ def test_rgb_array_render_has_the_right_shape_and_is_not_blank():
     assert not np.array_equal(env.render(), frame)  # the drawing follows the robot
 
 
-def test_reach_env_takes_a_backend_object():
+def test_the_env_takes_a_backend_object_and_reaches_by_default():
     with pytest.raises(ValueError, match="backend"):
-        ReachEnv("ccka")  # type: ignore[arg-type]
-    env = ReachEnv(AnalyticBackend(), action_mode="tension")
+        CDCREnv("ccka")  # type: ignore[arg-type]
+    env = CDCREnv(AnalyticBackend(), action_mode="tension")
+    assert type(env.task).__name__ == "Reach"
     env.reset(seed=0)
     assert env.step(np.zeros(3, dtype=np.float32))[4]["tensions"].tolist() == [40.0] * 3
 
@@ -295,9 +296,8 @@ def test_observations_stay_in_the_space_over_long_random_runs():
 
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
 @pytest.mark.parametrize("shape", [(3,), (6,), (2, 3), (20,)])
-def test_clipped_action_values_equal_numpy_clip_of_the_float64_action(dtype, shape):
-    """The single env's Python-float action path (validation.clipped_action_values) and the
-    array path (validation.clipped_action) against numpy."""
+def test_clipped_action_equals_numpy_clip_of_the_float64_action(dtype, shape):
+    """The action path of both envs (validation.clipped_action) against numpy."""
     from cdcr_gym import validation
 
     rng = np.random.default_rng(3)
@@ -307,12 +307,8 @@ def test_clipped_action_values_equal_numpy_clip_of_the_float64_action(dtype, sha
         got = validation.clipped_action(action, shape)
         assert got.dtype == np.float64 and got.shape == shape
         np.testing.assert_array_equal(got, want)
-        values = validation.clipped_action_values(action, shape)
-        assert all(type(v) is float for v in values)
-        np.testing.assert_array_equal(np.array(values), want.ravel())
     for bad in (np.nan, np.inf, -np.inf):
         action = np.zeros(shape, dtype)
         action.flat[-1] = bad
-        for check in (validation.clipped_action, validation.clipped_action_values):
-            with pytest.raises(ValueError, match="action must be finite"):
-                check(action, shape)
+        with pytest.raises(ValueError, match="action must be finite"):
+            validation.clipped_action(action, shape)

@@ -15,7 +15,7 @@ import pytest
 from gymnasium.vector import AutoresetMode
 
 import cdcr_gym
-from cdcr_gym.envs.vector import CCKAReachVectorEnv
+from cdcr_gym.envs.vector import CDCRVectorEnv
 from cdcr_gym.model.workspace import sample_arcs, sample_arcs_each
 from cdcr_gym.params import RobotParams
 
@@ -138,7 +138,7 @@ def test_equivalence_same_step_autoreset(goal_conditioned):
 
 def test_make_vec_registration_and_spaces():
     env = gym.make_vec(ENV_ID, num_envs=3, vectorization_mode="vector_entry_point")
-    assert isinstance(env, CCKAReachVectorEnv)
+    assert isinstance(env, CDCRVectorEnv)
     assert env.max_episode_steps == cdcr_gym.MAX_EPISODE_STEPS
     assert env.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
     single = gym.make(ENV_ID)
@@ -154,7 +154,7 @@ def test_make_vec_registration_and_spaces():
     assert info["tip"].shape == (3, 3) and info["is_success"].dtype == np.bool_
     assert info["_distance"].all()
     # the default vectorization mode picks the batched env too; the short id works
-    assert isinstance(gym.make_vec("CCKAReach-v0", num_envs=2), CCKAReachVectorEnv)
+    assert isinstance(gym.make_vec("CCKAReach-v0", num_envs=2), CDCRVectorEnv)
     dict_env = gym.make_vec(
         ENV_ID, num_envs=2, vectorization_mode="vector_entry_point", goal_conditioned=True
     )
@@ -181,7 +181,7 @@ def test_params_and_kwargs_reach_the_batched_env():
 
 def test_reset_with_seed_list_mask_and_options_matches_single_envs():
     n = 4
-    env = CCKAReachVectorEnv(n, initial_state="random")
+    env = CDCRVectorEnv(n, initial_state="random")
     seeds = [10, None, 12, 13]
     obs, info = env.reset(seed=seeds)
     for i, s in enumerate(seeds):
@@ -221,7 +221,7 @@ def test_batched_sampler_draws_exactly_like_per_env_sampling():
 
 
 def test_returned_arrays_are_never_overwritten():
-    env = CCKAReachVectorEnv(3)
+    env = CDCRVectorEnv(3)
     obs, info = env.reset(seed=0)
     kept_obs, kept_tip = obs, info["tip"]
     copies = obs.copy(), info["tip"].copy()
@@ -235,16 +235,16 @@ def test_returned_arrays_are_never_overwritten():
 
 def test_validation():
     with pytest.raises(ValueError, match="num_envs"):
-        CCKAReachVectorEnv(0)
+        CDCRVectorEnv(0)
     with pytest.raises(ValueError, match="action_mode"):
-        CCKAReachVectorEnv(2, action_mode="torque")
+        CDCRVectorEnv(2, action_mode="torque")
     with pytest.raises(ValueError, match="render_mode"):
-        CCKAReachVectorEnv(2, render_mode="rgb_array")
+        CDCRVectorEnv(2, render_mode="rgb_array")
     with pytest.raises(ValueError, match="max_episode_steps"):
-        CCKAReachVectorEnv(2, max_episode_steps=0)
+        CDCRVectorEnv(2, max_episode_steps=0)
     with pytest.raises(ValueError, match="initial_state"):
-        CCKAReachVectorEnv(2, initial_state=["straight"])
-    env = CCKAReachVectorEnv(2)
+        CDCRVectorEnv(2, initial_state=["straight"])
+    env = CDCRVectorEnv(2)
     with pytest.raises(gym.error.ResetNeeded):
         env.step(np.zeros((2, 3)))
     env.reset(seed=0)

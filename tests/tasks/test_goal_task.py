@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import cdcr_gym  # noqa: F401  (registers the ids)
-from cdcr_gym.tasks.base import GoalTask, columns, goal_distance
+from cdcr_gym.tasks.base import GoalTask, goal_distance
 from cdcr_gym.tasks.obstacle import Obstacle
 from cdcr_gym.tasks.pose import Pose
 from cdcr_gym.tasks.reach import Reach
@@ -44,13 +44,6 @@ def test_compute_reward_relabels_batches_as_the_env_rewards(reward_type):
     assert batch.shape == (1, 20) and np.array_equal(batch[0], rewards)
 
 
-def test_columns_are_numbers_for_one_env_and_rows_for_a_batch():
-    a = np.arange(6.0).reshape(2, 3)
-    assert columns(a[:1], True) == [0.0, 1.0, 2.0]
-    rows = columns(a, False)
-    assert len(rows) == 3 and rows[1].tolist() == [1.0, 4.0]
-
-
 def test_obstacle_compute_reward_agrees_with_evaluate():
     env = gym.make("cdcr_gym/CCKAObstacle-v0", action_mode="tension", penetration_weight=2.0)
     env.reset(seed=8)
@@ -66,23 +59,21 @@ def test_obstacle_compute_reward_agrees_with_evaluate():
 
 @pytest.mark.parametrize("task_id", ["Reach", "Pose", "Track", "Obstacle"])
 @pytest.mark.parametrize("reward_type", ["dense", "sparse"])
-def test_evaluate_single_is_env_0_of_evaluate(task_id, reward_type):
-    """The single env's outputs built once (``Task.evaluate_single``; GoalTask's on Python
-    floats) equal env 0 of the batched ``evaluate``: the same values, bits and types."""
+def test_the_single_env_returns_env_0_of_evaluate(task_id, reward_type):
+    """The single env's reward, success and task info are env 0 of the batched ``evaluate``
+    (the one path at N = 1): the same values and bits, as Python scalars where per-env
+    numbers."""
     kwargs = {} if task_id in ("Track", "Obstacle") else {"reward_type": reward_type}
     env = gym.make(f"cdcr_gym/CCKA{task_id}-v0", **kwargs)
     env.reset(seed=3)
     task = env.unwrapped.task
     shape = (10, *env.action_space.shape)
     for a in np.random.default_rng(3).uniform(-1, 1, shape).astype(np.float32):
-        env.step(a)
-        readings = env.unwrapped.core.readings
-        reward, success, info = task.evaluate_single(readings)
-        rewards, successes, infos = task.evaluate(readings)
-        assert type(reward) is float and reward == rewards[0]
+        _, reward, _, _, info = env.step(a)
+        rewards, successes, infos = task.evaluate(env.unwrapped.core.readings)
+        assert type(reward) is float
         assert np.float64(reward).tobytes() == rewards[:1].tobytes()
-        assert type(success) is bool and success == successes[0]
-        assert list(info) == list(infos)
+        assert type(info["is_success"]) is bool and info["is_success"] == successes[0]
         for key, value in infos.items():
             want = value.item() if value.ndim == 1 else value[0]
             assert type(info[key]) is type(want), key

@@ -24,7 +24,7 @@ import gymnasium as gym
 import numpy as np
 
 from cdcr_gym.backends.analytic import AnalyticBackend
-from cdcr_gym.envs.env import ReachEnv
+from cdcr_gym.envs.env import CDCREnv
 
 __all__ = [
     "parse_env_kwarg",
@@ -82,7 +82,7 @@ def make_specs(
     n: int, seed: int, initial_state: str = "straight", params: Any = None
 ) -> EpisodeSpecs:
     """Goals and starting tensions of ``n`` episodes, drawn with reset seeds seed + i."""
-    env = ReachEnv(AnalyticBackend(params), initial_state=initial_state)
+    env = CDCREnv(AnalyticBackend(params), initial_state=initial_state)
     goals = np.empty((n, 3))
     starts = np.empty((n, 3))
     for i in range(n):
