@@ -116,6 +116,19 @@ def _pretension(value, n_cables: int) -> np.ndarray:
     return t0
 
 
+def _robot_scale(name: str, value, lead: tuple[int, ...], n: int) -> np.ndarray:
+    """A per-robot factor (n,) > 0 from ``value`` broadcast to the batch shape ``lead``."""
+    if value is None:
+        return np.ones(n)
+    x = _array(name, value)
+    if np.any(x <= 0.0):
+        raise ValueError(f"{name} must be > 0, got {value!r}")
+    try:
+        return np.broadcast_to(x, lead).reshape(n).astype(np.float64)
+    except ValueError:
+        raise ValueError(f"{name} must broadcast to {lead}, got shape {x.shape}") from None
+
+
 def _max_tension(value) -> float:
     if value is None:
         return math.inf
@@ -281,6 +294,8 @@ def solve_displacement_statics(
     tol: float = 1e-12,
     max_iter: int = 100,
     initial_tensions=None,
+    bending_scale=None,
+    length_scale=None,
 ) -> TendonState:
     """The quasi-static PCC shape under tendon displacement commands (SPEC §8).
 
@@ -300,6 +315,10 @@ def solve_displacement_statics(
         tol: relative tolerance of the final complementarity check.
         max_iter: active-set iterations allowed.
         initial_tensions: optional warm start (..., C) (N), e.g. the previous step's tensions.
+        bending_scale: optional per-robot factor (...) > 0 on the bending under given tensions
+            (a robot whose cable radius r and modulus E differ from ``model``'s: (r/r₀)(E₀/E)).
+        length_scale: optional per-robot factor (...) > 0 on the cable-length changes of a
+            shape (r/r₀). The shortening matrix of such a robot is bending_scale·length_scale·M.
 
     Returns:
         :class:`TendonState` with leading shape that of the broadcast arguments.
@@ -338,21 +357,25 @@ def solve_displacement_statics(
     n = math.prod(batch[:-1])
     d2 = np.broadcast_to(d, batch).reshape(n, C)
     t02 = np.broadcast_to(t0, batch).reshape(n, C)
+    bs = _robot_scale("bending_scale", bending_scale, batch[:-1], n)
+    ls = _robot_scale("length_scale", length_scale, batch[:-1], n)
     m = shortening_matrix(model)
-    mean_diag = float(np.mean(np.diag(m)))
+    h = np.einsum("n,ij->nij", bs * ls, m)
+    mean_diag = float(np.mean(np.diag(m))) * float(np.mean(bs * ls))
     if singular:
-        w_star = (-d2) @ model.lengths_to_bending  # lengths − straight = −d
-        d_c = -(w_star @ model.bending_to_lengths)  # the shortenings of that shape
-        h = np.broadcast_to(m, (n, C, C))
-        q = d_c
-        c_scale = np.broadcast_to(1.0 / np.diag(m), (n, C))
+        # the shape whose length changes are −d (least squares), and its shortenings
+        w_star = ((-d2) @ model.lengths_to_bending) / ls[:, None]
+        q = -((w_star * ls[:, None]) @ model.bending_to_lengths)
+        c_scale = 1.0 / np.diagonal(h, axis1=1, axis2=2)
+        scale = mean_diag
     else:
         k2 = np.broadcast_to(k, batch).reshape(n, C)
-        h = m + np.einsum("ni,ij->nij", 1.0 / k2, np.eye(C))
+        idx = np.arange(C)
+        h[:, idx, idx] += 1.0 / k2
         q = d2 + t02 / k2
         c_scale = k2
+        scale = mean_diag + float(np.mean(1.0 / k2))
     upper = np.full((n, C), limit)
-    scale = mean_diag + (0.0 if singular else float(np.mean(1.0 / k2)))
 
     # start: the warm start, or the unconstrained solution, then the law's sets
     if initial_tensions is not None:
@@ -446,12 +469,12 @@ def solve_displacement_statics(
         )
     slack = t <= 0.0
     saturated = t >= upper
-    w_flat = t @ model.tension_to_bending
+    w_flat = (t @ model.tension_to_bending) * bs[:, None]
     if singular:
         # rows where no tendon is slack or saturated hold the commanded shape exactly
         exact = ~np.any(slack | saturated, axis=1)
         w_flat = np.where(exact[:, None], w_star, w_flat)
-    shortening = -(w_flat @ model.bending_to_lengths)
+    shortening = -(w_flat @ model.bending_to_lengths) * ls[:, None]
     lead = batch[:-1]
     return TendonState(
         tensions=t.reshape(batch),
