@@ -32,11 +32,11 @@ returned (measured: |T − law(s)| ≤ 4e-13 N on 10 000 random commands per pre
 ``k = inf`` is the inextensible limit: the commands are first projected onto the shortenings a
 shape can have (the sequential least squares of :meth:`PCCModel.bending_from_lengths`: lengths
 L = L_straight − d in, shape out — the paper's eq. 2–5 for one section), and among the tensions
-that hold that shape the ones closest to the pretension are reported (the k → ∞ limit of the
-finite-k solution) while no tendon is slack or saturated. Slack and saturation still apply at
-k = inf; the shape is then still unique, but the tensions are not (C − 2S common-mode
-directions): the reported ones hold the shape and respect the limits, without the
-nearest-to-T0 guarantee, and a tendon exactly at 0 N may be reported either way.
+that hold that shape the ones closest to the pretension are reported: the k → ∞ limit of the
+finite-k solution (the tensions are not unique at k = inf: M has C − 2S common-mode null
+directions). Slack and saturation still apply at k = inf; rows with a tendon at a bound are
+solved on M + εI, T0-regularised (ε = 1e-9 of M's scale), to find the limit's active sets,
+then exactly on those sets (measured: the finite-k tensions approach them as 1/k).
 """
 
 from __future__ import annotations
@@ -434,6 +434,10 @@ def solve_displacement_statics(
     # any row whose sets cycle: the primal active-set method (finite termination for SPD H).
     # For k = inf (H = M singular) it runs on M + εI, which identifies the active sets of the
     # limit problem; one exact solve on those sets then gives the tensions nearest T0.
+    if singular:
+        # k = inf with a tendon at a bound: the tensions are not unique; the regularised
+        # problem below picks those nearest T0 (the k → ∞ limit), then one exact solve
+        done &= ~np.any(lower_set | upper_set, axis=1)
     fallback = np.flatnonzero(~done)
     if fallback.size:
         reg = 1e-9 * scale if singular else 0.0  # k = inf: M + εI picks the active sets
