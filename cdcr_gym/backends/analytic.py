@@ -4,8 +4,12 @@ Quasi-static and batched: every command moves all N robots straight to their equ
 (no dynamics, no gravity). Tension commands bend the sections by the coupled pure-moment statics
 (``PCCModel.bending_from_tensions``: a cable loads its own section and every proximal one);
 cable-length commands set the shape by ``PCCModel.bending_from_lengths`` and report the minimal
-tensions that hold it (``model.statics.minimal_tensions``, clipped to max_tension). The single
-env runs it with N = 1, the batched env with N = num_envs.
+tensions that hold it (``model.statics.minimal_tensions``, clipped to max_tension). Tendon
+displacement commands (:meth:`AnalyticBackend.apply_displacements`, SPEC §8) go through the
+robot's compliant drives (``params.tendon_stiffness``, ``tendon_pretension``) and
+``model.tendons.solve_displacement_statics``, warm-started from the current tensions; slack and
+saturated tendons are reported in :attr:`AnalyticBackend.tendon_state`. The single env runs it
+with N = 1, the batched env with N = num_envs.
 
 Per-robot parameters (domain randomisation, :meth:`AnalyticBackend.set_randomized`): a robot
 with Young's modulus E and cable radius r bends by w = (r/r₀)(E₀/E)·w₀(T) under tensions T, and
@@ -23,6 +27,7 @@ from cdcr_gym.backends.base import Backend, Readings
 from cdcr_gym.model.chain import PCCModel
 from cdcr_gym.model.params import RobotParams
 from cdcr_gym.model.statics import minimal_tensions
+from cdcr_gym.model.tendons import TendonState, solve_displacement_statics
 
 __all__ = ["AnalyticBackend"]
 
@@ -37,6 +42,8 @@ class AnalyticBackend(Backend):
 
     control_timestep = 0.0
     supports_length_control = True
+    #: :meth:`apply_displacements` is available (tendon displacement through compliant drives).
+    supports_displacement_control = True
     randomizable = frozenset({"youngs_modulus", "cable_radius"})
 
     def __init__(self, params: RobotParams | None = None, num_robots: int = 1) -> None:
@@ -51,6 +58,7 @@ class AnalyticBackend(Backend):
         #: (r/r₀); None while every robot is nominal.
         self.bending_scale: np.ndarray | None = None
         self.length_scale: np.ndarray | None = None
+        self._tendon_state: TendonState | None = None
         self._set(np.zeros((self.num_robots, params.n_cables)))
 
     def _shape(
@@ -71,6 +79,7 @@ class AnalyticBackend(Backend):
         return Readings(tip.T, direction.T, lengths.T, tensions)
 
     def _set(self, tensions: np.ndarray) -> None:
+        self._tendon_state = None
         comp = self.model.bending_rows_from_tensions(tensions)
         if self.bending_scale is not None:
             comp *= self.bending_scale
@@ -110,6 +119,60 @@ class AnalyticBackend(Backend):
             tensions, _ = minimal_tensions(m, w)
         self._comp = np.ascontiguousarray(w.reshape(self.num_robots, -1).T)
         self._readings = self._shape(tensions, self._comp, self.length_scale)
+        self._tendon_state = None
+
+    def apply_displacements(
+        self, displacements: np.ndarray, stiffness=None, pretension=None
+    ) -> TendonState:
+        """Command tendon displacements ``displacements`` (N, C) m (positive = pulled in at the
+        drive; 0 = the straight robot at its pretension) and move to the quasi-static shape.
+
+        Each tendon pulls with T = clip(T0 + k·(d − s), 0, max_tension) (SPEC §8), s its
+        geometric shortening, solved exactly with the pure-moment statics
+        (:func:`cdcr_gym.model.tendons.solve_displacement_statics`, warm-started from the
+        current tensions; per-robot randomised E and r are honoured).
+
+        Args:
+            displacements: (N, C) m, finite.
+            stiffness: k (N/m), scalar, (C,) or (N, C); default ``params.tendon_stiffness``.
+            pretension: T0 (N), scalar, (C,) or (N, C); default ``params.tendon_pretension``.
+
+        Returns:
+            the :class:`~cdcr_gym.model.tendons.TendonState` (tensions, bending, slack,
+            saturated, shortening), also kept as :attr:`tendon_state`; :meth:`read` gives the
+            readings (tensions = the drives' tensions).
+
+        Raises:
+            ValueError: naming the argument, for a wrong shape or non-finite values.
+        """
+        d = np.asarray(displacements, dtype=np.float64)
+        if d.shape != (self.num_robots, self.n_cables):
+            raise ValueError(
+                f"displacements must have shape ({self.num_robots}, {self.n_cables}), "
+                f"got shape {d.shape}"
+            )
+        p = self.params
+        state = solve_displacement_statics(
+            self.model,
+            d,
+            p.cable_stiffness if stiffness is None else stiffness,
+            p.cable_pretension if pretension is None else pretension,
+            initial_tensions=self._readings.tensions,
+            bending_scale=self.bending_scale,
+            length_scale=self.length_scale,
+        )
+        w = state.bending
+        self._comp = np.ascontiguousarray(w.reshape(self.num_robots, -1).T)
+        self._readings = self._shape(state.tensions, self._comp, self.length_scale)
+        self._tendon_state = state
+        return state
+
+    @property
+    def tendon_state(self) -> TendonState | None:
+        """The :class:`~cdcr_gym.model.tendons.TendonState` of the last
+        :meth:`apply_displacements` (slack (N, C), saturated (N, C), …); None after any other
+        command."""
+        return self._tendon_state
 
     def set_randomized(self, index: np.ndarray, values: dict[str, np.ndarray]) -> None:
         """Set ``youngs_modulus`` (Pa) and ``cable_radius`` (m) of robots ``index`` (others in

@@ -20,11 +20,25 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, fields, replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-__all__ = ["SectionParams", "RobotParams", "CABLE_ANGLES", "PRESETS", "STANDARD_GRAVITY"]
+from cdcr_gym.model.yaml_io import dump_yaml, load_yaml, number
+
+__all__ = [
+    "SectionParams",
+    "RobotParams",
+    "CABLE_ANGLES",
+    "PRESETS",
+    "STANDARD_GRAVITY",
+    "FTDCR_V4_SECTION_OFFSETS",
+    "FTDCR_V4_TENDON_ANGLE_DELTAS",
+    "FTDCR_V4_PRETENSION",
+    "params_to_dict",
+    "params_from_dict",
+]
 
 #: Angular positions β_i of the paper's cables 1, 2, 3, from +X0 about +Z0 (rad).
 CABLE_ANGLES: tuple[float, float, float] = (0.0, 2.0 * math.pi / 3.0, 4.0 * math.pi / 3.0)
@@ -47,6 +61,53 @@ def _count(owner: str, name: str, value: Any, minimum: int) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
         raise ValueError(f"{owner}.{name} must be an integer >= {minimum}, got {value!r}")
     return int(value)
+
+
+def _stiffness(owner: str, name: str, value: Any) -> float:
+    """A tendon stiffness (N/m): > 0, ``inf`` allowed (inextensible)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ValueError(f"{owner}.{name} must be a real number (N/m), got {value!r}")
+    value = float(value)
+    if math.isnan(value) or value <= 0.0:
+        raise ValueError(f"{owner}.{name} must be > 0 N/m (inf: inextensible), got {value!r}")
+    return value
+
+
+def _pretension(owner: str, name: str, value: Any) -> float:
+    """A tendon pretension (N): finite and >= 0."""
+    value = _real(owner, name, value, positive=False)
+    if value < 0.0:
+        raise ValueError(f"{owner}.{name} must be >= 0 N, got {value!r}")
+    return value
+
+
+def _per_cable(
+    owner: str, name: str, value: Any, n_cables: int, check
+) -> float | tuple[float, ...]:
+    """A scalar (every cable) or one value per cable (cable order), checked by ``check``."""
+    if isinstance(value, (str, bytes)):
+        raise ValueError(f"{owner}.{name} must be a number or one number per cable, got {value!r}")
+    if isinstance(value, (Sequence, np.ndarray)):
+        values = tuple(check(owner, name, v) for v in value)
+        if len(values) != n_cables:
+            raise ValueError(
+                f"{owner}.{name} needs one value per cable ({n_cables}) or a scalar, "
+                f"got {len(values)}: {value!r}"
+            )
+        return values
+    return check(owner, name, value)
+
+
+def _displacement_range(owner: str, value: Any) -> tuple[float, float]:
+    name = "displacement_range"
+    if isinstance(value, (str, bytes)) or not isinstance(value, (Sequence, np.ndarray)):
+        raise ValueError(f"{owner}.{name} must be a pair (d_min, d_max) in m, got {value!r}")
+    if len(value) != 2:
+        raise ValueError(f"{owner}.{name} must be a pair (d_min, d_max) in m, got {value!r}")
+    low, high = (_real(owner, name, v, positive=False) for v in value)
+    if not low < high:
+        raise ValueError(f"{owner}.{name} must have d_min < d_max (m), got {value!r}")
+    return (low, high)
 
 
 @dataclass(frozen=True)
@@ -111,6 +172,8 @@ class SectionParams:
 
 
 _SINGLE_SECTION_KEYS = ("length", "n_disks", "cable_radius")
+#: The drive description (SPEC §8): scalars or per-cable tuples, and a pair.
+_DRIVE_KEYS = ("tendon_stiffness", "tendon_pretension", "displacement_range")
 
 
 @dataclass(frozen=True)
@@ -145,6 +208,16 @@ class RobotParams:
     Parameters that allow more (a soft backbone, a high tension limit) are rejected with a
     ``ValueError`` that gives the reachable bend; see :attr:`section_bend_limits`.
 
+    Tendon drive (SPEC §8; :mod:`cdcr_gym.model.tendons`): each tendon is wound on a
+    position-controlled drive; a commanded displacement d (m, positive = pulled in) gives the
+    tension T = clip(T0 + k·(d − s), 0, max_tension), s the tendon's geometric shortening. The
+    paper's robot gets k = 2·10⁴ N/m: a 0.5 mm stranded steel rope (effective E ≈ 100 GPa,
+    EA ≈ 2·10⁴ N) over ≈ 0.8 m from drive to anchor is ≈ 2.5·10⁴ N/m alone, and the spool/drive
+    in series lowers it; T0 = 2 N (2.5 % of the limit) keeps idle tendons taut. Its range
+    ±45 mm reaches the tension limit: one cable bent to the 79° limit shortens by r·θ ≈ 40 mm and
+    stretches by 80 N / k = 4 mm (so +45 mm saturates), and the opposite cable lengthens by up to
+    r·θ ≈ 40 mm, which the drive must pay out (−45 mm releases it).
+
     Attributes:
         sections: the sections, proximal first (a tuple of :class:`SectionParams`).
         length: total backbone length (m); with no ``sections``, the one section's length.
@@ -157,6 +230,12 @@ class RobotParams:
         disk_mass: mass of one spacer disk (kg).
         disk_radius: outer radius of a spacer disk (m); used for inertia and drawing.
         disk_thickness: thickness of a spacer disk along the backbone (m).
+        tendon_stiffness: k, stiffness of tendon + drive (N/m), > 0 (``inf`` = inextensible):
+            one number for every cable, or a tuple of one per cable (cable order).
+        tendon_pretension: T0, tension at zero displacement on the straight robot (N), ≥ 0:
+            a number or a tuple of one per cable.
+        displacement_range: ``(d_min, d_max)`` (m), d_min < d_max: the displacements a
+            normalised command a ∈ [−1, 1] maps to (linearly, a = −1 → d_min).
 
     Raises:
         ValueError: naming the field and the offending value, for any non-finite or
@@ -177,6 +256,9 @@ class RobotParams:
     disk_mass: float = 0.010
     disk_radius: float = 0.035
     disk_thickness: float = 0.003
+    tendon_stiffness: float | tuple[float, ...] = 2.0e4
+    tendon_pretension: float | tuple[float, ...] = 2.0
+    displacement_range: tuple[float, float] = (-0.045, 0.045)
 
     def __post_init__(self) -> None:
         owner = "RobotParams"
@@ -231,9 +313,23 @@ class RobotParams:
                 )
             object.__setattr__(self, key, derived[key])
         for f in fields(self):
-            if f.name in ("sections",) + _SINGLE_SECTION_KEYS:
+            if f.name in ("sections",) + _SINGLE_SECTION_KEYS + _DRIVE_KEYS:
                 continue
             object.__setattr__(self, f.name, _real(owner, f.name, getattr(self, f.name)))
+        n_cables = sum(s.n_cables for s in sections)
+        object.__setattr__(
+            self,
+            "tendon_stiffness",
+            _per_cable(owner, "tendon_stiffness", self.tendon_stiffness, n_cables, _stiffness),
+        )
+        object.__setattr__(
+            self,
+            "tendon_pretension",
+            _per_cable(owner, "tendon_pretension", self.tendon_pretension, n_cables, _pretension),
+        )
+        object.__setattr__(
+            self, "displacement_range", _displacement_range(owner, self.displacement_range)
+        )
         largest_radius = max(max(s.cable_radius for s in sections), 0.0)
         if self.disk_radius <= largest_radius:
             raise ValueError(
@@ -258,7 +354,8 @@ class RobotParams:
         """A named robot (see :data:`PRESETS`), with optional field ``overrides``.
 
         ``RobotParams.preset("paper")`` equals ``RobotParams()``; ``"tdcr2"`` is the two-section
-        reference robot of Rao et al. 2021.
+        reference robot of Rao et al. 2021; ``"ftdcr_v4"`` the three-section real robot whose
+        recordings are in ``data/real/ftdcr_v4/``.
 
         Raises:
             ValueError: for an unknown name (listing the known ones).
@@ -267,15 +364,16 @@ class RobotParams:
             raise ValueError(f"robot must be one of {sorted(PRESETS)}, got {name!r}")
         return replace(PRESETS[name], **overrides) if overrides else PRESETS[name]
 
-    # -- YAML (cdcr_gym.model.params_yaml) -----------------------------------------------------
+    # -- YAML (format: cdcr_gym.model.params_yaml) ---------------------------------------------
     def to_yaml(self, path: Any = None) -> str:
         """This robot as YAML text (SI units, exact floats); also written to ``path`` if given.
 
         ``RobotParams.from_yaml(p.to_yaml()) == p``. Format: :mod:`cdcr_gym.model.params_yaml`.
         """
-        from cdcr_gym.model.params_yaml import to_yaml
-
-        return to_yaml(self, path)
+        text = dump_yaml(params_to_dict(self))
+        if path is not None:
+            Path(path).write_text(text)
+        return text
 
     @classmethod
     def from_yaml(cls, source: Any) -> RobotParams:
@@ -283,13 +381,25 @@ class RobotParams:
         ``cdcr-gym calibrate``, whose robot sits under ``robot:``). Needs PyYAML.
 
         Raises:
-            ValueError: naming the key, for unknown keys or invalid values.
+            ValueError: naming the key, for unknown or duplicate keys, a section of the wrong
+                type, or invalid values.
         """
-        from cdcr_gym.model.params_yaml import from_yaml
-
-        return from_yaml(source)
+        where = "params" if "\n" in str(source) else str(source)
+        return params_from_dict(load_yaml(source), where)
 
     # -- derived quantities --------------------------------------------------------------------
+    @property
+    def cable_stiffness(self) -> tuple[float, ...]:
+        """Tendon + drive stiffness k (N/m) of every cable, in cable order."""
+        k = self.tendon_stiffness
+        return k if isinstance(k, tuple) else (k,) * self.n_cables
+
+    @property
+    def cable_pretension(self) -> tuple[float, ...]:
+        """Pretension T0 (N) of every cable, in cable order."""
+        t0 = self.tendon_pretension
+        return t0 if isinstance(t0, tuple) else (t0,) * self.n_cables
+
     @property
     def n_sections(self) -> int:
         """Number of sections."""
@@ -419,6 +529,62 @@ def _tdcr2() -> RobotParams:
         disk_mass=0.0002,
         disk_radius=0.012,
         disk_thickness=0.001,
+        tendon_stiffness=1.0e4,
+        tendon_pretension=0.5,
+        displacement_range=(-0.035, 0.035),
+    )
+
+
+#: The FTDCR v4's nominal description (``data/real/ftdcr_v4/robot_nominal.json``): section
+#: angle offsets and per-tendon angle deltas (rad); tendon k of section j sits at
+#: offset_j + k·2π/3 + delta_jk.
+FTDCR_V4_SECTION_OFFSETS = (-3.0589, -2.5615, -2.0506)
+FTDCR_V4_TENDON_ANGLE_DELTAS = (
+    (0.0092, 0.1303, -0.1395),
+    (0.1411, -0.1228, -0.0183),
+    (-0.1351, 0.0243, 0.1108),
+)
+#: Its nominal tendon pretensions (N), in cable order (base section first).
+FTDCR_V4_PRETENSION = (
+    0.0005778742714404039,
+    0.0005778742714404039,
+    0.0005778742714404039,
+    1.160521809308655,
+    1.160521809308655,
+    1.160521809308655,
+    3.8746889591736853,
+    3.8746889591736853,
+    3.8746889591736853,
+)
+
+
+def _ftdcr_v4() -> RobotParams:
+    """The three-section FTDCR v4 from its nominal description (see :data:`PRESETS`)."""
+    sections = tuple(
+        SectionParams(
+            length=length,
+            n_disks=10,
+            cable_radius=0.0045,
+            cable_angles=tuple(
+                offset + k * 2.0 * math.pi / 3.0 + delta for k, delta in enumerate(deltas)
+            ),
+        )
+        for length, offset, deltas in zip(
+            (0.06, 0.0625, 0.064), FTDCR_V4_SECTION_OFFSETS, FTDCR_V4_TENDON_ANGLE_DELTAS
+        )
+    )
+    return RobotParams(
+        sections=sections,
+        backbone_diameter=0.001,
+        youngs_modulus=50e9,
+        max_tension=9.0,
+        backbone_density=37708.0,
+        disk_mass=1e-4,
+        disk_radius=0.0055,
+        disk_thickness=0.001,
+        tendon_stiffness=7000.0,
+        tendon_pretension=FTDCR_V4_PRETENSION,
+        displacement_range=(-0.010, 0.0125),
     )
 
 
@@ -432,7 +598,121 @@ def _tdcr2() -> RobotParams:
 #:   0.2 g (disk radius 12 mm and thickness 1 mm are our choice). ``max_tension`` = 6 N: the
 #:   proximal section carries the moments of all six cables, so it bends up to
 #:   2·T·r·ℓ/EI = 135° at 6 N (the distal one 67.5°); 8 N would reach the 180° limit.
+#:   Drive: k = 10⁴ N/m (a 0.25 mm steel wire, EA ≈ 10⁴ N, over ≈ 0.7 m from drive to anchor
+#:   is ≈ 1.4·10⁴ N/m alone; the drive in series lowers it), T0 = 0.5 N, range ±35 mm: the
+#:   distal tendons run through both sections and shorten by up to r·(θ1 + θ2) ≈ 35 mm at the
+#:   bend limits, so +35 mm saturates a tendon and −35 mm releases one on the outside of a bend.
+#: * ``"ftdcr_v4"``: the three-section, nine-tendon FTDCR v4 whose hardware recordings are in
+#:   ``data/real/ftdcr_v4/`` (OpenCR-MuJoCo, MIT; Shentu et al. 2026), from its nominal
+#:   description ``robot_nominal.json``: sections of 60 / 62.5 / 64 mm with 10 links (→ disks)
+#:   each; backbone rod Ø 1 mm, E = 50 GPa (EI ≈ 2.45·10⁻³ N·m²), density 37 708 kg/m³ (the
+#:   JSON's, which carries all the moving mass in its simulator: 5.5 g); three tendons per
+#:   section at 4.5 mm, tendon k of section j at offset_j + k·120° + delta_jk
+#:   (:data:`FTDCR_V4_SECTION_OFFSETS`, :data:`FTDCR_V4_TENDON_ANGLE_DELTAS`); disk radius
+#:   5.5 mm (the JSON's link radius); disk mass 0.1 g and thickness 1 mm are our choice (the
+#:   JSON has no disks). Drive: the nominal position actuators, k = 7 000 N/m (``tendon_kp``,
+#:   the same for all: inverse-length scaling with factor 1) and the nominal pretensions
+#:   (:data:`FTDCR_V4_PRETENSION`: ≈ 0 / 1.16 / 3.87 N per section). ``max_tension`` = 9 N:
+#:   the base section carries the moments of all nine tendons and bends through up to
+#:   9.29 N · 19.4°/N = 180° at the worst vertex of the tension box, so 9 N (174°) is the
+#:   largest round value the bend limit allows (the simulator's 100 N force range would allow
+#:   far more than 180°). With the nominal drive the recorded commands ask for up to 12.6 N
+#:   (train) / 22 N (val); at 9 N 5 % of the training rows and 14 % of the held-out rows
+#:   saturate a tendon, which moves the modelled tip by < 1 mm on average (mean tip error
+#:   without offset removal 11.0 mm either way on train.csv). ``displacement_range`` =
+#:   (−10 mm, +12.5 mm): the recorded commands span −10.0 … +9.6 mm (train.csv) and
+#:   −9.9 … +12.4 mm (val.csv); −10 mm is the drives' "released".
 PRESETS: dict[str, RobotParams] = {
     "paper": RobotParams(),
     "tdcr2": _tdcr2(),
+    "ftdcr_v4": _ftdcr_v4(),
 }
+
+
+# -- plain mappings (the YAML format of cdcr_gym.model.params_yaml) --------------------------------
+_DERIVED = ("length", "n_disks", "cable_radius")
+_SECTION_KEYS = tuple(f.name for f in fields(SectionParams))
+#: keys of a top-level file that holds the robot under ``robot:`` (each a mapping)
+_FILE_KEYS = ("robot", "backend", "calibration")
+
+
+def _plain_field(value: Any) -> Any:
+    if isinstance(value, tuple):
+        return [float(v) for v in value]
+    return float(value)
+
+
+def params_to_dict(params: RobotParams) -> dict[str, Any]:
+    """Plain-Python mapping of ``params`` (SI units; sections as a list of mappings; per-cable
+    drive values and the displacement range as lists)."""
+    if not isinstance(params, RobotParams):
+        raise ValueError(f"params must be a RobotParams, got {params!r}")
+    out: dict[str, Any] = {}
+    for f in fields(RobotParams):
+        if f.name in ("sections",) + _DERIVED:
+            continue
+        out[f.name] = _plain_field(getattr(params, f.name))
+    out["sections"] = [
+        {
+            "length": float(s.length),
+            "n_disks": int(s.n_disks),
+            "cable_radius": float(s.cable_radius),
+            "cable_angles": [float(a) for a in s.cable_angles],
+        }
+        for s in params.sections
+    ]
+    return out
+
+
+def params_from_dict(data: Any, where: str = "params") -> RobotParams:
+    """RobotParams from a mapping (the YAML format of :mod:`cdcr_gym.model.params_yaml`).
+
+    Raises:
+        ValueError: naming the key (as a dotted path under ``where``) for unknown keys, a wrong
+            type (a list or string where a mapping is expected), or a value RobotParams rejects.
+    """
+    if not isinstance(data, dict):
+        raise ValueError(
+            f"{where} must be a mapping of RobotParams fields, got {type(data).__name__} {data!r}"
+        )
+    if "robot" in data and set(data) <= set(_FILE_KEYS):
+        for key in _FILE_KEYS:
+            if key in data and data[key] is not None and not isinstance(data[key], dict):
+                raise ValueError(
+                    f"{where}.{key} must be a mapping, got {type(data[key]).__name__} {data[key]!r}"
+                )
+        return params_from_dict(data["robot"], f"{where}.robot")
+    allowed = {f.name for f in fields(RobotParams)} | {"preset"}
+    unknown = sorted(set(data) - allowed)
+    if unknown:
+        raise ValueError(f"{where}: unknown key(s) {unknown}; accepted: {sorted(allowed)}")
+    kwargs = {k: number(v) for k, v in data.items() if k not in ("preset", "sections")}
+    for key in _DRIVE_KEYS:
+        if isinstance(kwargs.get(key), list):
+            kwargs[key] = tuple(kwargs[key])
+    if "sections" in data:
+        raw = data["sections"]
+        if not isinstance(raw, list) or not raw:
+            raise ValueError(f"{where}.sections must be a non-empty list of mappings, got {raw!r}")
+        sections = []
+        for j, s in enumerate(raw):
+            if not isinstance(s, dict):
+                raise ValueError(
+                    f"{where}.sections[{j}] must be a mapping, got {type(s).__name__} {s!r}"
+                )
+            bad = sorted(set(s) - set(_SECTION_KEYS))
+            if bad:
+                raise ValueError(
+                    f"{where}.sections[{j}]: unknown key(s) {bad}; accepted: {list(_SECTION_KEYS)}"
+                )
+            section = {k: number(v) for k, v in s.items()}
+            if "cable_angles" in section and isinstance(section["cable_angles"], list):
+                section["cable_angles"] = tuple(section["cable_angles"])
+            sections.append(SectionParams(**section))
+        kwargs["sections"] = tuple(sections)
+    if "preset" in data:
+        name = data["preset"]
+        if not isinstance(name, str) or name not in PRESETS:
+            raise ValueError(f"{where}.preset must be one of {sorted(PRESETS)}, got {name!r}")
+        return RobotParams.preset(name, **kwargs)
+    return RobotParams(**kwargs)

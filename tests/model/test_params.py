@@ -88,7 +88,7 @@ def test_tdcr2_preset_numbers():
     lim1, lim2 = p.section_bend_limits
     assert lim1 == pytest.approx(2 * lim2) and lim1 <= math.pi
     assert lim2 == pytest.approx(p.max_tension * 0.01 * 0.2 / p.bending_stiffness)
-    assert set(PRESETS) == {"paper", "tdcr2"}
+    assert set(PRESETS) == {"paper", "tdcr2", "ftdcr_v4"}
 
 
 def test_bend_limit_is_the_largest_bend_over_the_tension_box():
