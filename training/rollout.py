@@ -1,4 +1,4 @@
-"""Deprecated alias of :mod:`training.evaluate.rollout`: keeps ``import training.rollout`` working."""
+"""Deprecated alias of :mod:`training.run.rollout`: keeps ``import training.rollout`` working."""
 
 from training.deprecated import alias
 

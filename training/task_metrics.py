@@ -1,4 +1,4 @@
-"""Deprecated alias of :mod:`training.evaluate.metrics`: keeps ``import training.task_metrics`` working."""
+"""Deprecated alias of :mod:`training.run.metrics`: keeps ``import training.task_metrics`` working."""
 
 from training.deprecated import alias
 

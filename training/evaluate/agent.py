@@ -49,8 +49,14 @@ from typing import Any
 
 import numpy as np
 
+import cdcr_gym  # noqa: F401
+from cdcr_gym.controllers import AnalyticIKController
+from training.evaluate import plots
 from training.evaluate.conditions import condition_name
-from training.evaluate.rollout import parse_env_kwarg
+from training.evaluate.oracles import plot_paths
+from training.evaluate.overlay import caption, draw_text
+from training.evaluate.random_policy import RandomPolicy
+from training.evaluate.video import write_video
 from training.run.config import (
     EVALUATE_MODELS,
     ConfigError,
@@ -59,6 +65,24 @@ from training.run.config import (
     load_config,
 )
 from training.run.envs import registered_steps
+from training.run.metrics import (
+    is_physics,
+    oracle_for,
+    run_task_episodes,
+    summarize_task,
+    task_name,
+)
+from training.run.rollout import (
+    ModelFileError,
+    PPOPolicy,
+    check_env_id,
+    error_stats,
+    make_env,
+    make_specs,
+    parse_env_kwarg,
+    run_episodes,
+    summarize,
+)
 
 __all__ = ["main", "evaluate"]
 
@@ -72,7 +96,6 @@ def _tag_for(env_id: str, overrides: dict[str, Any]) -> str:
 def _state_distances(
     tensions: np.ndarray, lengths: np.ndarray, ik_tensions: np.ndarray, ik_lengths: np.ndarray
 ) -> dict[str, dict[str, float]]:
-    from training.evaluate.rollout import error_stats
 
     dl = np.linalg.norm(lengths - ik_lengths, axis=-1)
     dt = np.linalg.norm(tensions - ik_tensions, axis=-1)
@@ -102,11 +125,6 @@ def evaluate(
     """Run the evaluation, write JSON + figures, return the result dict."""
     import torch
 
-    from cdcr_gym.controllers import AnalyticIKController
-    from training.evaluate import plots
-    from training.evaluate.random_policy import RandomPolicy
-    from training.evaluate.rollout import PPOPolicy, make_env, make_specs, run_episodes, summarize
-
     torch.set_num_threads(config.runtime.torch_threads)
     t0 = time.perf_counter()
     model_dir = run_dir / ("best_model" if model == "best" else "final_model")
@@ -131,7 +149,6 @@ def evaluate(
     params = probe.unwrapped.params
     threshold = float(probe.unwrapped.task.distance_threshold)
     ik = AnalyticIKController.from_env(probe)
-    from training.evaluate.metrics import is_physics
 
     # on a physics backend the open-loop IK misses by centimetres: the closed-loop IK beside it
     closed = AnalyticIKController.from_env(probe, feedback=True) if is_physics(probe) else None
@@ -159,8 +176,6 @@ def evaluate(
             cond.update(summarize(pol.final_distance, threshold))
             cond["mean_return"] = float(np.mean(pol.returns))
             if horizon > train_horizon:
-                from training.evaluate.rollout import error_stats
-
                 at = pol.distances[:, train_horizon]
                 cond["error_mm_at_train_horizon"] = error_stats(at, 1000.0)
                 cond["max_error_after_train_horizon_mm"] = error_stats(
@@ -272,10 +287,6 @@ def _evaluate_task(
     """Track, Pose, Obstacle: the task's own metrics for the policy beside its oracle's (and, for
     Obstacle, the plain reach IK's) on the same episodes, per starting state, at the first
     horizon (``training.task_metrics``). Writes the JSON and the path figures."""
-    from training.evaluate.metrics import is_physics, oracle_for, run_task_episodes, summarize_task
-    from training.evaluate.oracles import plot_paths
-    from training.evaluate.random_policy import RandomPolicy
-    from training.evaluate.rollout import make_env
 
     ev = config.evaluate
     horizon = ev.horizons[0]
@@ -336,9 +347,6 @@ def _write_video(
     """H.264 MP4 (``training.evaluate.video``) of the first ``n_episodes`` headline episodes;
     every frame carries the step, the tip error (mm) and the task's metric
     (``training.evaluate.overlay``)."""
-    from training.evaluate.metrics import task_name
-    from training.evaluate.overlay import caption, draw_text
-    from training.evaluate.rollout import make_env
 
     kwargs = {**env_kwargs, "render_width": 320, "render_height": 320}
     env = make_env(env_id, kwargs, max(horizon, train_horizon), render_mode="rgb_array")
@@ -359,7 +367,6 @@ def _write_video(
                     break
     finally:
         env.close()
-    from training.evaluate.video import write_video
 
     return write_video(fig_dir / "episodes.mp4", frames, fps=25)
 
@@ -525,9 +532,6 @@ def main(argv: list[str] | None = None) -> int:
         if args.tag is not None and not re.fullmatch(r"[A-Za-z0-9_.-]+", args.tag):
             raise ConfigError(f"--tag must be a simple file-name part, got {args.tag!r}")
 
-        import cdcr_gym  # noqa: F401 - registers the ids
-        from training.evaluate.rollout import check_env_id
-
         env_id = args.env_id or config.env.id
         try:
             check_env_id(env_id, "--env-id")
@@ -542,8 +546,6 @@ def main(argv: list[str] | None = None) -> int:
         if tag is None and (env_id != config.env.id or overrides):
             tag = _tag_for(env_id, overrides)
         try:
-            from training.evaluate.rollout import make_env
-
             probe = make_env(env_id, env_kwargs)
             spaces = (probe.observation_space, probe.action_space)
             probe.close()
@@ -551,7 +553,6 @@ def main(argv: list[str] | None = None) -> int:
             raise ConfigError(
                 f"--env-id/--env-kwarg: cannot make {env_id!r} with {env_kwargs}: {exc}"
             ) from None
-        from training.evaluate.rollout import ModelFileError, PPOPolicy
 
         vn_path = model_dir / "vecnormalize.pkl"
         try:  # a truncated model or a corrupt VecNormalize: a clear error, before any output

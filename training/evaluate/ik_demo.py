@@ -17,7 +17,7 @@ import numpy as np
 
 import cdcr_gym  # noqa: F401  (registers the ids)
 from cdcr_gym.controllers import AnalyticIKController
-from training.evaluate.rollout import check_env_id
+from training.run.rollout import check_env_id
 
 
 def main(argv: list[str] | None = None) -> int:

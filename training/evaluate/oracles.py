@@ -23,10 +23,12 @@ import time
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 
-from training.evaluate.metrics import oracle_for, run_task_episodes, summarize_task
-from training.evaluate.rollout import parse_env_kwarg
+import cdcr_gym  # noqa: F401
+from training.run.metrics import oracle_for, run_task_episodes, summarize_task
+from training.run.rollout import parse_env_kwarg
 
 __all__ = ["main", "run_oracle"]
 
@@ -43,9 +45,6 @@ def run_oracle(
     record: int = 0,
 ) -> dict[str, Any]:
     """Summaries of the oracle (and, for Obstacle, the reach IK) on the same episodes."""
-    import gymnasium as gym
-
-    import cdcr_gym  # noqa: F401
 
     env_id = f"cdcr_gym/{backend}{TASKS[task]}-v0"
     kwargs = dict(env_kwargs or {})

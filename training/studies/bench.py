@@ -32,10 +32,19 @@ import statistics
 import sys
 import time
 from collections.abc import Callable
+from importlib.metadata import version
 from pathlib import Path
 from typing import Any
 
+import gymnasium
+import gymnasium as gym
 import numpy as np
+
+import cdcr_gym  # noqa: F401
+from training.run.algorithms import ppo_kwargs, wrap_normalize
+from training.run.config import load_config
+from training.run.envs import build_vec_env
+from training.run.sb3_vec import BatchedCCKAVecEnv
 
 __all__ = ["main", "run_benchmarks"]
 
@@ -75,7 +84,6 @@ def _repeat(measure: Callable[[], float], repeats: int) -> dict[str, Any]:
 
 
 def _single_env(env_id: str, min_time: float, repeats: int, **kwargs: Any) -> dict[str, Any]:
-    import gymnasium as gym
 
     env = gym.make(env_id, **kwargs)
     env.reset(seed=0)
@@ -100,7 +108,6 @@ def _single_env(env_id: str, min_time: float, repeats: int, **kwargs: Any) -> di
 def _vector_env(
     mode: str, n: int, min_time: float, repeats: int, robot: str = "paper"
 ) -> dict[str, Any]:
-    import gymnasium as gym
 
     env = gym.make_vec("cdcr_gym/CCKAReach-v0", num_envs=n, vectorization_mode=mode, robot=robot)
     env.reset(seed=0)
@@ -124,10 +131,7 @@ def _vector_env(
 
 def _sb3_vec_env(kind: str, n: int, min_time: float, repeats: int) -> dict[str, Any]:
     """SB3 VecEnv steps/s: ``DummyVecEnv`` of single envs vs ``BatchedCCKAVecEnv``."""
-    import gymnasium as gym
     from stable_baselines3.common.vec_env import DummyVecEnv
-
-    from training.run.sb3_vec import BatchedCCKAVecEnv
 
     if kind == "batched":
         venv = BatchedCCKAVecEnv(n, seed=0)
@@ -232,10 +236,6 @@ def _ppo(config_path: Path, vec_env: str, steps: int, repeats: int) -> dict[str,
     import torch
     from stable_baselines3 import PPO
 
-    from training.run.algorithms import ppo_kwargs, wrap_normalize
-    from training.run.config import load_config
-    from training.run.envs import build_vec_env
-
     config = load_config(config_path)
     config = dataclasses.replace(config, env=dataclasses.replace(config.env, vec_env=vec_env))
     torch.set_num_threads(config.runtime.torch_threads)
@@ -264,12 +264,9 @@ def _ppo(config_path: Path, vec_env: str, steps: int, repeats: int) -> dict[str,
 
 def _ppo_defaults(vec_env: str, steps: int, repeats: int) -> dict[str, Any]:
     """Fallback without the config: PPO's defaults on 8 envs."""
-    import gymnasium as gym
     import torch
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor
-
-    from training.run.sb3_vec import BatchedCCKAVecEnv
 
     torch.set_num_threads(1)
 
@@ -289,7 +286,6 @@ def _ppo_defaults(vec_env: str, steps: int, repeats: int) -> dict[str, Any]:
 # -- the run --------------------------------------------------------------------------------------
 def machine() -> dict[str, Any]:
     """CPU model, core count, load average and library versions."""
-    import gymnasium
 
     model = platform.processor() or "unknown"
     try:
@@ -309,8 +305,6 @@ def machine() -> dict[str, Any]:
     }
     for name in ("torch", "stable_baselines3", "pybullet"):
         try:
-            from importlib.metadata import version
-
             info[name] = version(name.replace("_", "-"))
         except Exception:  # noqa: BLE001 - informational
             info[name] = "not installed"
@@ -331,7 +325,6 @@ def run_benchmarks(
     log: Callable[[str], None] = print,
 ) -> dict[str, Any]:
     """Run every benchmark; returns ``{"machine", "rows", "checks", ...}``."""
-    import cdcr_gym  # noqa: F401 - registers the ids
 
     repeats = repeats or (3 if quick else 5)
     min_time = 0.3 if quick else 1.0
@@ -418,8 +411,6 @@ def run_benchmarks(
             key="bullet",
         )
     if config.exists():
-        from training.run.config import load_config
-
         default_vec_env = load_config(config).env.vec_env
         result["ppo_default_vec_env"] = default_vec_env
         for vec_env in ("dummy", "batched"):

@@ -12,16 +12,16 @@ from __future__ import annotations
 
 import argparse
 
+import gymnasium as gym
 import numpy as np
+
+import cdcr_gym  # noqa: F401
 
 SHOWN = (1, 2, 3, 5, 8, 11, 16, 21)
 
 
 def remaining(env_id: str, tension: float, steps: int, **kwargs) -> np.ndarray:
     """Remaining fraction (steps,) of the way to the final tip after each step."""
-    import gymnasium as gym
-
-    import cdcr_gym  # noqa: F401 - registers the ids
 
     env = gym.make(env_id, action_mode="tension", max_episode_steps=steps + 1, **kwargs)
     _, info = env.reset(seed=0)

@@ -13,6 +13,7 @@ from typing import Any
 
 from training.evaluate.conditions import read_eval
 from training.sweep.statistics import stratified_bootstrap_ci
+from training.sweep.tune import TARGET_KEYS
 
 METRICS = {
     # key: (title, unit, lower is better)
@@ -114,7 +115,6 @@ def _label(record: dict[str, Any]) -> str:
 
 
 def _meets(row: dict[str, float], target: dict[str, float]) -> bool:
-    from training.sweep.tune import TARGET_KEYS
 
     for key, threshold in target.items():
         value = row.get(key)

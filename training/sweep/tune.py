@@ -73,6 +73,7 @@ benchmark page) is ``python -m training.aggregate OUT``.
 from __future__ import annotations
 
 import argparse
+import ctypes
 import dataclasses
 import datetime as _dt
 import importlib.util
@@ -90,8 +91,10 @@ import time
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import yaml
 
+import cdcr_gym  # noqa: F401
 from training.run.config import (
     ConfigError,
     config_from_dict,
@@ -99,6 +102,7 @@ from training.run.config import (
     load_config,
     save_config,
 )
+from training.run.packaged import resolve_config
 from training.sweep.spec import (
     TARGET_KEYS,
     PartSpec,
@@ -179,8 +183,6 @@ class Trial:
 
 # -- the grid -----------------------------------------------------------------------------------
 def _find_config(name: str, base_dir: Path) -> Path:
-    from training.cli import resolve_config
-
     for candidate in (Path(name), base_dir / name):
         if candidate.is_file():
             return candidate
@@ -217,9 +219,6 @@ def expand(spec: SweepSpec) -> list[Trial]:
     Raises ConfigError naming the config, the variant and the bad key if any resolved config is
     invalid (nothing runs then).
     """
-    import gymnasium as gym
-
-    import cdcr_gym  # noqa: F401 - registers the ids
 
     grid_variants = [
         dict(zip(spec.grid, values, strict=True))
@@ -344,7 +343,6 @@ def _terminate_with_parent() -> None:
     Ray kills a cancelled trial's worker outright; without this its training subprocess would
     live on as an orphan. ``training.train`` takes SIGTERM as Ctrl-C (checkpoint, exit 130).
     """
-    import ctypes
 
     pr_set_pdeathsig = 1
     ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, signal.SIGTERM)

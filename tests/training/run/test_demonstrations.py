@@ -64,7 +64,7 @@ def test_the_planner_demonstrations_are_complete_episodes_of_raw_data(normalize:
     import gymnasium as gym
 
     import cdcr_gym  # noqa: F401
-    from training.evaluate.metrics import oracle_for
+    from training.run.metrics import oracle_for
 
     venv = _obstacle_venv(3, normalize)
     probe = gym.make("cdcr_gym/CCKAObstacle-v0", tension_step=0.1, clearance_features=True)

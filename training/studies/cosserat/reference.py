@@ -25,6 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
+import cdcr_gym
+from cdcr_gym.backends.analytic import AnalyticBackend
+from cdcr_gym.backends.bullet import BulletBackend
 from cdcr_gym.model.params import RobotParams
 from training.studies.cosserat.pyelastica_solver import solve_pyelastica
 from training.studies.cosserat.rod import solve_static
@@ -134,7 +137,6 @@ def write_reference(
     case; with ``pyelastica`` also rerun :data:`PYELASTICA_CASES` (else keep their PyElastica
     entries from ``previous``). ``robots``: only the cases of these presets (the others are
     kept from ``previous``)."""
-    import cdcr_gym
 
     old = {}
     if previous is not None:
@@ -228,8 +230,6 @@ def model_tips(reference: dict) -> dict:
     dynamics settle to, gravity as in the case) and the analytic PCC model
     (``AnalyticBackend.equilibrium``, which has no gravity).
     """
-    from cdcr_gym.backends.analytic import AnalyticBackend
-    from cdcr_gym.backends.bullet import BulletBackend
 
     out: dict = {}
     for robot, meshes in STUDY_MESHES.items():

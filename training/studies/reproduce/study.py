@@ -45,6 +45,8 @@ import numpy as np
 
 from cdcr_gym import kinematics as K
 from cdcr_gym.backends.base import Backend
+from cdcr_gym.backends.bullet import BulletBackend
+from cdcr_gym.backends.mujoco import MuJoCoBackend
 from cdcr_gym.model import statics
 from cdcr_gym.model.params import RobotParams
 
@@ -411,7 +413,6 @@ def bullet_factory(
     **kwargs,
 ) -> Backend:
     """The pybullet backbone (imported here, so that the CCKA part runs without pybullet)."""
-    from cdcr_gym.backends.bullet import BulletBackend
 
     return BulletBackend(
         params,
@@ -435,7 +436,6 @@ def mujoco_factory(
     """The MuJoCo backbone (``MuJoCoBackend``: ball joints, the corrected cable routing — the
     package's reference physics, within 0.2 % of ℓ of a converged Cosserat rod at one link per
     span; docs/mujoco_backend.md). Imported here, so that the CCKA part runs without MuJoCo."""
-    from cdcr_gym.backends.mujoco import MuJoCoBackend
 
     return MuJoCoBackend(
         params,

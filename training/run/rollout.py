@@ -23,8 +23,10 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+import cdcr_gym  # noqa: F401
 from cdcr_gym.backends.analytic import AnalyticBackend
 from cdcr_gym.envs.env import ReachEnv
+from cdcr_gym.params import RobotParams
 
 __all__ = [
     "parse_env_kwarg",
@@ -115,8 +117,6 @@ def make_env(
     """
     kwargs = dict(env_kwargs or {})
     if isinstance(kwargs.get("params"), dict):
-        from cdcr_gym.params import RobotParams
-
         kwargs["params"] = RobotParams(**kwargs["params"])
     if render_mode is not None:
         kwargs["render_mode"] = render_mode
@@ -127,7 +127,6 @@ def make_env(
 
 def cdcr_env_ids() -> list[str]:
     """The registered cdcr_gym ids."""
-    import cdcr_gym  # noqa: F401 - registers the ids
 
     return sorted(k for k in gym.registry if k.startswith("cdcr_gym/"))
 

@@ -22,6 +22,8 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from cdcr_gym import controllers
+
 __all__ = ["run_task_episodes", "summarize_task", "oracle_for", "task_name", "is_physics"]
 
 
@@ -42,7 +44,6 @@ def oracle_for(env: Any, kind: str = "oracle", **options: Any) -> Any:
     the measured tip: the strong baseline on a physics backend), or ``"reach_ik"`` the plain
     reach IK controller on the task's goal (the baseline the Obstacle task must defeat).
     ``options``: keyword arguments of the controller (e.g. the planner's ``candidates``)."""
-    from cdcr_gym import controllers
 
     task = task_name(env)
     if kind not in ("oracle", "closed_loop", "reach_ik"):
