@@ -45,18 +45,13 @@ from cdcr_gym.controllers.ik import FEEDBACK_GAIN
 
 __all__ = ["run_study", "run_episodes", "summarize", "markdown_table", "main"]
 
-TASKS = {"reach": "Reach", "pose": "Pose", "track": "Track", "obstacle": "Obstacle"}
+TASKS = {task.__name__.lower(): task.__name__ for task in controllers.ORACLES}
 WITHIN = 0.005  # m, the "within 5 mm" radius of the table
 
 
 def _controller(env: Any, task: str, feedback: bool, gain: float) -> Any:
 
-    cls: Any = {
-        "Reach": controllers.AnalyticIKController,
-        "Track": controllers.TrackingIKController,
-        "Pose": controllers.PoseIKController,
-        "Obstacle": controllers.ObstaclePlanner,
-    }[task]
+    cls: Any = controllers.oracle_for(env.unwrapped.task)
     return cls.from_env(env, feedback=feedback, gain=gain)
 
 

@@ -27,12 +27,14 @@ import gymnasium as gym
 import numpy as np
 
 import cdcr_gym  # noqa: F401
+from cdcr_gym import controllers
 from training.run.metrics import oracle_for, run_task_episodes, summarize_task
 from training.run.rollout import parse_env_kwarg
 
 __all__ = ["main", "run_oracle"]
 
-TASKS = {"track": "Track", "pose": "Pose", "obstacle": "Obstacle", "reach": "Reach"}
+#: --task name -> task class name (the tasks that have an oracle, cdcr_gym.controllers.ORACLES)
+TASKS = {task.__name__.lower(): task.__name__ for task in controllers.ORACLES}
 
 
 def run_oracle(

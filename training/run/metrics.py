@@ -45,17 +45,12 @@ def oracle_for(env: Any, kind: str = "oracle", **options: Any) -> Any:
     reach IK controller on the task's goal (the baseline the Obstacle task must defeat).
     ``options``: keyword arguments of the controller (e.g. the planner's ``candidates``)."""
 
-    task = task_name(env)
     if kind not in ("oracle", "closed_loop", "reach_ik"):
         raise ValueError(f"kind must be 'oracle', 'closed_loop' or 'reach_ik', got {kind!r}")
     feedback = kind == "closed_loop"
-    if kind == "reach_ik" or task == "Reach":
-        return controllers.AnalyticIKController.from_env(env, feedback=feedback, **options)
-    return {
-        "Track": controllers.TrackingIKController,
-        "Pose": controllers.PoseIKController,
-        "Obstacle": controllers.ObstaclePlanner,
-    }[task].from_env(env, feedback=feedback, **options)
+    task = env.unwrapped.task
+    cls = controllers.AnalyticIKController if kind == "reach_ik" else controllers.oracle_for(task)
+    return cls.from_env(env, feedback=feedback, **options)
 
 
 def run_task_episodes(
