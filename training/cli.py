@@ -13,8 +13,7 @@
 
 and ``from-zoo``, ``oracles``, ``results``, ``task-results``, ``sim2sim``, ``hysteresis``,
 ``step-response``, ``transfer-probe``, ``verification``, ``bench-realism``, ``bench-physics``, ``calibrate``, ``oracle-feedback``, ``cosserat-reference``, ``bench-single``, ``friction-chatter`` (``cdcr-gym --help``).
-The former ``python -m training.<module>`` forms still work (aliases, see
-:mod:`training.deprecated`).
+Each subcommand's module also runs as ``python -m <module>`` (``python -m training.run.train``).
 
 Everything after the subcommand goes to that module's ``main`` unchanged (``cdcr-gym train
 --help`` prints the trainer's own help, whose usage line reads ``cdcr-gym train``). A config

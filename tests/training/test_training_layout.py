@@ -1,6 +1,7 @@
-"""The shape of ``training/``: rooms (run, evaluate, sweep, studies) whose modules each import on
-their own, with no import circles (counting imports inside functions too), no module over 800
-lines and no private name imported from another module; the old flat paths stay as aliases."""
+"""The shape of ``training/``: rooms (run <- evaluate <- sweep, studies) whose modules each import
+on their own and one way, with no import circles (imports inside functions count too), imports
+inside functions only for optional dependencies, no module over 800 lines, no private name
+imported from another module, and nothing at the top but the command and the rooms."""
 
 from __future__ import annotations
 
@@ -9,24 +10,16 @@ import importlib
 import pkgutil
 import subprocess
 import sys
-import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
 
 import training
-from training.deprecated import MOVED
 
 ROOT = Path(training.__file__).parent
 ROOMS = ("run", "evaluate", "sweep", "studies")
-MODULES = sorted(
-    m.name for m in pkgutil.walk_packages([str(ROOT)], prefix="training.") if m.name not in MOVED
-)
-#: the new modules: everything but the deprecated aliases (and their package)
-NEW = [
-    m for m in MODULES if m.split(".")[1] in ROOMS or m in ("training.cli", "training.deprecated")
-]
+MODULES = sorted(m.name for m in pkgutil.walk_packages([str(ROOT)], prefix="training."))
 
 
 def _path(module: str) -> Path:
@@ -107,8 +100,8 @@ def _imports(module: str) -> list[Import]:
 def _graph() -> dict[str, set[str]]:
     """module -> the training modules its imports execute, module- and function-level alike
     (importing ``a.b.c`` runs the packages ``a`` and ``a.b`` first)."""
-    graph: dict[str, set[str]] = {m: set() for m in NEW}
-    for m in NEW:
+    graph: dict[str, set[str]] = {m: set() for m in MODULES}
+    for m in MODULES:
         for imp in _imports(m):
             submodules = [f"{imp.target}.{n}" for n in imp.names if f"{imp.target}.{n}" in graph]
             for target in submodules or [imp.target]:
@@ -156,11 +149,11 @@ def _circles(graph: dict[str, set[str]]) -> list[list[str]]:
 
 
 @pytest.mark.slow
-def test_every_new_module_imports_first_in_a_fresh_interpreter():
+def test_every_module_imports_first_in_a_fresh_interpreter():
     code = (
         "import subprocess, sys\n"
         "bad = []\n"
-        f"for m in {NEW!r}:\n"
+        f"for m in {MODULES!r}:\n"
         "    r = subprocess.run([sys.executable, '-c', 'import ' + m], capture_output=True,"
         " text=True)\n"
         "    if r.returncode: bad.append((m, r.stderr.strip().splitlines()[-1]))\n"
@@ -210,7 +203,7 @@ def test_functions_import_only_optional_dependencies():
     """An import inside a function hides a dependency (and circles); it is kept only for an
     optional dependency (or behind an ImportError guard), so the module imports without it."""
     offenders = []
-    for m in NEW:
+    for m in MODULES:
         if m in NOT_OURS:
             continue
         for imp in _imports(m):
@@ -240,23 +233,6 @@ def test_no_private_name_is_imported_across_modules():
     assert not offenders, offenders
 
 
-@pytest.mark.parametrize("old", sorted(MOVED))
-def test_every_old_module_path_is_an_alias_of_the_new_one(old):
-    new, _ = MOVED[old]
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", DeprecationWarning)
-        assert importlib.import_module(old) is importlib.import_module(new) or old.endswith(
-            "training.reproduce"
-        )
-
-
-def test_the_old_python_m_forms_still_run_and_name_the_new_command():
-    result = subprocess.run(
-        [sys.executable, "-m", "training.ik_demo", "--episodes", "1"],
-        capture_output=True,
-        text=True,
-        cwd=ROOT.parent,
-        timeout=120,
-    )
-    assert result.returncode == 0, result.stderr
-    assert "cdcr-gym demo" in result.stderr
+def test_the_top_of_the_package_is_the_command_and_the_rooms():
+    top = {m.name for m in pkgutil.iter_modules([str(ROOT)])}
+    assert top == {"cli", *ROOMS}, sorted(top)

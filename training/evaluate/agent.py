@@ -32,7 +32,7 @@ starting state and the first horizon, by default: straight start, the training e
 
 ``--env-id`` evaluates the policy on another backend (sim-to-sim, e.g. a CCKA-trained tension
 policy on ``cdcr_gym/BulletReach-v0``); the IK runs on that backend too. ``--video`` writes an
-an H.264 MP4 (``training.video``, ffmpeg from imageio-ffmpeg) of the first few headline episodes.
+an H.264 MP4 (``training.evaluate.video``, ffmpeg from imageio-ffmpeg) of the first few headline episodes.
 """
 
 from __future__ import annotations
@@ -74,7 +74,7 @@ from training.run.metrics import (
 )
 from training.run.rollout import (
     ModelFileError,
-    PPOPolicy,
+    SB3Policy,
     check_env_id,
     error_stats,
     make_env,
@@ -129,7 +129,7 @@ def evaluate(
     t0 = time.perf_counter()
     model_dir = run_dir / ("best_model" if model == "best" else "final_model")
     vn_path = model_dir / "vecnormalize.pkl"
-    policy = PPOPolicy(
+    policy = SB3Policy(
         model_dir / "model.zip", vn_path if vn_path.exists() else None, algo=config.algo
     )
     model_info: dict[str, Any] = {}
@@ -286,7 +286,7 @@ def _evaluate_task(
 ) -> dict[str, Any]:
     """Track, Pose, Obstacle: the task's own metrics for the policy beside its oracle's (and, for
     Obstacle, the plain reach IK's) on the same episodes, per starting state, at the first
-    horizon (``training.task_metrics``). Writes the JSON and the path figures."""
+    horizon (``training.run.metrics``). Writes the JSON and the path figures."""
 
     ev = config.evaluate
     horizon = ev.horizons[0]
@@ -556,7 +556,7 @@ def main(argv: list[str] | None = None) -> int:
 
         vn_path = model_dir / "vecnormalize.pkl"
         try:  # a truncated model or a corrupt VecNormalize: a clear error, before any output
-            policy = PPOPolicy(
+            policy = SB3Policy(
                 model_dir / "model.zip", vn_path if vn_path.exists() else None, algo=config.algo
             )
         except ModelFileError as exc:

@@ -1,4 +1,4 @@
-"""``python -m training.ik_demo``: roll out the analytic-IK controller and print tip errors.
+"""``python -m training.evaluate.ik_demo``: roll out the analytic-IK controller and print tip errors.
 
 A quick, training-free check that an environment works: the IK oracle
 (``cdcr_gym.controllers.AnalyticIKController``) drives the robot to seeded goals, and the final

@@ -28,7 +28,7 @@ import numpy as np
 
 import cdcr_gym  # noqa: F401
 from training.run.config import EVALUATE_MODELS, load_config
-from training.run.rollout import PPOPolicy
+from training.run.rollout import SB3Policy
 
 __all__ = ["classify", "main"]
 
@@ -41,7 +41,7 @@ def classify(run: Path, episodes: int, seed: int, model: str = "best") -> dict[s
     kwargs = {**config.env.kwargs, "initial_state": "straight"}
     model_dir = run / f"{model}_model"
     vecnorm = model_dir / "vecnormalize.pkl"
-    policy = PPOPolicy(
+    policy = SB3Policy(
         model_dir / "model.zip", vecnorm if vecnorm.exists() else None, algo=config.algo
     )
     env = gym.make(config.env.id, **kwargs)

@@ -2,10 +2,10 @@
 
 Usage::
 
-    python -m training.oracles --task track --episodes 200 [--backend CCKA] [--robot paper]
+    python -m training.evaluate.oracles --task track --episodes 200 [--backend CCKA] [--robot paper]
                                [--seed 1000000] [--out DIR] [--figures N] [--env-kwarg K=V ...]
 
-Runs the task's oracle (``training.task_metrics.oracle_for``: tracking IK, pose IK, the
+Runs the task's oracle (``training.run.metrics.oracle_for``: tracking IK, pose IK, the
 RRT-Connect planner) for ``--episodes`` episodes reset with seeds ``seed + i`` and prints and
 writes its task metrics (``DIR/oracle_<task>_<backend>_<robot>.json``). For the Obstacle task
 the plain reach IK controller runs on the same episodes too (``reach_ik``: how often the direct

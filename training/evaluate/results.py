@@ -2,7 +2,7 @@
 
 Usage::
 
-    python -m training.results RUN_DIR[:EVAL_NAME] ... [--conditions straight_100steps,random_100steps]
+    python -m training.evaluate.results RUN_DIR[:EVAL_NAME] ... [--conditions straight_100steps,random_100steps]
 
 ``EVAL_NAME`` picks the evaluation file (``eval`` = ``eval.json``, the default;
 ``eval_BulletReach-v0`` = ``eval_BulletReach-v0.json``). One row per run and condition: the

@@ -98,7 +98,7 @@ def make_callbacks(config: ExperimentConfig, run: RunDir, state: dict[str, Any])
             self.task = registered_task(config.env.id)
 
         def _task_row(self, policy: Any) -> dict[str, Any]:
-            """Success, errors (mm) and return of the task's own metrics (training.task_metrics):
+            """Success, errors (mm) and return of the task's own metrics (training.run.metrics):
             the error is the tracking RMS for Track, the final distance otherwise."""
 
             e, ev = config.env, config.eval

@@ -385,7 +385,7 @@ class DemonstrationsConfig:
 
 @dataclass
 class ExperimentConfig:
-    """One experiment: everything ``python -m training.train`` needs."""
+    """One experiment: everything ``python -m training.run.train`` needs."""
 
     name: str = "experiment"
     algo: str = "ppo"

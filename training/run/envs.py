@@ -137,7 +137,7 @@ def _check_env_id(config: ExperimentConfig) -> None:
     if not (isinstance(entry, str) and entry.startswith("cdcr_gym.")):
         raise ConfigError(
             f"env.id {config.env.id!r} is not a cdcr_gym env (entry point {entry!r}); "
-            f"training.train trains the cdcr_gym envs: {known}"
+            f"training.run.train trains the cdcr_gym envs: {known}"
         )
 
 

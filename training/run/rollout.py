@@ -1,6 +1,6 @@
 """Fixed-goal evaluation episodes, run in lockstep over many envs, for any policy.
 
-Used by the periodic evaluation during training (``training.train``) and by
+Used by the periodic evaluation during training (``training.run.train``) and by
 ``training.evaluate``. A *policy* here is a function from a batch of observations (b, obs_dim)
 to a batch of actions (b, 3): a PPO model behind its VecNormalize statistics
 (:class:`SB3Policy`, any algo) or the analytic-IK controller (``cdcr_gym.controllers``), so both run on
@@ -34,7 +34,6 @@ __all__ = [
     "cdcr_env_ids",
     "EpisodeSpecs",
     "Rollouts",
-    "PPOPolicy",
     "SB3Policy",
     "algo_class",
     "make_specs",
@@ -185,7 +184,7 @@ def algo_class(algo: str) -> Any:
 
 class SB3Policy:
     """A saved model of any algo and its VecNormalize statistics as a batched, deterministic
-    policy (``PPOPolicy`` is the same class, kept under its old name).
+    policy.
 
     Args:
         model_path: the ``.zip`` saved by stable-baselines3.
@@ -247,9 +246,6 @@ class SB3Policy:
             obs = self.obs_normalizer.normalize_obs(obs)
         action, _ = self.model.predict(obs, deterministic=True)
         return action
-
-
-PPOPolicy = SB3Policy
 
 
 def _stack_obs(obs_list: list[Any]) -> Any:

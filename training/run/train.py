@@ -2,7 +2,7 @@
 
 Usage::
 
-    python -m training.train CONFIG [--run-dir DIR] [--total-timesteps N] [--seed S] [--resume]
+    python -m training.run.train CONFIG [--run-dir DIR] [--total-timesteps N] [--seed S] [--resume]
 
 The config is validated completely before anything is written: its keys and values, the env
 (made once with every ``per_env_kwargs`` entry, then closed), the algorithm's package and the

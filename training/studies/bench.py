@@ -2,7 +2,7 @@
 
 Usage::
 
-    python -m training.bench [--quick] [--repeats K] [--out FILE.md|FILE.json] [--config YAML]
+    python -m training.studies.bench [--quick] [--repeats K] [--out FILE.md|FILE.json] [--config YAML]
 
 Rows (env-steps per second, the median of K repeats; the range is min–max):
 
@@ -13,7 +13,7 @@ Rows (env-steps per second, the median of K repeats; the range is min–max):
 * ``BulletReach-v0`` through ``gymnasium.make`` ("unavailable: <reason>" if it cannot be built);
 * PPO training steps/s on the default config (``configs/ppo_ccka_reach.yaml``: its PPO
   hyperparameters, envs and VecNormalize), with the config's ``DummyVecEnv`` of single envs and
-  with ``BatchedCCKAVecEnv``, at equal steps.
+  with ``BatchedVecEnv``, at equal steps.
 
 Every loop is used as a training loop uses an env: random actions (a fixed pool), results kept
 until the next step, single envs reset when their episode ends (resets are in the timing). The
@@ -44,7 +44,7 @@ import cdcr_gym  # noqa: F401
 from training.run.algorithms import ppo_kwargs, wrap_normalize
 from training.run.config import load_config
 from training.run.envs import build_vec_env
-from training.run.sb3_vec import BatchedCCKAVecEnv
+from training.run.sb3_vec import BatchedVecEnv
 
 __all__ = ["main", "run_benchmarks"]
 
@@ -130,11 +130,11 @@ def _vector_env(
 
 
 def _sb3_vec_env(kind: str, n: int, min_time: float, repeats: int) -> dict[str, Any]:
-    """SB3 VecEnv steps/s: ``DummyVecEnv`` of single envs vs ``BatchedCCKAVecEnv``."""
+    """SB3 VecEnv steps/s: ``DummyVecEnv`` of single envs vs ``BatchedVecEnv``."""
     from stable_baselines3.common.vec_env import DummyVecEnv
 
     if kind == "batched":
-        venv = BatchedCCKAVecEnv(n, seed=0)
+        venv = BatchedVecEnv(n, seed=0)
     else:
         venv = DummyVecEnv([lambda: gym.make("cdcr_gym/CCKAReach-v0")] * n)
         venv.seed(0)
@@ -272,7 +272,7 @@ def _ppo_defaults(vec_env: str, steps: int, repeats: int) -> dict[str, Any]:
 
     def make_model() -> tuple[Any, Any]:
         if vec_env == "batched":
-            venv = VecMonitor(BatchedCCKAVecEnv(8, seed=0))
+            venv = VecMonitor(BatchedVecEnv(8, seed=0))
         else:
             venv = VecMonitor(DummyVecEnv([lambda: gym.make("cdcr_gym/CCKAReach-v0")] * 8))
         env_timer = _env_timer(venv)
@@ -391,7 +391,7 @@ def run_benchmarks(
         "make_vec vector_entry_point, two-section robot",
         key="batched_16384_tdcr2",
     )
-    for kind, label in (("dummy", "SB3 DummyVecEnv"), ("batched", "SB3 BatchedCCKAVecEnv")):
+    for kind, label in (("dummy", "SB3 DummyVecEnv"), ("batched", "SB3 BatchedVecEnv")):
         add(
             label,
             8,
@@ -473,7 +473,7 @@ def _checks(
         ("batched / SyncVectorEnv at 64 envs", ratio("batched_64", "sync_64"), None),
         ("batched / SyncVectorEnv at 16 384 envs", ratio("batched_16384", "sync_16384"), None),
         (
-            "SB3 VecEnv, BatchedCCKAVecEnv / DummyVecEnv (8 envs)",
+            "SB3 VecEnv, BatchedVecEnv / DummyVecEnv (8 envs)",
             ratio("sb3_batched", "sb3_dummy"),
             None,
         ),

@@ -1,6 +1,6 @@
 """Step time of the batched CCKA env with and without randomisation and imperfections.
 
-``python -m training.bench_realism [--num-envs N] [--steps S] [--repeats R]``: the median over R
+``python -m training.studies.bench_realism [--num-envs N] [--steps S] [--repeats R]``: the median over R
 repeats of S steps of ``gymnasium.make_vec("cdcr_gym/CCKAReach-v0", num_envs=N)`` with zero
 actions, plain and with ``randomize`` (E, cable radius) plus ``imperfections`` (tip noise,
 tension lag, actuator noise), in µs per step. Run it in two checkouts to compare commits.

@@ -1,6 +1,6 @@
 """Hysteresis study: cable–disk friction in the paper's load sweep (the paper's error source ii).
 
-``python -m training.hysteresis [--out DIR] [--ramp-steps R] [--settle-steps N]``: on the
+``python -m training.studies.hysteresis [--out DIR] [--ramp-steps R] [--settle-steps N]``: on the
 physics backend (paper robot, gravity off as in the paper's simulation), cable 1 is loaded from
 0 to 80 N and back in 10 N steps, each ramped linearly over ``--ramp-steps`` control steps of
 20 ms (default 25 = 0.5 s: slow enough that the backbone does not overshoot and reverse the

@@ -1,6 +1,6 @@
 """Step response of the tip: the physics backend vs CCKA with a modelled actuator response.
 
-``python -m training.step_response [--tension 40] [--omega 0.44] [--steps 30]``: from the
+``python -m training.studies.step_response [--tension 40] [--omega 0.44] [--steps 30]``: from the
 straight robot, cable 1 is commanded ``--tension`` N at step 0 (``action_mode="tension"``) and
 held; printed is the remaining fraction of the tip's way to its final position,
 |tip_k − tip_final| / |tip_0 − tip_final|, after k control steps, for bullet (gravity on and off)

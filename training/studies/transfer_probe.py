@@ -2,7 +2,7 @@
 
 Usage::
 
-    python -m training.transfer_probe [--trace RUN_DIR] [--friction MU]
+    python -m training.studies.transfer_probe [--trace RUN_DIR] [--friction MU]
 
 Prints, on the paper robot:
 

@@ -1,11 +1,11 @@
 """Verification studies of the pybullet backend: the numbers in ``docs/bullet_backend.md``.
 
-It lives in ``training/`` (the tools that run the package, next to ``training.bench``), not in
+It lives in ``training/`` (the tools that run the package, next to ``training.studies.bench``), not in
 the backend: it is a study of the backend against closed-form mechanics, needs nothing a user
-of the backend needs, and is not part of the paper's reproduction (``training.reproduce``).
+of the backend needs, and is not part of the paper's reproduction (``training.studies.reproduce``).
 
-``python -m training.verification`` prints every table of that document (a few
-seconds); ``python -m training.verification --bench`` also measures the speed
+``python -m training.studies.verification`` prints every table of that document (a few
+seconds); ``python -m training.studies.verification --bench`` also measures the speed
 (``apply_tensions`` calls per second of the backend and env steps per second of
 ``cdcr_gym/BulletReach-v0``, both at default settings, as wall-clock and as CPU-time rates).
 ``tests/test_bullet.py`` asserts the same quantities through these functions.

@@ -86,7 +86,7 @@ class RunResult:
 
 def task_scores(summary: dict[str, Any]) -> dict[str, float]:
     """The scores of one policy's Track/Pose/Obstacle summary (``summarize_task`` in
-    :mod:`training.task_metrics`): medians over the episodes (mm, °) and rates (fractions).
+    :mod:`training.run.metrics`): medians over the episodes (mm, °) and rates (fractions).
 
     Every task: ``median_error_mm`` (final tip distance to the goal or target) and
     ``success_rate``; Track: ``tracking_rms_mm``; Pose: ``final_angle_deg``, ``within_1mm_1deg``;

@@ -47,7 +47,7 @@ A sweep too long for one sitting is split into **parts** (instead of ``configs``
 ``sweep.json`` with all trials (those of parts not run yet: ``not run``), so the parts can run
 on different days or machines into the same output directory and be aggregated together.
 
-Each trial is an ordinary ``python -m training.train`` run directory, ``OUT/runs/<trial id>``,
+Each trial is an ordinary ``python -m training.run.train`` run directory, ``OUT/runs/<trial id>``,
 trained from its resolved config ``OUT/configs/<trial id>.yaml`` (the same code and files as a
 hand-started run), then evaluated. ``OUT/trials/<trial id>.json`` records the outcome (status,
 commands, return codes, wall times, the machine's load average before and after) and
@@ -67,7 +67,7 @@ commands, return codes, wall times, the machine's load average before and after)
   Ray worker running it dies (Linux), so a cancelled sweep leaves no orphaned training.
 
 Aggregation (IQM with stratified bootstrap confidence intervals, performance profiles, the
-benchmark page) is ``python -m training.aggregate OUT``.
+benchmark page) is ``python -m training.sweep.aggregate OUT``.
 """
 
 from __future__ import annotations
@@ -341,7 +341,7 @@ def _terminate_with_parent() -> None:
     """In the child, before exec (Linux): SIGTERM when the process that started it dies.
 
     Ray kills a cancelled trial's worker outright; without this its training subprocess would
-    live on as an orphan. ``training.train`` takes SIGTERM as Ctrl-C (checkpoint, exit 130).
+    live on as an orphan. ``training.run.train`` takes SIGTERM as Ctrl-C (checkpoint, exit 130).
     """
 
     pr_set_pdeathsig = 1

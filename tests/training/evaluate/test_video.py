@@ -1,4 +1,4 @@
-"""training.video: MP4 people can play (H.264, yuv420p, even sizes), GIF when asked."""
+"""training.evaluate.video: MP4 people can play (H.264, yuv420p, even sizes), GIF when asked."""
 
 from __future__ import annotations
 

@@ -157,7 +157,7 @@ def test_a_run_with_demonstrations_reports_them_and_counts_their_time(tmp_path: 
     config.write_text(yaml.safe_dump(data))
     run = tmp_path / "run"
     result = subprocess.run(
-        [sys.executable, "-m", "training.train", str(config), "--run-dir", str(run)],
+        [sys.executable, "-m", "training.run.train", str(config), "--run-dir", str(run)],
         cwd=REPO,
         env={**os.environ, "PYTHONPATH": str(REPO), "MPLBACKEND": "Agg"},
         capture_output=True,

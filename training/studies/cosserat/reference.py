@@ -77,7 +77,7 @@ PYELASTICA_CASES: tuple[tuple[str, bool], ...] = (
 PYELASTICA_MESHES = {"paper": (4, 8, 16), "tdcr2": (2, 4, 8)}
 
 GENERATOR = (
-    "python -m training.cosserat_reference --write docs/figures/physics/cosserat_reference.json"
+    "python -m training.studies.cosserat --write docs/figures/physics/cosserat_reference.json"
 )
 
 
@@ -206,7 +206,7 @@ def refine_pyelastica(path: Path, name: str, gravity: bool, elements_per_span: i
         seconds=run["seconds"],
     )
     case["command"] = (
-        f"{GENERATOR} --pyelastica && python -m training.cosserat_reference --refine "
+        f"{GENERATOR} --pyelastica && python -m training.studies.cosserat --refine "
         f"{name}:{int(gravity)}:{elements_per_span}"
     )
     path.write_text(json.dumps(doc, indent=1) + "\n")
@@ -219,7 +219,7 @@ def load_reference(path: Path = REFERENCE_PATH) -> dict:
 
 
 STUDY_MESHES = {"paper": (1, 2, 3, 4), "tdcr2": (1, 2, 3)}
-STUDY_COMMAND = "python -m training.cosserat_reference --study"
+STUDY_COMMAND = "python -m training.studies.cosserat --study"
 
 
 def model_tips(reference: dict) -> dict:

@@ -1,4 +1,4 @@
-"""The paper's CCKA-vs-simulation study (``python -m training.reproduce``), and beyond.
+"""The paper's CCKA-vs-simulation study (``python -m training.studies.reproduce``), and beyond.
 
 The paper (section 4) pulls cable 1 with 0–80 N in a nonlinear SolidWorks simulation, feeds the
 resulting cable lengths to the constant-curvature forward kinematics (CCKA, its eq. 5) and compares
@@ -24,13 +24,13 @@ equilibrium under the tensions, then keeps applying the same tensions until the 
 than a tolerance (1 µm by default) over a window of control steps, and raises
 :class:`SettleError` if it does not within a cap.
 
-Outputs (one folder, ``--out``): PNG figures (:mod:`training.reproduce.plots`), one CSV per
+Outputs (one folder, ``--out``): PNG figures (:mod:`training.studies.reproduce.plots`), one CSV per
 sweep (SI units, unit in each column name), ``summary.csv`` (the table), ``report.md``
-(:mod:`training.reproduce.report`) and ``run.json`` (configuration, timings).
+(:mod:`training.studies.reproduce.report`) and ``run.json`` (configuration, timings).
 
 Usage::
 
-    python -m training.reproduce [--out DIR] [--quick] [--forces N] [--payloads-g 0,50,...]
+    python -m training.studies.reproduce [--out DIR] [--quick] [--forces N] [--payloads-g 0,50,...]
 """
 
 from __future__ import annotations
