@@ -51,7 +51,7 @@ import numpy as np
 
 import cdcr_gym  # noqa: F401
 from cdcr_gym.controllers import AnalyticIKController
-from training.evaluate import plots
+from training.evaluate import plots, tables
 from training.evaluate.conditions import condition_name
 from training.evaluate.oracles import plot_paths
 from training.evaluate.overlay import caption, draw_text
@@ -371,74 +371,107 @@ def _write_video(
     return write_video(fig_dir / "episodes.mp4", frames, fps=25)
 
 
-def _print_table(result: dict[str, Any]) -> None:
-    from rich.console import Console
-    from rich.table import Table
+def reach_columns(result: dict[str, Any]) -> list[tables.Column]:
+    """The columns of the Reach table: rows are ``(condition name, condition dict)``."""
+    thr = f"{result['distance_threshold_m'] * 1000.0:g}"
+    headline = result["headline_condition"]
+    C = tables.Column
 
-    thr_mm = result["distance_threshold_m"] * 1000.0
-    table = Table(
-        title=(
-            f"{result['env_id']} — {result['episodes']} goals per condition, model at step "
-            f"{result['model_step']} (errors in mm; IK = analytic IK, random = uniform random tensions, on the same goals)"
+    def err(who: str, stat: str) -> Any:
+        return lambda r: f"{_block(r[1], who)['error_mm'][stat]:.3f}" if _block(r[1], who) else "–"
+
+    def rate(who: str, key: str = "success_rate") -> Any:
+        return lambda r: tables.pct(_block(r[1], who)[key]) if _block(r[1], who) else "–"
+
+    cols = [
+        C(
+            "condition",
+            "starting shape and episode length (* the headline)",
+            lambda r: r[0] + (" *" if r[0] == headline else ""),
         ),
-    )
-    for col in (
-        "condition",
-        f"success ≤{thr_mm:g} mm",
-        "≤1 mm",
-        "mean",
-        "median",
-        "p95",
-        "max",
-        f"IK ≤{thr_mm:g} mm",
-        "IK median",
-        "IK p95",
-        "Δlength vs IK (median)",
-        "ΔT vs IK (median, N)",
-        *(
-            (f"closed-loop IK ≤{thr_mm:g} mm", "closed-loop IK median")
-            if "ik_closed_loop" in result
-            else ()
+        C(
+            f"≤{thr}mm",
+            f"the policy's episodes with a final tip error ≤ {thr} mm (success)",
+            rate("policy"),
         ),
-        f"random ≤{thr_mm:g} mm",
-        "random median",
-    ):
-        table.add_column(col, justify="right")
-    for name, c in result["conditions"].items():
-        e, ik = c["error_mm"], c["ik"]
-        closed = c.get("ik_closed_loop")
-        table.add_row(
-            name + (" *" if name == result["headline_condition"] else ""),
-            f"{100 * c['success_rate']:.1f} %",
-            f"{100 * c['within_1mm']:.1f} %",
-            f"{e['mean']:.3f}",
-            f"{e['median']:.3f}",
-            f"{e['p95']:.3f}",
-            f"{e['max']:.3f}",
-            f"{100 * ik['success_rate']:.1f} %",
-            f"{ik['error_mm']['median']:.3f}",
-            f"{ik['error_mm']['p95']:.3f}",
-            f"{ik['cable_length_distance_mm']['median']:.3f} mm",
-            f"{ik['tension_distance_n']['median']:.2f}",
-            *(
-                (f"{100 * closed['success_rate']:.1f} %", f"{closed['error_mm']['median']:.3f}")
-                if closed is not None
-                else ()
+        C("≤1mm", "... ≤ 1 mm", rate("policy", "within_1mm")),
+        C("mean", "mean final tip error, mm", err("policy", "mean"), narrow=False),
+        C("median", "median final tip error, mm", err("policy", "median")),
+        C("p95", "95th percentile of the final tip error, mm", err("policy", "p95")),
+        C("max", "largest final tip error, mm", err("policy", "max"), narrow=False),
+        C(
+            f"IK≤{thr}mm",
+            "success of the analytic IK (open loop) on the same goals and starts",
+            rate("ik"),
+        ),
+        C("IK med", "its median final tip error, mm", err("ik", "median")),
+        C("IK p95", "its 95th percentile, mm", err("ik", "p95"), narrow=False),
+        C(
+            "ΔL IK",
+            "median distance of the policy's final cable lengths from the IK solution "
+            "(Euclidean over the cables), mm",
+            lambda r: f"{r[1]['ik']['cable_length_distance_mm']['median']:.3f}",
+            narrow=False,
+        ),
+        C(
+            "ΔT IK",
+            "median distance of the policy's final tensions from the IK solution "
+            "(Euclidean over the cables), N",
+            lambda r: f"{r[1]['ik']['tension_distance_n']['median']:.2f}",
+            narrow=False,
+        ),
+    ]
+    if "ik_closed_loop" in result:
+        cols += [
+            C(
+                f"CL≤{thr}mm",
+                "success of the closed-loop IK (corrected from the measured tip)",
+                rate("ik_closed_loop"),
+                narrow=False,
             ),
-            *(
-                (
-                    f"{100 * c['random']['success_rate']:.1f} %",
-                    f"{c['random']['error_mm']['median']:.3f}",
-                )
-                if "random" in c  # absent in eval.json files written before the random row
-                else ("–", "–")
+            C(
+                "CL med",
+                "the closed-loop IK's median final tip error, mm",
+                err("ik_closed_loop", "median"),
             ),
+        ]
+    cols += [
+        C(
+            f"rnd≤{thr}mm",
+            "success of uniform random tensions (the floor)",
+            rate("random"),
+            narrow=False,
+        ),
+        C(
+            "rnd med",
+            "median final tip error of uniform random tensions, mm",
+            err("random", "median"),
+        ),
+    ]
+    return cols
+
+
+def _block(cond: dict[str, Any], who: str) -> dict[str, Any] | None:
+    """The summary of ``who`` (policy, ik, ik_closed_loop, random) in one condition (None if
+    absent: random is missing in eval.json files written before it was added)."""
+    return cond if who == "policy" else cond.get(who)
+
+
+def _print_table(result: dict[str, Any], wide: bool = False) -> None:
+    columns = reach_columns(result)
+    print(
+        tables.wrap(
+            f"{result['env_id']}: {result['episodes']} goals per condition, model at step "
+            f"{result['model_step']}; every policy on the same goals and starts"
         )
-    console = Console(width=220)
-    console.print(table)
-    console.print(
-        f"* headline condition; wrote {result['_json_path']} and figures "
-        f"{', '.join(Path(p).name for p in result['figures'].values())}"
+    )
+    print(tables.text_table(columns, list(result["conditions"].items()), wide))
+    print(tables.legend(columns, wide))
+    print(
+        tables.wrap(
+            f"wrote {result['_json_path']} and figures "
+            f"{', '.join(Path(p).name for p in result['figures'].values())}"
+        )
     )
 
 
@@ -485,6 +518,12 @@ def _parse_args(argv: list[str]) -> argparse.Namespace:
         help="override an env kwarg (YAML value), e.g. gravity=false; repeatable",
     )
     parser.add_argument("--video", action="store_true", help="write an H.264 MP4 of a few episodes")
+    parser.add_argument(
+        "--wide",
+        action="store_true",
+        help="print every column (default: the table fits 100 characters; a legend under it "
+        "explains each column)",
+    )
     parser.add_argument(
         "--model",
         choices=EVALUATE_MODELS,
@@ -579,33 +618,21 @@ def main(argv: list[str] | None = None) -> int:
         command=command,
     )
     if "task" in result:
-        _print_task_table(result)
+        _print_task_table(result, args.wide)
     else:
-        _print_table(result)
+        _print_table(result, args.wide)
     return 0
 
 
-def _print_task_table(result: dict[str, Any]) -> None:
-    """One line per condition and policy: success, error and the task's own numbers."""
-    for name, rows in result["conditions"].items():
-        print(f"{result['task']} {name} ({result['episodes']} episodes)")
-        for who, s in rows.items():
-            extra = ""
-            if "tracking_rms_mm" in s:
-                extra = f"  tracking RMS mean {s['tracking_rms_mm']['mean']:.3f} mm"
-            if "final_angle_deg" in s:
-                extra = f"  angle median {s['final_angle_deg']['median']:.3f} deg"
-            if "collision_rate" in s:
-                extra = (
-                    f"  collision rate {100 * s['collision_rate']:.1f} %, collisions in "
-                    f"successes {s['collisions_in_successful_episodes']}"
-                )
-            if "filtered_step_fraction" in s:
-                extra += f", safety filter on {100 * s['filtered_step_fraction']:.1f} % of steps"
-            print(
-                f"  {who:18s} success {100 * s['success_rate']:5.1f} %  final distance median "
-                f"{s['final_distance_mm']['median']:.3f} mm{extra}"
-            )
+def _print_task_table(result: dict[str, Any], wide: bool = False) -> None:
+    """One row per condition and policy: success, error and the task's own numbers."""
+    print(f"{result['task']} on {result['env_id']}: {result['episodes']} episodes per condition")
+    rows = [
+        (name, who, s) for name, block in result["conditions"].items() for who, s in block.items()
+    ]
+    columns = tables.task_columns(result["task"])
+    print(tables.text_table(columns, rows, wide))
+    print(tables.legend(columns, wide))
 
 
 if __name__ == "__main__":

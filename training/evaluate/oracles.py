@@ -28,6 +28,7 @@ import numpy as np
 
 import cdcr_gym  # noqa: F401
 from cdcr_gym import controllers
+from training.evaluate import tables
 from training.run.metrics import oracle_for, run_task_episodes, summarize_task
 from training.run.rollout import parse_env_kwarg
 
@@ -145,6 +146,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=Path("docs/figures/tasks"))
     parser.add_argument("--figures", type=int, default=0, help="episodes to draw")
     parser.add_argument("--env-kwarg", action="append", default=[], metavar="KEY=VALUE")
+    parser.add_argument(
+        "--wide", action="store_true", help="every column (default: the ones that fit 100 columns)"
+    )
     args = parser.parse_args(argv)
     if args.episodes < 1:
         parser.error(f"--episodes must be >= 1, got {args.episodes}")
@@ -169,7 +173,13 @@ def main(argv: list[str] | None = None) -> int:
     result["command"] = "cdcr-gym oracles " + " ".join(argv if argv is not None else sys.argv[1:])
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / f"{stem}.json").write_text(json.dumps(result, indent=2) + "\n")
-    print(json.dumps(result, indent=2))
+    where = f"{args.backend} {result['robot']}"
+    rows = [(where, who, result[who]) for who in ("oracle", "reach_ik") if who in result]
+    columns = tables.task_columns(result["oracle"]["task"], ("on", "backend and robot"))
+    print(f"{result['env_id']}: {args.episodes} episodes from seed {args.seed}")
+    print(tables.text_table(columns, rows, args.wide))
+    print(tables.legend(columns, args.wide))
+    print(tables.wrap(f"wrote {args.out / f'{stem}.json'}"))
     return 0
 
 
