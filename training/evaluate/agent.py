@@ -66,9 +66,11 @@ from training.run.config import (
 )
 from training.run.envs import registered_steps
 from training.run.metrics import (
+    error_stats,
     is_physics,
     oracle_for,
     run_task_episodes,
+    summarize,
     summarize_task,
     task_name,
 )
@@ -76,12 +78,10 @@ from training.run.rollout import (
     ModelFileError,
     SB3Policy,
     check_env_id,
-    error_stats,
     make_env,
     make_specs,
     parse_env_kwarg,
     run_episodes,
-    summarize,
 )
 
 __all__ = ["main", "evaluate"]

@@ -14,7 +14,7 @@ from training.run.config import (
 )
 from training.run.envs import registered_steps, registered_task
 from training.run.logs import append_csv
-from training.run.metrics import run_task_episodes
+from training.run.metrics import run_task_episodes, summarize
 from training.run.provenance import write_json
 from training.run.rollout import (
     SB3Policy,
@@ -22,7 +22,6 @@ from training.run.rollout import (
     make_env,
     make_specs,
     run_episodes,
-    summarize,
 )
 from training.run.rundir import RunDir
 

@@ -1,8 +1,9 @@
 """Each task's own episode metrics, for any policy (an oracle or a trained model).
 
-:func:`run_task_episodes` runs a policy (flat observations in, actions out) in a single env for
-episodes reset with seeds ``seed + i`` (the same scenes for every policy) and keeps each
-episode's task metrics from its last step's ``info``:
+:func:`task_metrics` reads each episode's task metrics from the rollouts of
+:func:`training.run.rollout.run_episodes` (its last step's ``info`` and the per-step minima);
+:func:`run_task_episodes` runs a policy for episodes reset with seeds ``seed + i`` (the same
+scenes for every policy) and returns them:
 
 * every task: ``return``, ``final_distance_mm``, ``success`` (the last step's ``is_success``);
 * Track: ``tracking_rms_mm``, ``tracking_max_mm`` (after the settling window);
@@ -11,7 +12,9 @@ episode's task metrics from its last step's ``info``:
   ``success`` = final distance within the threshold with no collision.
 
 :func:`summarize_task` turns them into the numbers reported in README/docs (means, medians,
-p95, max, rates). :func:`oracle_for` builds each task's oracle from an env.
+p95, max, rates); :func:`summarize` and :func:`error_stats` the final-error numbers of the Reach
+report. :func:`oracle_for` builds each task's oracle (``cdcr_gym.controllers.ORACLES``) from an
+env.
 """
 
 from __future__ import annotations
@@ -23,8 +26,18 @@ import gymnasium as gym
 import numpy as np
 
 from cdcr_gym import controllers
+from training.run.rollout import EpisodeSpecs, Rollouts, run_episodes
 
-__all__ = ["run_task_episodes", "summarize_task", "oracle_for", "task_name", "is_physics"]
+__all__ = [
+    "task_metrics",
+    "run_task_episodes",
+    "summarize_task",
+    "error_stats",
+    "summarize",
+    "oracle_for",
+    "task_name",
+    "is_physics",
+]
 
 
 def task_name(env: Any) -> str:
@@ -53,6 +66,33 @@ def oracle_for(env: Any, kind: str = "oracle", **options: Any) -> Any:
     return cls.from_env(env, feedback=feedback, **options)
 
 
+def task_metrics(task: str, rollouts: Rollouts) -> dict[str, Any]:
+    """Per-episode metrics (arrays of length n) of ``task`` from its rollouts (module
+    docstring), with ``"task"`` and, if recorded, ``"paths"``."""
+    final = rollouts.final_infos
+    out: dict[str, Any] = {
+        "return": rollouts.returns.astype(np.float64),
+        "final_distance_mm": 1e3 * np.array([info["distance"] for info in final], np.float64),
+        "success": np.array([float(info["is_success"]) for info in final]),
+    }
+    if task == "Track":
+        out["tracking_rms_mm"] = 1e3 * np.array([info["tracking_rms"] for info in final])
+        out["tracking_max_mm"] = 1e3 * np.array([info["tracking_max"] for info in final])
+    elif task == "Pose":
+        out["final_angle_deg"] = np.rad2deg(np.array([info["angle"] for info in final], float))
+    elif task == "Obstacle":
+        out["collided"] = rollouts.collided.astype(np.float64)
+        out["min_clearance_mm"] = 1e3 * rollouts.min_clearance
+        if final and "safety_filtered" in final[-1]:  # the env's safety filter is on
+            out["filtered_step_fraction"] = rollouts.filtered_steps / np.maximum(
+                rollouts.episode_length, 1
+            )
+    out["task"] = task
+    if rollouts.paths:
+        out["paths"] = rollouts.paths
+    return out
+
+
 def run_task_episodes(
     env_fn: Callable[[], gym.Env],
     policy: Callable[[np.ndarray], np.ndarray] | None,
@@ -60,72 +100,23 @@ def run_task_episodes(
     seed: int,
     record: int = 0,
 ) -> dict[str, Any]:
-    """Per-episode metrics (arrays of length ``episodes``) of ``policy`` in ``env_fn()``.
+    """Per-episode metrics (:func:`task_metrics`) of ``policy`` in ``env_fn()`` over
+    ``episodes`` episodes reset with seeds ``seed + i`` (:func:`training.run.rollout.run_episodes`
+    in one env, for the env's own episode length).
 
     ``policy`` None runs the task's oracle (built from the env). ``record`` > 0 keeps the tip,
     target (Track) and obstacles (Obstacle) of the first ``record`` episodes in ``"paths"``.
     """
     env = env_fn()
-    task = task_name(env)
-    act = oracle_for(env) if policy is None else policy
-    rows: dict[str, list[float]] = {}
-    paths = []
-    for i in range(episodes):
-        obs, info = env.reset(seed=seed + i)
-        total, clearance, collided, filtered, steps = 0.0, np.inf, False, 0, 0
-        tips, targets = [info["tip"]], [info.get("target", info.get("goal"))]
-        done = False
-        while not done:
-            action = np.asarray(act(obs[None]))[0]
-            obs, reward, terminated, truncated, info = env.step(action)
-            total += reward
-            steps += 1
-            done = terminated or truncated
-            if task == "Obstacle":
-                clearance = min(clearance, info["min_clearance"])
-                collided = collided or bool(info["collision"])
-                filtered += bool(info.get("safety_filtered", False))
-            if i < record:
-                tips.append(info["tip"])
-                targets.append(info.get("target", info.get("goal")))
-        row = {
-            "return": total,
-            "final_distance_mm": 1e3 * info["distance"],
-            "success": float(info["is_success"]),
-        }
-        if task == "Track":
-            row["tracking_rms_mm"] = 1e3 * info["tracking_rms"]
-            row["tracking_max_mm"] = 1e3 * info["tracking_max"]
-        elif task == "Pose":
-            row["final_angle_deg"] = float(np.rad2deg(info["angle"]))
-        elif task == "Obstacle":
-            row["collided"] = float(collided)
-            row["min_clearance_mm"] = 1e3 * clearance
-            if "safety_filtered" in info:  # the env's safety filter is on
-                row["filtered_step_fraction"] = filtered / max(steps, 1)
-        for key, value in row.items():
-            rows.setdefault(key, []).append(float(value))
-        if i < record:
-            entry = {"tip": np.array(tips), "target": np.array(targets)}
-            if task == "Obstacle":
-                entry["obstacles"] = info["obstacles"]
-                entry["goal"] = info["goal"]
-            paths.append(entry)
-    env.close()
-    out: dict[str, Any] = {key: np.array(v) for key, v in rows.items()}
-    out["task"] = task
-    if record:
-        out["paths"] = paths
-    return out
-
-
-def _stats(values: np.ndarray) -> dict[str, float]:
-    return {
-        "mean": float(np.mean(values)),
-        "median": float(np.median(values)),
-        "p95": float(np.percentile(values, 95)),
-        "max": float(np.max(values)),
-    }
+    try:
+        task = task_name(env)
+        act = oracle_for(env) if policy is None else policy
+        rollouts = run_episodes(
+            env_fn, act, EpisodeSpecs.from_seeds(episodes, seed), batch_size=1, record=record
+        )
+    finally:
+        env.close()
+    return task_metrics(task, rollouts)
 
 
 def summarize_task(metrics: dict[str, Any]) -> dict[str, Any]:
@@ -136,13 +127,13 @@ def summarize_task(metrics: dict[str, Any]) -> dict[str, Any]:
         "episodes": int(len(metrics["return"])),
         "success_rate": float(np.mean(metrics["success"])),
         "mean_return": float(np.mean(metrics["return"])),
-        "final_distance_mm": _stats(metrics["final_distance_mm"]),
+        "final_distance_mm": error_stats(metrics["final_distance_mm"]),
     }
     if task == "Track":
-        out["tracking_rms_mm"] = _stats(metrics["tracking_rms_mm"])
-        out["tracking_max_mm"] = _stats(metrics["tracking_max_mm"])
+        out["tracking_rms_mm"] = error_stats(metrics["tracking_rms_mm"])
+        out["tracking_max_mm"] = error_stats(metrics["tracking_max_mm"])
     elif task == "Pose":
-        out["final_angle_deg"] = _stats(metrics["final_angle_deg"])
+        out["final_angle_deg"] = error_stats(metrics["final_angle_deg"])
         out["within_1mm_1deg"] = float(
             np.mean((metrics["final_distance_mm"] <= 1.0) & (metrics["final_angle_deg"] <= 1.0))
         )
@@ -151,7 +142,28 @@ def summarize_task(metrics: dict[str, Any]) -> dict[str, Any]:
         success = metrics["success"] > 0
         out["collision_rate"] = float(np.mean(collided))
         out["collisions_in_successful_episodes"] = int(np.sum(collided & success))
-        out["min_clearance_mm"] = _stats(metrics["min_clearance_mm"])
+        out["min_clearance_mm"] = error_stats(metrics["min_clearance_mm"])
         if "filtered_step_fraction" in metrics:  # the env's safety filter was on
             out["filtered_step_fraction"] = float(np.mean(metrics["filtered_step_fraction"]))
     return out
+
+
+def error_stats(values: np.ndarray, scale: float = 1.0) -> dict[str, float]:
+    """``mean``, ``median``, ``p95``, ``max`` of ``values`` × ``scale``."""
+    v = np.asarray(values, dtype=np.float64) * scale
+    return {
+        "mean": float(np.mean(v)),
+        "median": float(np.median(v)),
+        "p95": float(np.percentile(v, 95)),
+        "max": float(np.max(v)),
+    }
+
+
+def summarize(final_distance: np.ndarray, threshold: float) -> dict[str, Any]:
+    """Success rate (at ``threshold`` m), fraction within 1 mm and error statistics in mm."""
+    d = np.asarray(final_distance, dtype=np.float64)
+    return {
+        "success_rate": float(np.mean(d <= threshold)),
+        "within_1mm": float(np.mean(d <= 0.001)),
+        "error_mm": error_stats(d, 1000.0),
+    }
