@@ -23,7 +23,7 @@ from __future__ import annotations
 from cdcr_gym.defaults import MAX_EPISODE_STEPS
 from cdcr_gym.registration import register_all
 
-__version__ = "0.2.0"
+__version__ = "0.3.0"
 
 __all__ = ["MAX_EPISODE_STEPS", "__version__"]
 

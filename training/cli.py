@@ -13,8 +13,7 @@
 
 and ``from-zoo``, ``oracles``, ``results``, ``task-results``, ``sim2sim``, ``hysteresis``,
 ``step-response``, ``transfer-probe``, ``verification``, ``bench-realism``, ``bench-physics``, ``calibrate``, ``oracle-feedback``, ``cosserat-reference``, ``bench-single``, ``friction-chatter`` (``cdcr-gym --help``).
-The former ``python -m training.<module>`` forms still work (aliases, see
-:mod:`training.deprecated`).
+Each subcommand's module also runs as ``python -m <module>`` (``python -m training.run.train``).
 
 Everything after the subcommand goes to that module's ``main`` unchanged (``cdcr-gym train
 --help`` prints the trainer's own help, whose usage line reads ``cdcr-gym train``). A config
@@ -31,7 +30,10 @@ import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-__all__ = ["main", "configs_dir", "resolve_config", "COMMANDS"]
+from cdcr_gym import __version__
+from training.run.packaged import available_configs, configs_dir, resolve_config
+
+__all__ = ["main", "COMMANDS"]
 
 #: subcommand -> (module, one-line description, the extra it needs)
 COMMANDS: dict[str, tuple[str, str, str]] = {
@@ -149,51 +151,6 @@ OPTIONAL_MODULES: dict[str, str] = {
 }
 
 
-def configs_dir() -> Path | None:
-    """The directory of the packaged experiment configs, or None if there is none.
-
-    A wheel install has them in ``training/configs/``; a checkout (editable install) has them in
-    ``configs/`` beside ``training/``.
-    """
-    here = Path(__file__).resolve().parent
-    packaged = here / "configs"
-    if packaged.is_dir():
-        return packaged
-    checkout = here.parent / "configs"
-    if checkout.is_dir() and (here.parent / "pyproject.toml").is_file():
-        return checkout
-    return None
-
-
-def available_configs() -> list[str]:
-    """Names (relative paths without ``.yaml``) of the packaged configs."""
-    root = configs_dir()
-    if root is None:
-        return []
-    return sorted(str(p.relative_to(root).with_suffix("")) for p in root.rglob("*.yaml"))
-
-
-def resolve_config(name: str) -> str:
-    """``name`` itself if it is an existing file, else the packaged config of that name.
-
-    ``ppo_ccka_reach``, ``ppo_ccka_reach.yaml`` and ``configs/ppo_ccka_reach.yaml`` all find
-    ``configs/ppo_ccka_reach.yaml``. An unknown name is returned unchanged (the trainer then
-    reports the missing file).
-    """
-    if Path(name).is_file():
-        return name
-    root = configs_dir()
-    if root is None:
-        return name
-    stem = Path(name)
-    if stem.parts and stem.parts[0] == "configs":
-        stem = Path(*stem.parts[1:])
-    for candidate in (root / stem, root / stem.with_suffix(".yaml")):
-        if candidate.is_file():
-            return str(candidate)
-    return name
-
-
 def _first_positional(argv: list[str], options_with_value: set[str]) -> int | None:
     skip = False
     for i, arg in enumerate(argv):
@@ -285,8 +242,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(_usage())
         return 0 if args else 2
     if args[0] in ("-V", "--version"):
-        from cdcr_gym import __version__
-
         print(f"cdcr-gym {__version__}")
         return 0
     command, rest = args[0], args[1:]

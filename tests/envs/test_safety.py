@@ -14,7 +14,7 @@ import pytest
 
 import cdcr_gym  # noqa: F401  (registers the ids)
 from cdcr_gym.envs.safety import SLACK_FRACTION, SafetyFilter
-from training.evaluate.metrics import oracle_for
+from training.run.metrics import oracle_for
 
 pytestmark = pytest.mark.filterwarnings("error")
 
@@ -217,7 +217,7 @@ def test_bad_arguments_are_value_errors(env_id, kwargs, message):
 
 
 def test_task_metrics_report_the_share_of_filtered_steps():
-    from training.evaluate.metrics import run_task_episodes, summarize_task
+    from training.run.metrics import run_task_episodes, summarize_task
 
     def env_fn(**extra):
         return lambda: gym.make(ENV_ID, tension_step=0.1, max_episode_steps=100, **extra)

@@ -264,11 +264,11 @@ def test_validation():
 def test_sb3_adapter_matches_dummy_vec_env():
     from stable_baselines3.common.vec_env import DummyVecEnv
 
-    from training.run.sb3_vec import BatchedCCKAVecEnv
+    from training.run.sb3_vec import BatchedVecEnv
 
     n, states = 4, ["straight", "random"]
     kwargs = {"terminate_on_success": True, "distance_threshold": 0.25, "tension_step": 0.2}
-    batched = BatchedCCKAVecEnv(
+    batched = BatchedVecEnv(
         n, seed=5, per_env_kwargs=[{"initial_state": s} for s in states], **kwargs
     )
     dummy = DummyVecEnv(
@@ -309,7 +309,7 @@ def test_sb3_adapter_takes_shared_per_env_keys_and_rejects_varying_ones():
     envs, as in a DummyVecEnv of single envs with those kwargs; a key that differs is an error."""
     from stable_baselines3.common.vec_env import DummyVecEnv
 
-    from training.run.sb3_vec import BatchedCCKAVecEnv
+    from training.run.sb3_vec import BatchedVecEnv
 
     n, states = 4, ["straight", "random"]
     shared = {
@@ -317,7 +317,7 @@ def test_sb3_adapter_takes_shared_per_env_keys_and_rejects_varying_ones():
         "imperfections": {"tip_noise": 0.001, "tension_response": 0.44, "actuator_noise": 0.5},
     }
     per_env = [{"initial_state": s, **shared} for s in states]
-    batched = BatchedCCKAVecEnv(n, seed=3, per_env_kwargs=per_env)
+    batched = BatchedVecEnv(n, seed=3, per_env_kwargs=per_env)
     dummy = DummyVecEnv(
         [(lambda s=states[i % 2]: gym.make(ENV_ID, initial_state=s, **shared)) for i in range(n)]
     )
@@ -335,24 +335,24 @@ def test_sb3_adapter_takes_shared_per_env_keys_and_rejects_varying_ones():
         for ib, id_ in zip(infos_b, infos_d):
             np.testing.assert_allclose(ib["tip"], id_["tip"], atol=1e-12)
     with pytest.raises(ValueError, match=r"per_env_kwargs.*varying \['tension_step'\]"):
-        BatchedCCKAVecEnv(2, per_env_kwargs=[{"tension_step": 0.1}, {"tension_step": 0.2}])
+        BatchedVecEnv(2, per_env_kwargs=[{"tension_step": 0.1}, {"tension_step": 0.2}])
     with pytest.raises(ValueError, match=r"varying \['imperfections'\]"):
-        BatchedCCKAVecEnv(2, per_env_kwargs=[{"imperfections": {"tip_noise": 0.001}}, {}])
+        BatchedVecEnv(2, per_env_kwargs=[{"imperfections": {"tip_noise": 0.001}}, {}])
 
 
 def test_sb3_ppo_learns_with_the_adapter_and_her_relabels():
     from stable_baselines3 import PPO, SAC, HerReplayBuffer
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
-    from training.run.sb3_vec import BatchedCCKAVecEnv
+    from training.run.sb3_vec import BatchedVecEnv
 
-    venv = VecNormalize(VecMonitor(BatchedCCKAVecEnv(4, seed=0, max_episode_steps=20)))
+    venv = VecNormalize(VecMonitor(BatchedVecEnv(4, seed=0, max_episode_steps=20)))
     model = PPO("MlpPolicy", venv, n_steps=32, batch_size=64, n_epochs=1, seed=0, device="cpu")
     model.learn(total_timesteps=256)
     assert model.num_timesteps == 256
     assert len(model.ep_success_buffer) > 0  # is_success reached SB3's logger
 
-    goal_env = BatchedCCKAVecEnv(2, seed=0, goal_conditioned=True, max_episode_steps=10)
+    goal_env = BatchedVecEnv(2, seed=0, goal_conditioned=True, max_episode_steps=10)
     her = SAC(
         "MultiInputPolicy",
         goal_env,

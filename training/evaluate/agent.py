@@ -32,7 +32,7 @@ starting state and the first horizon, by default: straight start, the training e
 
 ``--env-id`` evaluates the policy on another backend (sim-to-sim, e.g. a CCKA-trained tension
 policy on ``cdcr_gym/BulletReach-v0``); the IK runs on that backend too. ``--video`` writes an
-an H.264 MP4 (``training.video``, ffmpeg from imageio-ffmpeg) of the first few headline episodes.
+an H.264 MP4 (``training.evaluate.video``, ffmpeg from imageio-ffmpeg) of the first few headline episodes.
 """
 
 from __future__ import annotations
@@ -49,8 +49,14 @@ from typing import Any
 
 import numpy as np
 
+import cdcr_gym  # noqa: F401
+from cdcr_gym.controllers import AnalyticIKController
+from training.evaluate import plots, tables
 from training.evaluate.conditions import condition_name
-from training.evaluate.rollout import parse_env_kwarg
+from training.evaluate.oracles import plot_paths
+from training.evaluate.overlay import caption, draw_text
+from training.evaluate.random_policy import RandomPolicy
+from training.evaluate.video import write_video
 from training.run.config import (
     EVALUATE_MODELS,
     ConfigError,
@@ -59,6 +65,24 @@ from training.run.config import (
     load_config,
 )
 from training.run.envs import registered_steps
+from training.run.metrics import (
+    error_stats,
+    is_physics,
+    oracle_for,
+    run_task_episodes,
+    summarize,
+    summarize_task,
+    task_name,
+)
+from training.run.rollout import (
+    ModelFileError,
+    SB3Policy,
+    check_env_id,
+    make_env,
+    make_specs,
+    parse_env_kwarg,
+    run_episodes,
+)
 
 __all__ = ["main", "evaluate"]
 
@@ -72,7 +96,6 @@ def _tag_for(env_id: str, overrides: dict[str, Any]) -> str:
 def _state_distances(
     tensions: np.ndarray, lengths: np.ndarray, ik_tensions: np.ndarray, ik_lengths: np.ndarray
 ) -> dict[str, dict[str, float]]:
-    from training.evaluate.rollout import error_stats
 
     dl = np.linalg.norm(lengths - ik_lengths, axis=-1)
     dt = np.linalg.norm(tensions - ik_tensions, axis=-1)
@@ -102,16 +125,11 @@ def evaluate(
     """Run the evaluation, write JSON + figures, return the result dict."""
     import torch
 
-    from cdcr_gym.controllers import AnalyticIKController
-    from training.evaluate import plots
-    from training.evaluate.random_policy import RandomPolicy
-    from training.evaluate.rollout import PPOPolicy, make_env, make_specs, run_episodes, summarize
-
     torch.set_num_threads(config.runtime.torch_threads)
     t0 = time.perf_counter()
     model_dir = run_dir / ("best_model" if model == "best" else "final_model")
     vn_path = model_dir / "vecnormalize.pkl"
-    policy = PPOPolicy(
+    policy = SB3Policy(
         model_dir / "model.zip", vn_path if vn_path.exists() else None, algo=config.algo
     )
     model_info: dict[str, Any] = {}
@@ -131,7 +149,6 @@ def evaluate(
     params = probe.unwrapped.params
     threshold = float(probe.unwrapped.task.distance_threshold)
     ik = AnalyticIKController.from_env(probe)
-    from training.evaluate.metrics import is_physics
 
     # on a physics backend the open-loop IK misses by centimetres: the closed-loop IK beside it
     closed = AnalyticIKController.from_env(probe, feedback=True) if is_physics(probe) else None
@@ -159,8 +176,6 @@ def evaluate(
             cond.update(summarize(pol.final_distance, threshold))
             cond["mean_return"] = float(np.mean(pol.returns))
             if horizon > train_horizon:
-                from training.evaluate.rollout import error_stats
-
                 at = pol.distances[:, train_horizon]
                 cond["error_mm_at_train_horizon"] = error_stats(at, 1000.0)
                 cond["max_error_after_train_horizon_mm"] = error_stats(
@@ -271,11 +286,7 @@ def _evaluate_task(
 ) -> dict[str, Any]:
     """Track, Pose, Obstacle: the task's own metrics for the policy beside its oracle's (and, for
     Obstacle, the plain reach IK's) on the same episodes, per starting state, at the first
-    horizon (``training.task_metrics``). Writes the JSON and the path figures."""
-    from training.evaluate.metrics import is_physics, oracle_for, run_task_episodes, summarize_task
-    from training.evaluate.oracles import plot_paths
-    from training.evaluate.random_policy import RandomPolicy
-    from training.evaluate.rollout import make_env
+    horizon (``training.run.metrics``). Writes the JSON and the path figures."""
 
     ev = config.evaluate
     horizon = ev.horizons[0]
@@ -336,9 +347,6 @@ def _write_video(
     """H.264 MP4 (``training.evaluate.video``) of the first ``n_episodes`` headline episodes;
     every frame carries the step, the tip error (mm) and the task's metric
     (``training.evaluate.overlay``)."""
-    from training.evaluate.metrics import task_name
-    from training.evaluate.overlay import caption, draw_text
-    from training.evaluate.rollout import make_env
 
     kwargs = {**env_kwargs, "render_width": 320, "render_height": 320}
     env = make_env(env_id, kwargs, max(horizon, train_horizon), render_mode="rgb_array")
@@ -359,79 +367,111 @@ def _write_video(
                     break
     finally:
         env.close()
-    from training.evaluate.video import write_video
 
     return write_video(fig_dir / "episodes.mp4", frames, fps=25)
 
 
-def _print_table(result: dict[str, Any]) -> None:
-    from rich.console import Console
-    from rich.table import Table
+def reach_columns(result: dict[str, Any]) -> list[tables.Column]:
+    """The columns of the Reach table: rows are ``(condition name, condition dict)``."""
+    thr = f"{result['distance_threshold_m'] * 1000.0:g}"
+    headline = result["headline_condition"]
+    C = tables.Column
 
-    thr_mm = result["distance_threshold_m"] * 1000.0
-    table = Table(
-        title=(
-            f"{result['env_id']} — {result['episodes']} goals per condition, model at step "
-            f"{result['model_step']} (errors in mm; IK = analytic IK, random = uniform random tensions, on the same goals)"
+    def err(who: str, stat: str) -> Any:
+        return lambda r: f"{_block(r[1], who)['error_mm'][stat]:.3f}" if _block(r[1], who) else "–"
+
+    def rate(who: str, key: str = "success_rate") -> Any:
+        return lambda r: tables.pct(_block(r[1], who)[key]) if _block(r[1], who) else "–"
+
+    cols = [
+        C(
+            "condition",
+            "starting shape and episode length (* the headline)",
+            lambda r: r[0] + (" *" if r[0] == headline else ""),
         ),
-    )
-    for col in (
-        "condition",
-        f"success ≤{thr_mm:g} mm",
-        "≤1 mm",
-        "mean",
-        "median",
-        "p95",
-        "max",
-        f"IK ≤{thr_mm:g} mm",
-        "IK median",
-        "IK p95",
-        "Δlength vs IK (median)",
-        "ΔT vs IK (median, N)",
-        *(
-            (f"closed-loop IK ≤{thr_mm:g} mm", "closed-loop IK median")
-            if "ik_closed_loop" in result
-            else ()
+        C(
+            f"≤{thr}mm",
+            f"the policy's episodes with a final tip error ≤ {thr} mm (success)",
+            rate("policy"),
         ),
-        f"random ≤{thr_mm:g} mm",
-        "random median",
-    ):
-        table.add_column(col, justify="right")
-    for name, c in result["conditions"].items():
-        e, ik = c["error_mm"], c["ik"]
-        closed = c.get("ik_closed_loop")
-        table.add_row(
-            name + (" *" if name == result["headline_condition"] else ""),
-            f"{100 * c['success_rate']:.1f} %",
-            f"{100 * c['within_1mm']:.1f} %",
-            f"{e['mean']:.3f}",
-            f"{e['median']:.3f}",
-            f"{e['p95']:.3f}",
-            f"{e['max']:.3f}",
-            f"{100 * ik['success_rate']:.1f} %",
-            f"{ik['error_mm']['median']:.3f}",
-            f"{ik['error_mm']['p95']:.3f}",
-            f"{ik['cable_length_distance_mm']['median']:.3f} mm",
-            f"{ik['tension_distance_n']['median']:.2f}",
-            *(
-                (f"{100 * closed['success_rate']:.1f} %", f"{closed['error_mm']['median']:.3f}")
-                if closed is not None
-                else ()
+        C("≤1mm", "... ≤ 1 mm", rate("policy", "within_1mm")),
+        C("mean", "mean final tip error, mm", err("policy", "mean"), narrow=False),
+        C("median", "median final tip error, mm", err("policy", "median")),
+        C("p95", "95th percentile of the final tip error, mm", err("policy", "p95")),
+        C("max", "largest final tip error, mm", err("policy", "max"), narrow=False),
+        C(
+            f"IK≤{thr}mm",
+            "success of the analytic IK (open loop) on the same goals and starts",
+            rate("ik"),
+        ),
+        C("IK med", "its median final tip error, mm", err("ik", "median")),
+        C("IK p95", "its 95th percentile, mm", err("ik", "p95"), narrow=False),
+        C(
+            "ΔL IK",
+            "median distance of the policy's final cable lengths from the IK solution "
+            "(Euclidean over the cables), mm",
+            lambda r: f"{r[1]['ik']['cable_length_distance_mm']['median']:.3f}",
+            narrow=False,
+        ),
+        C(
+            "ΔT IK",
+            "median distance of the policy's final tensions from the IK solution "
+            "(Euclidean over the cables), N",
+            lambda r: f"{r[1]['ik']['tension_distance_n']['median']:.2f}",
+            narrow=False,
+        ),
+    ]
+    if "ik_closed_loop" in result:
+        cols += [
+            C(
+                f"CL≤{thr}mm",
+                "success of the closed-loop IK (corrected from the measured tip)",
+                rate("ik_closed_loop"),
+                narrow=False,
             ),
-            *(
-                (
-                    f"{100 * c['random']['success_rate']:.1f} %",
-                    f"{c['random']['error_mm']['median']:.3f}",
-                )
-                if "random" in c  # absent in eval.json files written before the random row
-                else ("–", "–")
+            C(
+                "CL med",
+                "the closed-loop IK's median final tip error, mm",
+                err("ik_closed_loop", "median"),
             ),
+        ]
+    cols += [
+        C(
+            f"rnd≤{thr}mm",
+            "success of uniform random tensions (the floor)",
+            rate("random"),
+            narrow=False,
+        ),
+        C(
+            "rnd med",
+            "median final tip error of uniform random tensions, mm",
+            err("random", "median"),
+        ),
+    ]
+    return cols
+
+
+def _block(cond: dict[str, Any], who: str) -> dict[str, Any] | None:
+    """The summary of ``who`` (policy, ik, ik_closed_loop, random) in one condition (None if
+    absent: random is missing in eval.json files written before it was added)."""
+    return cond if who == "policy" else cond.get(who)
+
+
+def _print_table(result: dict[str, Any], wide: bool = False) -> None:
+    columns = reach_columns(result)
+    print(
+        tables.wrap(
+            f"{result['env_id']}: {result['episodes']} goals per condition, model at step "
+            f"{result['model_step']}; every policy on the same goals and starts"
         )
-    console = Console(width=220)
-    console.print(table)
-    console.print(
-        f"* headline condition; wrote {result['_json_path']} and figures "
-        f"{', '.join(Path(p).name for p in result['figures'].values())}"
+    )
+    print(tables.text_table(columns, list(result["conditions"].items()), wide))
+    print(tables.legend(columns, wide))
+    print(
+        tables.wrap(
+            f"wrote {result['_json_path']} and figures "
+            f"{', '.join(Path(p).name for p in result['figures'].values())}"
+        )
     )
 
 
@@ -479,6 +519,12 @@ def _parse_args(argv: list[str]) -> argparse.Namespace:
     )
     parser.add_argument("--video", action="store_true", help="write an H.264 MP4 of a few episodes")
     parser.add_argument(
+        "--wide",
+        action="store_true",
+        help="print every column (default: the table fits 100 characters; a legend under it "
+        "explains each column)",
+    )
+    parser.add_argument(
         "--model",
         choices=EVALUATE_MODELS,
         default=None,
@@ -525,9 +571,6 @@ def main(argv: list[str] | None = None) -> int:
         if args.tag is not None and not re.fullmatch(r"[A-Za-z0-9_.-]+", args.tag):
             raise ConfigError(f"--tag must be a simple file-name part, got {args.tag!r}")
 
-        import cdcr_gym  # noqa: F401 - registers the ids
-        from training.evaluate.rollout import check_env_id
-
         env_id = args.env_id or config.env.id
         try:
             check_env_id(env_id, "--env-id")
@@ -542,8 +585,6 @@ def main(argv: list[str] | None = None) -> int:
         if tag is None and (env_id != config.env.id or overrides):
             tag = _tag_for(env_id, overrides)
         try:
-            from training.evaluate.rollout import make_env
-
             probe = make_env(env_id, env_kwargs)
             spaces = (probe.observation_space, probe.action_space)
             probe.close()
@@ -551,11 +592,10 @@ def main(argv: list[str] | None = None) -> int:
             raise ConfigError(
                 f"--env-id/--env-kwarg: cannot make {env_id!r} with {env_kwargs}: {exc}"
             ) from None
-        from training.evaluate.rollout import ModelFileError, PPOPolicy
 
         vn_path = model_dir / "vecnormalize.pkl"
         try:  # a truncated model or a corrupt VecNormalize: a clear error, before any output
-            policy = PPOPolicy(
+            policy = SB3Policy(
                 model_dir / "model.zip", vn_path if vn_path.exists() else None, algo=config.algo
             )
         except ModelFileError as exc:
@@ -578,33 +618,21 @@ def main(argv: list[str] | None = None) -> int:
         command=command,
     )
     if "task" in result:
-        _print_task_table(result)
+        _print_task_table(result, args.wide)
     else:
-        _print_table(result)
+        _print_table(result, args.wide)
     return 0
 
 
-def _print_task_table(result: dict[str, Any]) -> None:
-    """One line per condition and policy: success, error and the task's own numbers."""
-    for name, rows in result["conditions"].items():
-        print(f"{result['task']} {name} ({result['episodes']} episodes)")
-        for who, s in rows.items():
-            extra = ""
-            if "tracking_rms_mm" in s:
-                extra = f"  tracking RMS mean {s['tracking_rms_mm']['mean']:.3f} mm"
-            if "final_angle_deg" in s:
-                extra = f"  angle median {s['final_angle_deg']['median']:.3f} deg"
-            if "collision_rate" in s:
-                extra = (
-                    f"  collision rate {100 * s['collision_rate']:.1f} %, collisions in "
-                    f"successes {s['collisions_in_successful_episodes']}"
-                )
-            if "filtered_step_fraction" in s:
-                extra += f", safety filter on {100 * s['filtered_step_fraction']:.1f} % of steps"
-            print(
-                f"  {who:18s} success {100 * s['success_rate']:5.1f} %  final distance median "
-                f"{s['final_distance_mm']['median']:.3f} mm{extra}"
-            )
+def _print_task_table(result: dict[str, Any], wide: bool = False) -> None:
+    """One row per condition and policy: success, error and the task's own numbers."""
+    print(f"{result['task']} on {result['env_id']}: {result['episodes']} episodes per condition")
+    rows = [
+        (name, who, s) for name, block in result["conditions"].items() for who, s in block.items()
+    ]
+    columns = tables.task_columns(result["task"])
+    print(tables.text_table(columns, rows, wide))
+    print(tables.legend(columns, wide))
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""``python -m training.ik_demo``: roll out the analytic-IK controller and print tip errors.
+"""``python -m training.evaluate.ik_demo``: roll out the analytic-IK controller and print tip errors.
 
 A quick, training-free check that an environment works: the IK oracle
 (``cdcr_gym.controllers.AnalyticIKController``) drives the robot to seeded goals, and the final
@@ -17,7 +17,7 @@ import numpy as np
 
 import cdcr_gym  # noqa: F401  (registers the ids)
 from cdcr_gym.controllers import AnalyticIKController
-from training.evaluate.rollout import check_env_id
+from training.run.rollout import check_env_id
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -26,7 +26,9 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+import cdcr_gym  # noqa: F401
 from training.run.config import EVALUATE_MODELS, load_config
+from training.run.rollout import SB3Policy
 
 __all__ = ["classify", "main"]
 
@@ -34,14 +36,12 @@ __all__ = ["classify", "main"]
 def classify(run: Path, episodes: int, seed: int, model: str = "best") -> dict[str, Any]:
     """Per-episode outcome of ``run``'s ``model`` ("best" or "final"): {"success": n,
     "collided": [...], "waited": [...], "missed": [...]} (lists of per-episode dicts)."""
-    import cdcr_gym  # noqa: F401  (registers the ids)
-    from training.evaluate.rollout import PPOPolicy
 
     config = load_config(run / "config.yaml")
     kwargs = {**config.env.kwargs, "initial_state": "straight"}
     model_dir = run / f"{model}_model"
     vecnorm = model_dir / "vecnormalize.pkl"
-    policy = PPOPolicy(
+    policy = SB3Policy(
         model_dir / "model.zip", vecnorm if vecnorm.exists() else None, algo=config.algo
     )
     env = gym.make(config.env.id, **kwargs)

@@ -35,23 +35,23 @@ import time
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
+from gymnasium import error as gym_error
+
+import cdcr_gym  # noqa: F401
+from cdcr_gym import controllers
+from cdcr_gym.controllers.ik import FEEDBACK_GAIN
 
 __all__ = ["run_study", "run_episodes", "summarize", "markdown_table", "main"]
 
-TASKS = {"reach": "Reach", "pose": "Pose", "track": "Track", "obstacle": "Obstacle"}
+TASKS = {task.__name__.lower(): task.__name__ for task in controllers.ORACLES}
 WITHIN = 0.005  # m, the "within 5 mm" radius of the table
 
 
 def _controller(env: Any, task: str, feedback: bool, gain: float) -> Any:
-    from cdcr_gym import controllers
 
-    cls: Any = {
-        "Reach": controllers.AnalyticIKController,
-        "Track": controllers.TrackingIKController,
-        "Pose": controllers.PoseIKController,
-        "Obstacle": controllers.ObstaclePlanner,
-    }[task]
+    cls: Any = controllers.oracle_for(env.unwrapped.task)
     return cls.from_env(env, feedback=feedback, gain=gain)
 
 
@@ -123,10 +123,6 @@ def run_study(
 ) -> list[dict[str, Any]]:
     """One result row per (backend, task, mode in ``modes``: "open" and/or "closed" loop), on
     the same episodes."""
-    import gymnasium as gym
-
-    import cdcr_gym  # noqa: F401  (registers the ids)
-    from cdcr_gym.controllers.ik import FEEDBACK_GAIN
 
     gain = FEEDBACK_GAIN if gain is None else gain
     results = []
@@ -221,7 +217,6 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--out", type=Path, default=Path("docs/figures/tasks"))
     args = parser.parse_args(argv)
-    from gymnasium import error as gym_error
 
     if args.episodes < 1:
         parser.error(f"--episodes must be >= 1, got {args.episodes}")

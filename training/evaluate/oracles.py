@@ -2,10 +2,10 @@
 
 Usage::
 
-    python -m training.oracles --task track --episodes 200 [--backend CCKA] [--robot paper]
+    python -m training.evaluate.oracles --task track --episodes 200 [--backend CCKA] [--robot paper]
                                [--seed 1000000] [--out DIR] [--figures N] [--env-kwarg K=V ...]
 
-Runs the task's oracle (``training.task_metrics.oracle_for``: tracking IK, pose IK, the
+Runs the task's oracle (``training.run.metrics.oracle_for``: tracking IK, pose IK, the
 RRT-Connect planner) for ``--episodes`` episodes reset with seeds ``seed + i`` and prints and
 writes its task metrics (``DIR/oracle_<task>_<backend>_<robot>.json``). For the Obstacle task
 the plain reach IK controller runs on the same episodes too (``reach_ik``: how often the direct
@@ -23,14 +23,19 @@ import time
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 
-from training.evaluate.metrics import oracle_for, run_task_episodes, summarize_task
-from training.evaluate.rollout import parse_env_kwarg
+import cdcr_gym  # noqa: F401
+from cdcr_gym import controllers
+from training.evaluate import tables
+from training.run.metrics import oracle_for, run_task_episodes, summarize_task
+from training.run.rollout import parse_env_kwarg
 
 __all__ = ["main", "run_oracle"]
 
-TASKS = {"track": "Track", "pose": "Pose", "obstacle": "Obstacle", "reach": "Reach"}
+#: --task name -> task class name (the tasks that have an oracle, cdcr_gym.controllers.ORACLES)
+TASKS = {task.__name__.lower(): task.__name__ for task in controllers.ORACLES}
 
 
 def run_oracle(
@@ -43,9 +48,6 @@ def run_oracle(
     record: int = 0,
 ) -> dict[str, Any]:
     """Summaries of the oracle (and, for Obstacle, the reach IK) on the same episodes."""
-    import gymnasium as gym
-
-    import cdcr_gym  # noqa: F401
 
     env_id = f"cdcr_gym/{backend}{TASKS[task]}-v0"
     kwargs = dict(env_kwargs or {})
@@ -144,6 +146,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=Path("docs/figures/tasks"))
     parser.add_argument("--figures", type=int, default=0, help="episodes to draw")
     parser.add_argument("--env-kwarg", action="append", default=[], metavar="KEY=VALUE")
+    parser.add_argument(
+        "--wide", action="store_true", help="every column (default: the ones that fit 100 columns)"
+    )
     args = parser.parse_args(argv)
     if args.episodes < 1:
         parser.error(f"--episodes must be >= 1, got {args.episodes}")
@@ -168,7 +173,13 @@ def main(argv: list[str] | None = None) -> int:
     result["command"] = "cdcr-gym oracles " + " ".join(argv if argv is not None else sys.argv[1:])
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / f"{stem}.json").write_text(json.dumps(result, indent=2) + "\n")
-    print(json.dumps(result, indent=2))
+    where = f"{args.backend} {result['robot']}"
+    rows = [(where, who, result[who]) for who in ("oracle", "reach_ik") if who in result]
+    columns = tables.task_columns(result["oracle"]["task"], ("on", "backend and robot"))
+    print(f"{result['env_id']}: {args.episodes} episodes from seed {args.seed}")
+    print(tables.text_table(columns, rows, args.wide))
+    print(tables.legend(columns, args.wide))
+    print(tables.wrap(f"wrote {args.out / f'{stem}.json'}"))
     return 0
 
 

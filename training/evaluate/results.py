@@ -2,12 +2,13 @@
 
 Usage::
 
-    python -m training.results RUN_DIR[:EVAL_NAME] ... [--conditions straight_100steps,random_100steps]
+    cdcr-gym results RUN_DIR[:EVAL_NAME] ... [--conditions straight_100steps,...] [--wide]
 
 ``EVAL_NAME`` picks the evaluation file (``eval`` = ``eval.json``, the default;
 ``eval_BulletReach-v0`` = ``eval_BulletReach-v0.json``). One row per run and condition: the
-training command's wall time and steps (from ``run.json``), the policy's final-error statistics
-and the analytic-IK oracle's on the same goals (from the evaluation JSON).
+policy's final-error statistics and the analytic-IK oracle's on the same goals (from the
+evaluation JSON); ``--wide`` adds the training command's wall time and steps (from
+``run.json``) and the remaining statistics. A legend under the table explains each column.
 """
 
 from __future__ import annotations
@@ -18,60 +19,118 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from training.evaluate import tables
 from training.evaluate.conditions import canonical_condition, read_eval
 
-__all__ = ["rows", "main"]
-
-HEADER = (
-    "| run | evaluated on | condition | train wall time | train steps | success ≤5 mm | ≤1 mm "
-    "| mean | median | p95 | max | IK ≤5 mm | IK median | IK p95 | IK max "
-    "| Δ cable length vs IK (median) |"
-)
+__all__ = ["COLUMNS", "records", "rows", "main"]
 
 
 def _fmt(x: float) -> str:
     return f"{x:.3f}" if x < 10 else f"{x:.1f}"
 
 
-def rows(run_dir: Path, eval_name: str = "eval", conditions: list[str] | None = None) -> list[str]:
-    """Markdown table rows for one run's evaluation file."""
+def _err(who: str, stat: str) -> Any:
+    return lambda r: _fmt((r["cond"] if who == "policy" else r["cond"][who])["error_mm"][stat])
+
+
+def _pct(key: str, who: str = "policy") -> Any:
+    return lambda r: tables.pct((r["cond"] if who == "policy" else r["cond"][who])[key])
+
+
+C = tables.Column
+#: the columns; a record (:func:`records`) has run, env, wall, steps, name, cond (one condition)
+COLUMNS = [
+    C("run", "the run directory", lambda r: r["run"]),
+    C("on", "the env evaluated on (and env kwargs that differ from training)", lambda r: r["env"]),
+    C("condition", "starting shape and episode length", lambda r: r["name"]),
+    C("train time", "the training command's wall time", lambda r: r["wall"], narrow=False),
+    C("steps", "training env steps", lambda r: r["steps"], narrow=False),
+    C(
+        "≤5mm",
+        "the policy's episodes with a final tip error within the success threshold (5 mm unless "
+        "the env sets another)",
+        _pct("success_rate"),
+    ),
+    C("≤1mm", "... within 1 mm", _pct("within_1mm"), narrow=False),
+    C("mean", "mean final tip error, mm", _err("policy", "mean"), narrow=False),
+    C("median", "median final tip error, mm", _err("policy", "median")),
+    C("p95", "95th percentile of the final tip error, mm", _err("policy", "p95")),
+    C("max", "largest final tip error, mm", _err("policy", "max"), narrow=False),
+    C(
+        "IK ≤5mm",
+        "success of the analytic IK on the same goals and starts",
+        _pct("success_rate", "ik"),
+        narrow=False,
+    ),
+    C(
+        "IK med",
+        "the analytic IK's median final tip error on the same goals, mm",
+        _err("ik", "median"),
+    ),
+    C("IK p95", "its 95th percentile, mm", _err("ik", "p95"), narrow=False),
+    C("IK max", "its largest error, mm", _err("ik", "max"), narrow=False),
+    C(
+        "ΔL IK",
+        "median distance of the policy's final cable lengths from the IK solution (Euclidean "
+        "over the cables), mm",
+        lambda r: f"{r['cond']['ik']['cable_length_distance_mm']['median']:.3f}",
+        narrow=False,
+    ),
+]
+
+
+def records(
+    run_dir: Path, eval_name: str = "eval", conditions: list[str] | None = None
+) -> list[dict[str, Any]]:
+    """One record per condition of one run's evaluation file (see :data:`COLUMNS`)."""
     meta: dict[str, Any] = json.loads((run_dir / "run.json").read_text())
     data: dict[str, Any] = read_eval(run_dir / f"{eval_name}.json")
     wall = meta.get("total_wall_time_s")
-    wall_s = f"{wall / 60:.1f} min" if wall is not None else "?"
-    out = []
-    for name, c in data["conditions"].items():
-        if conditions and name not in {canonical_condition(c) for c in conditions}:
-            continue
-        e, ik = c["error_mm"], c["ik"]
-        env = data["env_id"].split("/")[-1]
-        overrides = {
-            k: v
-            for k, v in data["env_kwargs"].items()
-            if data["trained_on"]["env_kwargs"].get(k) != v
+    steps = meta.get("total_steps")
+    env = data["env_id"].split("/")[-1]
+    trained = data["trained_on"]["env_kwargs"]
+    overrides = {k: v for k, v in data["env_kwargs"].items() if trained.get(k) != v}
+    if overrides:
+        env += " " + ", ".join(f"{k}={v}" for k, v in overrides.items())
+    wanted = {canonical_condition(c) for c in conditions} if conditions else None
+    return [
+        {
+            "run": run_dir.name,
+            "env": env,
+            "wall": f"{wall / 60:.1f} min" if wall is not None else "?",
+            "steps": f"{steps:,}" if steps is not None else "?",
+            "name": name,
+            "cond": cond,
         }
-        if overrides:
-            env += " " + ", ".join(f"{k}={v}" for k, v in overrides.items())
-        out.append(
-            f"| {run_dir.name} | {env} | {name} | {wall_s} | {meta.get('total_steps', '?'):,} "
-            f"| {100 * c['success_rate']:.1f} % | {100 * c['within_1mm']:.1f} % "
-            f"| {_fmt(e['mean'])} | {_fmt(e['median'])} | {_fmt(e['p95'])} | {_fmt(e['max'])} "
-            f"| {100 * ik['success_rate']:.1f} % | {_fmt(ik['error_mm']['median'])} "
-            f"| {_fmt(ik['error_mm']['p95'])} | {_fmt(ik['error_mm']['max'])} "
-            f"| {ik['cable_length_distance_mm']['median']:.3f} mm |"
-        )
-    return out
+        for name, cond in data["conditions"].items()
+        if wanted is None or name in wanted
+    ]
+
+
+def rows(
+    run_dir: Path, eval_name: str = "eval", conditions: list[str] | None = None, wide: bool = False
+) -> list[str]:
+    """Markdown table rows (without the header) for one run's evaluation file."""
+    table = tables.markdown_table(COLUMNS, records(run_dir, eval_name, conditions), wide)
+    return table.splitlines()[2:]
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="cdcr-gym results", description=__doc__)
+    parser = argparse.ArgumentParser(
+        prog="cdcr-gym results",
+        description=__doc__.split("\n\n")[0],
+        epilog=tables.legend(COLUMNS, wide=True),
+    )
     parser.add_argument("runs", nargs="+", metavar="RUN_DIR[:EVAL_NAME]")
     parser.add_argument(
         "--conditions", default=None, help="comma-separated condition names to show (default: all)"
     )
+    parser.add_argument(
+        "--wide", action="store_true", help="every column (default: the ones that fit 100 columns)"
+    )
     args = parser.parse_args(argv)
     conditions = args.conditions.split(",") if args.conditions else None
-    lines = [HEADER, "|" + "---|" * (HEADER.count("|") - 1)]
+    found: list[dict[str, Any]] = []
     for spec in args.runs:
         path, _, name = spec.partition(":")
         run_dir = Path(path)
@@ -81,8 +140,10 @@ def main(argv: list[str] | None = None) -> int:
         if not (run_dir / f"{name or 'eval'}.json").is_file():
             print(f"error: {run_dir / (name or 'eval')}.json does not exist", file=sys.stderr)
             return 2
-        lines.extend(rows(run_dir, name or "eval", conditions))
-    print("\n".join(lines))
+        found.extend(records(run_dir, name or "eval", conditions))
+    print(tables.markdown_table(COLUMNS, found, args.wide))
+    print()
+    print(tables.legend(COLUMNS, args.wide))
     return 0
 
 

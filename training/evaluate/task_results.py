@@ -2,7 +2,7 @@
 
 Usage::
 
-    python -m training.task_results RUN [RUN ...] --out docs/figures/tasks/ppo_results.json
+    python -m training.evaluate.task_results RUN [RUN ...] --out docs/figures/tasks/ppo_results.json
 
 ``--tag TAG`` collects ``eval_<TAG>.json`` instead (an evaluation with ``cdcr-gym evaluate RUN
 --tag TAG``, e.g. under other env kwargs such as ``--env-kwarg safety_filter=true``); each
@@ -12,7 +12,7 @@ Each ``RUN`` is a training run directory evaluated by ``python -m training.evalu
 (it holds ``eval.json`` with the task's metrics for the policy beside its oracle's on the same
 episodes, and ``run.json`` with the training steps and wall time). Writes ``--out``: per run
 the task, env id, seed, training steps and wall time (s), the evaluate command, and per
-evaluation condition (``straight_100steps``, ...; ``straight_h100`` in older files) the summaries of ``training.task_metrics``
+evaluation condition (``straight_100steps``, ...; ``straight_h100`` in older files) the summaries of ``training.run.metrics``
 (``policy``, ``oracle`` and, for Obstacle, ``reach_ik``). With ``--figures DIR`` the path
 figures ``RUN/eval/<condition>_paths.png`` are copied to
 ``DIR/ppo_<task>_seed<S>_<condition>_paths.png``. Prints a markdown table, one row per run and
@@ -80,7 +80,7 @@ def collect(run_dirs: list[Path], tag: str | None = None) -> list[dict[str, Any]
 
 
 def headline(task: str, s: dict[str, Any]) -> str:
-    """The task's headline numbers of one summary (``training.task_metrics.summarize_task``)."""
+    """The task's headline numbers of one summary (``training.run.metrics.summarize_task``)."""
     success = f"success {100 * s['success_rate']:.0f} %"
     if task == "Track":
         rms = s["tracking_rms_mm"]

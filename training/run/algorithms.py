@@ -15,6 +15,7 @@ from training.run.config import (
     TD3Config,
     TQCConfig,
 )
+from training.run.rollout import algo_class
 
 # -- algorithms ---------------------------------------------------------------------------------
 ACTIVATIONS = {"tanh": "Tanh", "relu": "ReLU", "elu": "ELU"}
@@ -101,7 +102,6 @@ def off_policy_kwargs(config: ExperimentConfig, action_dim: int) -> dict[str, An
 
 def make_model(config: ExperimentConfig, venv: Any, device: str) -> Any:
     """A new model of ``config.algo`` on ``venv`` (seeded with ``config.seed``)."""
-    from training.evaluate.rollout import algo_class
 
     cls = algo_class(config.algo)
     goal_conditioned = bool(config.env.kwargs.get("goal_conditioned"))

@@ -7,28 +7,28 @@ from typing import Any
 
 import numpy as np
 
+from cdcr_gym.params import RobotParams
 from training.run.checkpoints import save_checkpoint, save_model_dir
 from training.run.config import (
     ExperimentConfig,
 )
 from training.run.envs import registered_steps, registered_task
 from training.run.logs import append_csv
+from training.run.metrics import run_task_episodes, summarize
 from training.run.provenance import write_json
+from training.run.rollout import (
+    SB3Policy,
+    concat_specs,
+    make_env,
+    make_specs,
+    run_episodes,
+)
 from training.run.rundir import RunDir
 
 
 # -- callbacks ----------------------------------------------------------------------------------
 def make_callbacks(config: ExperimentConfig, run: RunDir, state: dict[str, Any]) -> list[Any]:
     from stable_baselines3.common.callbacks import BaseCallback
-
-    from training.evaluate.rollout import (
-        SB3Policy,
-        concat_specs,
-        make_env,
-        make_specs,
-        run_episodes,
-        summarize,
-    )
 
     class StatsCallback(BaseCallback):
         """Logs the final tip error of finished training episodes (``charts/``)."""
@@ -89,8 +89,6 @@ def make_callbacks(config: ExperimentConfig, run: RunDir, state: dict[str, Any])
             self.next_at = (state["start_steps"] // ev.freq + 1) * ev.freq
             params = config.env.kwargs.get("params")
             if isinstance(params, dict):
-                from cdcr_gym.params import RobotParams
-
                 params = RobotParams(**params)
             self.specs = concat_specs(
                 [make_specs(ev.n_episodes, ev.seed, s, params) for s in ev.initial_states]
@@ -99,9 +97,8 @@ def make_callbacks(config: ExperimentConfig, run: RunDir, state: dict[str, Any])
             self.task = registered_task(config.env.id)
 
         def _task_row(self, policy: Any) -> dict[str, Any]:
-            """Success, errors (mm) and return of the task's own metrics (training.task_metrics):
+            """Success, errors (mm) and return of the task's own metrics (training.run.metrics):
             the error is the tracking RMS for Track, the final distance otherwise."""
-            from training.evaluate.metrics import run_task_episodes
 
             e, ev = config.env, config.eval
             parts = []

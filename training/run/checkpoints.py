@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+import cloudpickle
 import numpy as np
 
 from training.run.algorithms import wrap_normalize
@@ -18,6 +19,8 @@ from training.run.config import (
     ExperimentConfig,
 )
 from training.run.envs import build_vec_env
+from training.run.logs import plot_learning_curve
+from training.run.rollout import algo_class
 from training.run.rundir import KEEP_REPLAY_BUFFERS, Checkpoint, RunDir, atomic_write, sha256_file
 
 
@@ -32,7 +35,6 @@ def save_model_dir(model: Any, directory: Path) -> None:
 
 def _env_snapshot(venv_base: Any) -> dict[str, Any] | None:
     """The training envs' state (below VecNormalize), or None if they cannot be pickled."""
-    import cloudpickle
     from stable_baselines3.common.vec_env import VecMonitor
 
     if isinstance(venv_base, VecMonitor):  # the batched env: one in-process object
@@ -144,8 +146,6 @@ def save_checkpoint(model: Any, run: RunDir, state: dict[str, Any]) -> int:
             run.state_path(old).unlink(missing_ok=True)
             run.replay_buffer_path(old).unlink()
     try:
-        from training.evaluate.plots import plot_learning_curve
-
         plot_learning_curve(run.root)
     except Exception as exc:  # noqa: BLE001 - a plot must never kill a training run
         print(f"warning: learning curve not written: {exc}", file=sys.stderr)
@@ -158,7 +158,6 @@ def restore_checkpoint(
     """(model, VecNormalize-wrapped venv, base venv) exactly as at checkpoint ``ckpt``.
 
     Raises on any failure (the caller falls back to an older checkpoint)."""
-    from training.evaluate.rollout import algo_class
 
     steps = ckpt.steps
     envs = ckpt.data["envs"]

@@ -108,7 +108,9 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import math
+import os
 import re
+import tempfile
 import types
 import typing
 from dataclasses import dataclass, field
@@ -116,6 +118,8 @@ from pathlib import Path
 from typing import Any
 
 import yaml
+
+from cdcr_gym import MAX_EPISODE_STEPS
 
 __all__ = [
     "ConfigError",
@@ -168,8 +172,6 @@ def check_writable_directory(path: Path, what: str) -> None:
     directory is also probed with a temporary file, since ``os.access`` may pass for root.
     ``what`` names the argument in the message, e.g. ``"--run-dir"``.
     """
-    import os
-    import tempfile
 
     path = Path(path)
     probe = path
@@ -203,7 +205,6 @@ class EnvConfig:
     def max_episode_steps_or_default(self) -> int:
         """``max_episode_steps``, or cdcr_gym's registered episode length
         (``cdcr_gym.MAX_EPISODE_STEPS``, 100) when it is None."""
-        from cdcr_gym import MAX_EPISODE_STEPS
 
         return self.max_episode_steps or MAX_EPISODE_STEPS
 
@@ -384,7 +385,7 @@ class DemonstrationsConfig:
 
 @dataclass
 class ExperimentConfig:
-    """One experiment: everything ``python -m training.train`` needs."""
+    """One experiment: everything ``python -m training.run.train`` needs."""
 
     name: str = "experiment"
     algo: str = "ppo"

@@ -3,7 +3,7 @@
 ``demonstrations.episodes`` > 0 in a PPO config (:class:`~training.run.config.DemonstrationsConfig`)
 runs, on a fresh run only, before the first PPO update:
 
-1. **Collect**: the task's oracle (``training.evaluate.metrics.oracle_for``: the RRT-Connect
+1. **Collect**: the task's oracle (``training.run.metrics.oracle_for``: the RRT-Connect
    planner for Obstacle, the pose/tracking IK, the reach IK; closed loop on a physics backend)
    acts in the training envs themselves (the ``VecNormalize``-wrapped vec env, so the observation
    and return statistics start from the oracle's state distribution) for at least ``episodes``
@@ -31,6 +31,10 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+
+from training.run.config import ConfigError
+from training.run.metrics import is_physics, oracle_for
+from training.run.rollout import make_env
 
 __all__ = ["Demonstrations", "collect_demonstrations", "clone_demonstrations", "pretrain"]
 
@@ -160,9 +164,6 @@ def clone_demonstrations(
 def pretrain(config: Any, model: Any, venv: Any) -> dict[str, Any]:
     """Collect the oracle's demonstrations in ``venv`` and clone them into ``model`` (a PPO)
     as ``config.demonstrations`` says; returns the report written to ``demonstrations.json``."""
-    from training.evaluate.metrics import is_physics, oracle_for
-    from training.evaluate.rollout import make_env
-    from training.run.config import ConfigError
 
     d = config.demonstrations
     t0 = time.perf_counter()

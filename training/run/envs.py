@@ -8,15 +8,22 @@ import threading
 from collections.abc import Callable
 from typing import Any
 
+import cloudpickle
+import gymnasium as gym
+
+import cdcr_gym  # noqa: F401
+from cdcr_gym import MAX_EPISODE_STEPS
+from cdcr_gym.params import RobotParams
+from cdcr_gym.registration import BATCHED
 from training.run.config import (
     ConfigError,
     ExperimentConfig,
 )
+from training.run.rollout import algo_class, make_env
 
 
 # -- environments -------------------------------------------------------------------------------
 def _snapshot_wrapper() -> type:
-    import gymnasium as gym
 
     class EnvSnapshot(gym.Wrapper):  # type: ignore[type-arg]
         """Outermost wrapper of a training env: its whole state (wrappers, RNG, robot) as bytes.
@@ -26,7 +33,6 @@ def _snapshot_wrapper() -> type:
         ``SubprocVecEnv`` workers too."""
 
         def get_snapshot(self) -> bytes | None:
-            import cloudpickle
 
             try:
                 return bytes(cloudpickle.dumps(self.env))
@@ -51,8 +57,6 @@ def build_vec_env(config: ExperimentConfig, seed: int, n_envs: int | None = None
     from stable_baselines3.common.monitor import Monitor
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecMonitor
 
-    from training.evaluate.rollout import make_env
-
     e = config.env
     n = e.n_envs if n_envs is None else n_envs
     if e.vec_env == "batched":
@@ -63,10 +67,6 @@ def build_vec_env(config: ExperimentConfig, seed: int, n_envs: int | None = None
                 f"env.vec_env: 'batched' needs training/run/sb3_vec.py (BatchedVecEnv), which "
                 f"could not be imported ({exc}); use 'dummy' or 'subproc'"
             ) from None
-        import gymnasium as gym
-
-        import cdcr_gym  # noqa: F401 - registers the ids
-        from cdcr_gym.registration import BATCHED
 
         registered = gym.registry[e.id].kwargs if e.id in gym.registry else {}
         if registered.get("backend") not in BATCHED:
@@ -123,18 +123,12 @@ def build_vec_env(config: ExperimentConfig, seed: int, n_envs: int | None = None
 
 def registered_task(env_id: str) -> str:
     """The task name of a registered id (``"Reach"`` for ids registered elsewhere)."""
-    import gymnasium as gym
-
-    import cdcr_gym  # noqa: F401 - registers the ids
 
     spec = gym.registry.get(env_id)
     return str(spec.kwargs.get("task", "Reach")) if spec is not None else "Reach"
 
 
 def _check_env_id(config: ExperimentConfig) -> None:
-    import gymnasium as gym
-
-    import cdcr_gym  # noqa: F401 - registers the ids
 
     known = sorted(k for k in gym.registry if k.startswith("cdcr_gym/"))
     if config.env.id not in gym.registry:
@@ -143,7 +137,7 @@ def _check_env_id(config: ExperimentConfig) -> None:
     if not (isinstance(entry, str) and entry.startswith("cdcr_gym.")):
         raise ConfigError(
             f"env.id {config.env.id!r} is not a cdcr_gym env (entry point {entry!r}); "
-            f"training.train trains the cdcr_gym envs: {known}"
+            f"training.run.train trains the cdcr_gym envs: {known}"
         )
 
 
@@ -151,7 +145,6 @@ def check_env_config(config: ExperimentConfig) -> None:
     """Make the env once per distinct kwargs (``env.kwargs`` updated by each
     ``env.per_env_kwargs`` entry), reset and close it, and check the algorithm's package and the
     device; raise :class:`ConfigError` naming the key. Called before the run directory exists."""
-    from training.evaluate.rollout import algo_class, make_env
 
     _check_env_id(config)
     e = config.env
@@ -167,8 +160,6 @@ def check_env_config(config: ExperimentConfig) -> None:
                 f"{key}.params must be a mapping of RobotParams fields, got {params!r}"
             )
         if isinstance(params, dict):
-            from cdcr_gym.params import RobotParams
-
             try:
                 RobotParams(**params)
             except (TypeError, ValueError) as exc:
@@ -220,9 +211,6 @@ def resolve_device(device: str) -> str:
 def registered_steps(env_id: str) -> int:
     """The episode length ``env_id`` is registered with (cdcr_gym's ``MAX_EPISODE_STEPS`` for an
     id registered without one, or not registered)."""
-    import gymnasium as gym
-
-    from cdcr_gym import MAX_EPISODE_STEPS
 
     spec = gym.registry.get(env_id)
     return (spec.max_episode_steps if spec is not None else None) or MAX_EPISODE_STEPS

@@ -5,7 +5,7 @@ The zoo (``python -m rl_zoo3.train ... -f LOGS``) saves ``LOGS/ppo/<env>_<k>/<en
 ``RUN/final_model/vecnormalize.pkl`` and writes ``RUN/config.yaml`` from a cdcr_gym config (the
 env, evaluation settings and seed the evaluation uses)::
 
-    python -m training.from_zoo runs/zoo/ppo/cdcr_gym-CCKAReach-v0_1 runs/zoo_eval \\
+    python -m training.run.from_zoo runs/zoo/ppo/cdcr_gym-CCKAReach-v0_1 runs/zoo_eval \\
         --config configs/ppo_ccka_reach.yaml
     python -m training.evaluate runs/zoo_eval --model final
 

@@ -81,3 +81,89 @@ def make_logger(run: RunDir, verbose: bool = False) -> Any:
     if verbose:
         formats.insert(0, HumanOutputFormat(sys.stdout))
     return Logger(folder=str(run.root), output_formats=formats)
+
+
+# -- the learning curve ------------------------------------------------------------------------
+def pyplot() -> Any:
+    """matplotlib.pyplot on the Agg backend (imported when a figure is drawn)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def read_csv(path: Path) -> dict[str, np.ndarray]:
+    """Columns of a CSV log as float arrays (empty cells and text: NaN); {} if none."""
+    if not path.exists():
+        return {}
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    if not rows:
+        return {}
+    out = {}
+    for key in rows[0]:
+        vals = []
+        for r in rows:
+            try:
+                vals.append(float(r.get(key) or "nan"))
+            except ValueError:
+                vals.append(np.nan)
+        out[key] = np.asarray(vals)
+    return out
+
+
+def plot_learning_curve(run_dir: str | Path, out: str | Path | None = None) -> Path:
+    """``learning_curve.png``: eval success / tip error and training return vs env steps."""
+    run_dir = Path(run_dir)
+    out = Path(out) if out is not None else run_dir / "learning_curve.png"
+    ev = read_csv(run_dir / "eval_log.csv")
+    pr = read_csv(run_dir / "progress.csv")
+    plt = pyplot()
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.2))
+    ax = axes[0]
+    if ev:
+        steps = ev["timesteps"]
+        ax.plot(steps, 100 * ev["success_rate"], "o-", ms=3, label="success @ threshold")
+        ax.plot(steps, 100 * ev["within_1mm"], "s-", ms=3, label="within 1 mm")
+    ax.set_xlabel("environment steps")
+    ax.set_ylabel("% of eval goals")
+    ax.set_ylim(-2, 102)
+    ax.set_title("periodic evaluation (fixed goals)")
+    ax.grid(alpha=0.3)
+    ax.legend(loc="lower right")
+    ax = axes[1]
+    if ev:
+        ax.semilogy(steps, ev["mean_error_mm"], "o-", ms=3, label="mean")
+        ax.semilogy(steps, ev["median_error_mm"], "s-", ms=3, label="median")
+        ax.semilogy(steps, ev["p95_error_mm"], "^-", ms=3, label="p95")
+        ax.axhline(1.0, color="grey", ls=":", lw=1)
+    ax.set_xlabel("environment steps")
+    ax.set_ylabel("final tip error (mm)")
+    ax.set_title("periodic evaluation: final error")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(loc="upper right")
+    ax = axes[2]
+    if pr and "rollout/ep_rew_mean" in pr:
+        x = pr["time/total_timesteps"]
+        ax.plot(x, pr["rollout/ep_rew_mean"], label="episode return (training)")
+        ax.set_ylabel("return (sum of −distance, m)")
+    if pr and "charts/final_error_mm_median" in pr:
+        ax2 = ax.twinx()
+        ax2.semilogy(
+            pr["time/total_timesteps"],
+            pr["charts/final_error_mm_median"],
+            color="tab:orange",
+            lw=1,
+            label="median final error (training)",
+        )
+        ax2.set_ylabel("median final error, training episodes (mm)", color="tab:orange")
+    ax.set_xlabel("environment steps")
+    ax.set_title("training episodes")
+    ax.grid(alpha=0.3)
+    fig.suptitle(run_dir.name)
+    fig.tight_layout()
+    fig.savefig(out, dpi=90)
+    plt.close(fig)
+    return out

@@ -7,18 +7,19 @@ import json
 import os
 import platform
 import subprocess
+from importlib.metadata import version
 from pathlib import Path
 from typing import Any
 
+import gymnasium
 import numpy as np
+
+import cdcr_gym
 
 
 def versions() -> dict[str, str]:
-    import gymnasium
     import stable_baselines3
     import torch
-
-    import cdcr_gym
 
     versions = {
         "python": platform.python_version(),
@@ -29,8 +30,6 @@ def versions() -> dict[str, str]:
         "cdcr_gym": cdcr_gym.__version__,
     }
     try:
-        from importlib.metadata import version
-
         versions["pybullet"] = version("pybullet")
     except Exception:  # noqa: BLE001 - optional information only
         versions["pybullet"] = "not installed"

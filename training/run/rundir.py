@@ -3,9 +3,11 @@ clears."""
 
 from __future__ import annotations
 
+import hashlib
 import os
 import pickle
 import re
+import shutil
 import socket
 import time
 from collections.abc import Callable
@@ -86,7 +88,6 @@ class CheckpointError(Exception):
 
 
 def sha256_file(path: Path) -> str:
-    import hashlib
 
     digest = hashlib.sha256()
     with open(path, "rb") as f:
@@ -138,7 +139,6 @@ class Checkpoint:
 
 def clear_artefacts(run: RunDir) -> None:
     """Remove what a previous session wrote (a restart afresh of a run without a checkpoint)."""
-    import shutil
 
     for name in ARTEFACTS:
         path = run.root / name

@@ -32,7 +32,7 @@ from stable_baselines3.common.vec_env.base_vec_env import (
 from cdcr_gym import MAX_EPISODE_STEPS
 from cdcr_gym.envs.vector import CDCRVectorEnv
 
-__all__ = ["BatchedVecEnv", "BatchedCCKAVecEnv"]
+__all__ = ["BatchedVecEnv"]
 
 
 class BatchedVecEnv(VecEnv):
@@ -47,7 +47,7 @@ class BatchedVecEnv(VecEnv):
         seed: seeds env i with ``seed + i`` at the first reset (as ``make_vec_env(seed=...)``);
             ``None`` for random seeds.
         per_env_kwargs: per-env overrides, env i taking ``per_env_kwargs[i % len]`` (as
-            ``training.train`` does for single envs); only ``initial_state`` may vary per env;
+            ``training.run.train`` does for single envs); only ``initial_state`` may vary per env;
             any other key must have the same value in every entry and then applies to all envs
             (e.g. ``randomize`` / ``imperfections`` kept out of the evaluation's ``env.kwargs``).
         **env_kwargs: ``backend`` and ``task``, and the single env's keyword arguments
@@ -199,7 +199,3 @@ class BatchedVecEnv(VecEnv):
                 {k: (v[i] if isinstance(v, list) else v[i].copy()) for k, v in columns.items()}
             )
         return out
-
-
-#: The former name (the class predates the MuJoCo backend); same class.
-BatchedCCKAVecEnv = BatchedVecEnv

@@ -2,7 +2,7 @@
 
 Usage::
 
-    python -m training.train CONFIG [--run-dir DIR] [--total-timesteps N] [--seed S] [--resume]
+    python -m training.run.train CONFIG [--run-dir DIR] [--total-timesteps N] [--seed S] [--resume]
 
 The config is validated completely before anything is written: its keys and values, the env
 (made once with every ``per_env_kwargs`` entry, then closed), the algorithm's package and the
@@ -46,6 +46,7 @@ exit status is 130, with a one-line message and no traceback.
 from __future__ import annotations
 
 import argparse
+import csv
 import datetime as _dt
 import json
 import os
@@ -69,6 +70,7 @@ from training.run.checkpoints import (
     set_rng_state,
 )
 from training.run.config import (
+    MAX_SEED,
     ConfigError,
     ExperimentConfig,
     check_writable_directory,
@@ -76,6 +78,7 @@ from training.run.config import (
     load_config,
     save_config,
 )
+from training.run.demonstrations import pretrain
 from training.run.envs import build_vec_env, check_env_config, resolve_device
 from training.run.logs import make_logger, truncate_csv
 from training.run.provenance import git_info, now_iso, versions, write_json
@@ -241,8 +244,6 @@ def _train(
         model = make_model(config, venv, device)
         model.set_random_seed(config.seed)
         if config.demonstrations.episodes:
-            from training.run.demonstrations import pretrain
-
             report = pretrain(config, model, venv)
             write_json(run.root / "demonstrations.json", report)
             meta["demonstrations"] = report
@@ -363,7 +364,6 @@ def _train(
 
 def summary_lines(run: RunDir) -> list[str]:
     """A few lines on a finished run: the last and the best periodic evaluation (eval_log.csv)."""
-    import csv
 
     if not run.eval_log.is_file():
         return []
@@ -442,7 +442,6 @@ def _resolve(args: argparse.Namespace) -> tuple[ExperimentConfig, Path]:
 
     Everything is checked here, before the run directory is created: the config, the env (made
     once), the algorithm's package and the device."""
-    from training.run.config import MAX_SEED
 
     if args.total_timesteps is not None and args.total_timesteps <= 0:
         raise ConfigError(

@@ -2,7 +2,7 @@
 
 Usage::
 
-    python -m training.bench [--quick] [--repeats K] [--out FILE.md|FILE.json] [--config YAML]
+    python -m training.studies.bench [--quick] [--repeats K] [--out FILE.md|FILE.json] [--config YAML]
 
 Rows (env-steps per second, the median of K repeats; the range is min–max):
 
@@ -13,7 +13,7 @@ Rows (env-steps per second, the median of K repeats; the range is min–max):
 * ``BulletReach-v0`` through ``gymnasium.make`` ("unavailable: <reason>" if it cannot be built);
 * PPO training steps/s on the default config (``configs/ppo_ccka_reach.yaml``: its PPO
   hyperparameters, envs and VecNormalize), with the config's ``DummyVecEnv`` of single envs and
-  with ``BatchedCCKAVecEnv``, at equal steps.
+  with ``BatchedVecEnv``, at equal steps.
 
 Every loop is used as a training loop uses an env: random actions (a fixed pool), results kept
 until the next step, single envs reset when their episode ends (resets are in the timing). The
@@ -32,10 +32,19 @@ import statistics
 import sys
 import time
 from collections.abc import Callable
+from importlib.metadata import version
 from pathlib import Path
 from typing import Any
 
+import gymnasium
+import gymnasium as gym
 import numpy as np
+
+import cdcr_gym  # noqa: F401
+from training.run.algorithms import ppo_kwargs, wrap_normalize
+from training.run.config import load_config
+from training.run.envs import build_vec_env
+from training.run.sb3_vec import BatchedVecEnv
 
 __all__ = ["main", "run_benchmarks"]
 
@@ -75,7 +84,6 @@ def _repeat(measure: Callable[[], float], repeats: int) -> dict[str, Any]:
 
 
 def _single_env(env_id: str, min_time: float, repeats: int, **kwargs: Any) -> dict[str, Any]:
-    import gymnasium as gym
 
     env = gym.make(env_id, **kwargs)
     env.reset(seed=0)
@@ -100,7 +108,6 @@ def _single_env(env_id: str, min_time: float, repeats: int, **kwargs: Any) -> di
 def _vector_env(
     mode: str, n: int, min_time: float, repeats: int, robot: str = "paper"
 ) -> dict[str, Any]:
-    import gymnasium as gym
 
     env = gym.make_vec("cdcr_gym/CCKAReach-v0", num_envs=n, vectorization_mode=mode, robot=robot)
     env.reset(seed=0)
@@ -123,14 +130,11 @@ def _vector_env(
 
 
 def _sb3_vec_env(kind: str, n: int, min_time: float, repeats: int) -> dict[str, Any]:
-    """SB3 VecEnv steps/s: ``DummyVecEnv`` of single envs vs ``BatchedCCKAVecEnv``."""
-    import gymnasium as gym
+    """SB3 VecEnv steps/s: ``DummyVecEnv`` of single envs vs ``BatchedVecEnv``."""
     from stable_baselines3.common.vec_env import DummyVecEnv
 
-    from training.run.sb3_vec import BatchedCCKAVecEnv
-
     if kind == "batched":
-        venv = BatchedCCKAVecEnv(n, seed=0)
+        venv = BatchedVecEnv(n, seed=0)
     else:
         venv = DummyVecEnv([lambda: gym.make("cdcr_gym/CCKAReach-v0")] * n)
         venv.seed(0)
@@ -232,10 +236,6 @@ def _ppo(config_path: Path, vec_env: str, steps: int, repeats: int) -> dict[str,
     import torch
     from stable_baselines3 import PPO
 
-    from training.run.algorithms import ppo_kwargs, wrap_normalize
-    from training.run.config import load_config
-    from training.run.envs import build_vec_env
-
     config = load_config(config_path)
     config = dataclasses.replace(config, env=dataclasses.replace(config.env, vec_env=vec_env))
     torch.set_num_threads(config.runtime.torch_threads)
@@ -264,18 +264,15 @@ def _ppo(config_path: Path, vec_env: str, steps: int, repeats: int) -> dict[str,
 
 def _ppo_defaults(vec_env: str, steps: int, repeats: int) -> dict[str, Any]:
     """Fallback without the config: PPO's defaults on 8 envs."""
-    import gymnasium as gym
     import torch
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor
-
-    from training.run.sb3_vec import BatchedCCKAVecEnv
 
     torch.set_num_threads(1)
 
     def make_model() -> tuple[Any, Any]:
         if vec_env == "batched":
-            venv = VecMonitor(BatchedCCKAVecEnv(8, seed=0))
+            venv = VecMonitor(BatchedVecEnv(8, seed=0))
         else:
             venv = VecMonitor(DummyVecEnv([lambda: gym.make("cdcr_gym/CCKAReach-v0")] * 8))
         env_timer = _env_timer(venv)
@@ -289,7 +286,6 @@ def _ppo_defaults(vec_env: str, steps: int, repeats: int) -> dict[str, Any]:
 # -- the run --------------------------------------------------------------------------------------
 def machine() -> dict[str, Any]:
     """CPU model, core count, load average and library versions."""
-    import gymnasium
 
     model = platform.processor() or "unknown"
     try:
@@ -309,8 +305,6 @@ def machine() -> dict[str, Any]:
     }
     for name in ("torch", "stable_baselines3", "pybullet"):
         try:
-            from importlib.metadata import version
-
             info[name] = version(name.replace("_", "-"))
         except Exception:  # noqa: BLE001 - informational
             info[name] = "not installed"
@@ -331,7 +325,6 @@ def run_benchmarks(
     log: Callable[[str], None] = print,
 ) -> dict[str, Any]:
     """Run every benchmark; returns ``{"machine", "rows", "checks", ...}``."""
-    import cdcr_gym  # noqa: F401 - registers the ids
 
     repeats = repeats or (3 if quick else 5)
     min_time = 0.3 if quick else 1.0
@@ -398,7 +391,7 @@ def run_benchmarks(
         "make_vec vector_entry_point, two-section robot",
         key="batched_16384_tdcr2",
     )
-    for kind, label in (("dummy", "SB3 DummyVecEnv"), ("batched", "SB3 BatchedCCKAVecEnv")):
+    for kind, label in (("dummy", "SB3 DummyVecEnv"), ("batched", "SB3 BatchedVecEnv")):
         add(
             label,
             8,
@@ -418,8 +411,6 @@ def run_benchmarks(
             key="bullet",
         )
     if config.exists():
-        from training.run.config import load_config
-
         default_vec_env = load_config(config).env.vec_env
         result["ppo_default_vec_env"] = default_vec_env
         for vec_env in ("dummy", "batched"):
@@ -482,7 +473,7 @@ def _checks(
         ("batched / SyncVectorEnv at 64 envs", ratio("batched_64", "sync_64"), None),
         ("batched / SyncVectorEnv at 16 384 envs", ratio("batched_16384", "sync_16384"), None),
         (
-            "SB3 VecEnv, BatchedCCKAVecEnv / DummyVecEnv (8 envs)",
+            "SB3 VecEnv, BatchedVecEnv / DummyVecEnv (8 envs)",
             ratio("sb3_batched", "sb3_dummy"),
             None,
         ),

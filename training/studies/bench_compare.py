@@ -5,8 +5,8 @@
     PYTHONPATH=.        python training/bench_compare.py now
 
 ``cdcr_gym`` is imported from ``PYTHONPATH`` (so the same loop times any checkout, including ones
-older than ``training.bench``). Prints the batched CCKA reach env at 16 384 envs (M env-steps/s,
-median of 5 × 60 steps, each step's result kept until the next as in ``training.bench``) and the
+older than ``training.studies.bench``). Prints the batched CCKA reach env at 16 384 envs (M env-steps/s,
+median of 5 × 60 steps, each step's result kept until the next as in ``training.studies.bench``) and the
 single env through ``gym.make`` beside ``Pendulum-v1`` (env-steps/s, median of 5 × 20 000 steps,
 resets included). Alternate the checkouts a few times: the machine is
 shared, so only numbers taken close together compare. ``--against CHECKOUT`` does the
@@ -46,7 +46,7 @@ def batched_rate(num_envs: int = 16384, steps: int = 60, repeats: int = 5) -> fl
     for _ in range(repeats):
         start = time.perf_counter()
         for i in range(steps):
-            # Each result is kept until the next step, as a training loop (and training.bench)
+            # Each result is kept until the next step, as a training loop (and training.studies.bench)
             # keeps it: results dropped at once are freed and the next step's ~3 MB of outputs
             # are page-faulted in again (docs/throughput.md, "Notes").
             out = env.step(actions[i % 8])

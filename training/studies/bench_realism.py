@@ -1,6 +1,6 @@
 """Step time of the batched CCKA env with and without randomisation and imperfections.
 
-``python -m training.bench_realism [--num-envs N] [--steps S] [--repeats R]``: the median over R
+``python -m training.studies.bench_realism [--num-envs N] [--steps S] [--repeats R]``: the median over R
 repeats of S steps of ``gymnasium.make_vec("cdcr_gym/CCKAReach-v0", num_envs=N)`` with zero
 actions, plain and with ``randomize`` (E, cable radius) plus ``imperfections`` (tip noise,
 tension lag, actuator noise), in µs per step. Run it in two checkouts to compare commits.
@@ -16,7 +16,11 @@ from __future__ import annotations
 import argparse
 import time
 
+import gymnasium as gym
 import numpy as np
+
+import cdcr_gym  # noqa: F401
+from cdcr_gym.backends.bullet import BulletBackend
 
 #: The randomisation and imperfections timed by the second row.
 RANDOMIZE = {"youngs_modulus": [30e9, 40e9], "cable_radius": [0.027, 0.031]}
@@ -25,9 +29,6 @@ IMPERFECTIONS = {"tip_noise": 1e-3, "tension_lag": 2.0, "actuator_noise": 0.2}
 
 def step_time(num_envs: int, steps: int, repeats: int, **kwargs) -> float:
     """Median wall time of one batched step (s)."""
-    import gymnasium as gym
-
-    import cdcr_gym  # noqa: F401 - registers the ids
 
     env = gym.make_vec(
         "cdcr_gym/CCKAReach-v0",
@@ -57,9 +58,6 @@ BULLET_RANDOMIZE = {
 
 def bullet_resets(n: int) -> None:
     """Print the median reset time (ms) of BulletReach-v0, plain and randomised."""
-    import gymnasium as gym
-
-    import cdcr_gym  # noqa: F401 - registers the ids
 
     t0 = time.perf_counter()
     env = gym.make("cdcr_gym/BulletReach-v0")
@@ -80,7 +78,6 @@ def bullet_resets(n: int) -> None:
                 env.step(env.action_space.sample())
         env.close()
         print(f"{name:<28} {np.median(times) * 1e3:9.1f} ms (median of {n})")
-    from cdcr_gym.backends.bullet import BulletBackend
 
     rng = np.random.default_rng(0)
     commands = rng.uniform(0.0, 80.0, (200, 1, 3))

@@ -15,6 +15,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from cdcr_gym.backends.bullet import BulletBackend
+from cdcr_gym.backends.mujoco import MuJoCoBackend
+
 #: The protocol's tension levels (N) on cable 1: loading 10 → 80, then unloading 70 → 0.
 LEVELS = tuple(float(t) for t in range(10, 90, 10)) + tuple(float(t) for t in range(70, -10, -10))
 #: Control steps at the end of a hold over which the motion is measured.
@@ -114,10 +117,7 @@ def branch_violations(holds: list[Hold], frictionless: dict[float, float]) -> li
 
 def _backend(name: str, mu: float, damping_ratio: float):
     if name == "mujoco":
-        from cdcr_gym.backends.mujoco import MuJoCoBackend
-
         return MuJoCoBackend(gravity=False, friction_coefficient=mu, damping_ratio=damping_ratio)
-    from cdcr_gym.backends.bullet import BulletBackend
 
     return BulletBackend(gravity=False, friction_coefficient=mu, damping_ratio=damping_ratio)
 

@@ -1,6 +1,6 @@
 """Hysteresis study: cable–disk friction in the paper's load sweep (the paper's error source ii).
 
-``python -m training.hysteresis [--out DIR] [--ramp-steps R] [--settle-steps N]``: on the
+``python -m training.studies.hysteresis [--out DIR] [--ramp-steps R] [--settle-steps N]``: on the
 physics backend (paper robot, gravity off as in the paper's simulation), cable 1 is loaded from
 0 to 80 N and back in 10 N steps, each ramped linearly over ``--ramp-steps`` control steps of
 20 ms (default 25 = 0.5 s: slow enough that the backbone does not overshoot and reverse the
@@ -26,6 +26,10 @@ from typing import Any
 
 import numpy as np
 
+from cdcr_gym import kinematics as K
+from cdcr_gym.backends.bullet import BulletBackend
+from cdcr_gym.model import friction
+
 MUS = (0.0, 0.1, 0.2, 0.3)
 LOADS = tuple(float(t) for t in range(0, 81, 10))
 
@@ -33,7 +37,6 @@ LOADS = tuple(float(t) for t in range(0, 81, 10))
 def capstan_equilibrium(backend: Any, tension: float, mu: float) -> np.ndarray:
     """Tip (3,) m of the static equilibrium under ``tension`` N on cable 1 with the capstan
     profile of a pulled cable (s = 1) on every cable, no gravity (fixed point on q)."""
-    from cdcr_gym.model import friction
 
     chain = backend.chain
     t = np.array([tension, 0.0, 0.0])
@@ -54,8 +57,6 @@ def capstan_equilibrium(backend: Any, tension: float, mu: float) -> np.ndarray:
 
 def run(ramp_steps: int, settle_steps: int) -> dict[str, Any]:
     """The sweep for every μ: tips, cable lengths and CCKA tips along both branches."""
-    from cdcr_gym import kinematics as K
-    from cdcr_gym.backends.bullet import BulletBackend
 
     out: dict[str, Any] = {}
     loads = list(LOADS) + list(reversed(LOADS[:-1]))

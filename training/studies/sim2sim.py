@@ -2,7 +2,7 @@
 
 Usage::
 
-    python -m training.sim2sim EVAL_JSON [EVAL_JSON ...] --out docs/figures/sim2real/NAME
+    python -m training.studies.sim2sim EVAL_JSON [EVAL_JSON ...] --out docs/figures/sim2real/NAME
         [--target-median-mm 3.0] [--target-success 0.9]
 
 Each ``EVAL_JSON`` is a ``training.evaluate`` output (``RUN_DIR/eval_<tag>.json``), typically one
@@ -173,7 +173,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    summary["command"] = "python -m training.sim2sim " + " ".join(
+    summary["command"] = "python -m training.studies.sim2sim " + " ".join(
         argv if argv is not None else sys.argv[1:]
     )
     out.with_suffix(".json").write_text(json.dumps(summary, indent=1) + "\n")

@@ -1,6 +1,6 @@
 """Step response of the tip: the physics backend vs CCKA with a modelled actuator response.
 
-``python -m training.step_response [--tension 40] [--omega 0.44] [--steps 30]``: from the
+``python -m training.studies.step_response [--tension 40] [--omega 0.44] [--steps 30]``: from the
 straight robot, cable 1 is commanded ``--tension`` N at step 0 (``action_mode="tension"``) and
 held; printed is the remaining fraction of the tip's way to its final position,
 |tip_k − tip_final| / |tip_0 − tip_final|, after k control steps, for bullet (gravity on and off)
@@ -12,16 +12,16 @@ from __future__ import annotations
 
 import argparse
 
+import gymnasium as gym
 import numpy as np
+
+import cdcr_gym  # noqa: F401
 
 SHOWN = (1, 2, 3, 5, 8, 11, 16, 21)
 
 
 def remaining(env_id: str, tension: float, steps: int, **kwargs) -> np.ndarray:
     """Remaining fraction (steps,) of the way to the final tip after each step."""
-    import gymnasium as gym
-
-    import cdcr_gym  # noqa: F401 - registers the ids
 
     env = gym.make(env_id, action_mode="tension", max_episode_steps=steps + 1, **kwargs)
     _, info = env.reset(seed=0)

@@ -2,7 +2,7 @@
 
 Usage::
 
-    python -m training.transfer_probe [--trace RUN_DIR] [--friction MU]
+    python -m training.studies.transfer_probe [--trace RUN_DIR] [--friction MU]
 
 Prints, on the paper robot:
 
@@ -26,7 +26,14 @@ import argparse
 import math
 from pathlib import Path
 
+import gymnasium as gym
 import numpy as np
+
+import cdcr_gym  # noqa: F401
+from cdcr_gym.backends.analytic import AnalyticBackend
+from cdcr_gym.backends.bullet.backend import BulletBackend
+from cdcr_gym.params import RobotParams
+from training.run.rollout import SB3Policy
 
 __all__ = ["cotension_table", "step_response", "trace", "main"]
 
@@ -39,9 +46,6 @@ def cotension_table(
     base_tensions: tuple[float, ...] = (0.0, 10.0, 20.0, 40.0), deltas: tuple[float, ...] = (10, 30)
 ) -> list[tuple[float, float, float, float]]:
     """Rows (T₀ N, ΔT N, CCKA radial mm, bullet-with-gravity radial mm)."""
-    from cdcr_gym.backends.analytic import AnalyticBackend
-    from cdcr_gym.backends.bullet.backend import BulletBackend
-    from cdcr_gym.params import RobotParams
 
     p = RobotParams()
     analytic, bullet = AnalyticBackend(p), BulletBackend(p, gravity=True)
@@ -57,9 +61,6 @@ def cotension_table(
 
 def step_response(steps: int = 40, omega: float = 0.44) -> tuple[np.ndarray, np.ndarray, float]:
     """(bullet remaining fraction (steps,), model remaining fraction (steps,), final move mm)."""
-    import gymnasium as gym
-
-    import cdcr_gym  # noqa: F401  (registers the envs)
 
     env = gym.make(
         "cdcr_gym/BulletReach-v0", action_mode="tension", gravity=True, max_episode_steps=400
@@ -86,10 +87,6 @@ def step_response(steps: int = 40, omega: float = 0.44) -> tuple[np.ndarray, np.
 
 def trace(run_dir: str | Path, friction: float = 0.0, steps: int = 150) -> dict:
     """The closed-loop trace of a run's best policy on bullet (module docstring, item 3)."""
-    import gymnasium as gym
-
-    import cdcr_gym  # noqa: F401
-    from training.evaluate.rollout import SB3Policy
 
     run = Path(run_dir)
     policy = SB3Policy(run / "best_model" / "model.zip", run / "best_model" / "vecnormalize.pkl")

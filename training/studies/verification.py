@@ -1,11 +1,11 @@
 """Verification studies of the pybullet backend: the numbers in ``docs/bullet_backend.md``.
 
-It lives in ``training/`` (the tools that run the package, next to ``training.bench``), not in
+It lives in ``training/`` (the tools that run the package, next to ``training.studies.bench``), not in
 the backend: it is a study of the backend against closed-form mechanics, needs nothing a user
-of the backend needs, and is not part of the paper's reproduction (``training.reproduce``).
+of the backend needs, and is not part of the paper's reproduction (``training.studies.reproduce``).
 
-``python -m training.verification`` prints every table of that document (a few
-seconds); ``python -m training.verification --bench`` also measures the speed
+``python -m training.studies.verification`` prints every table of that document (a few
+seconds); ``python -m training.studies.verification --bench`` also measures the speed
 (``apply_tensions`` calls per second of the backend and env steps per second of
 ``cdcr_gym/BulletReach-v0``, both at default settings, as wall-clock and as CPU-time rates).
 ``tests/test_bullet.py`` asserts the same quantities through these functions.
@@ -23,9 +23,12 @@ import math
 import time
 from dataclasses import replace
 
+import gymnasium as gym
 import numpy as np
 
+import cdcr_gym  # noqa: F401
 from cdcr_gym import kinematics
+from cdcr_gym.backends.analytic import AnalyticBackend
 from cdcr_gym.backends.bullet import (
     MAX_JOINTS,
     BulletBackend,
@@ -183,10 +186,6 @@ def benchmark(n_steps: int = 5000, seed: int = 0, robot: str = "paper") -> dict[
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     backend.close()
     out = {"backend_steps_per_s_wall": n_steps / wall, "backend_steps_per_s_cpu": n_steps / cpu}
-
-    import gymnasium as gym
-
-    import cdcr_gym  # noqa: F401 (registers the ids)
 
     env = gym.make("cdcr_gym/BulletReach-v0", robot=robot)
     env.reset(seed=seed)
@@ -397,7 +396,6 @@ THREE_SECTIONS = replace(
 
 
 def _sections_report() -> None:  # pragma: no cover - prints the n-section table
-    from cdcr_gym.backends.analytic import AnalyticBackend
 
     print("## Several sections, gravity off: |settled tip − PCC tip| / ℓ (%)\n")
     print("5 tension sets uniform in [0, max_tension] (seed 0); max and mean over the sets.\n")

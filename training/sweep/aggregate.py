@@ -2,7 +2,7 @@
 
 Usage::
 
-    python -m training.aggregate SWEEP_OUT [--doc docs/benchmark.md] [--reps 50000]
+    python -m training.sweep.aggregate SWEEP_OUT [--doc docs/benchmark.md] [--reps 50000]
 
 ``SWEEP_OUT`` is a sweep's output directory (``runs/sweeps/<name>``, holding ``sweep.json``,
 see :mod:`training.sweep`). Prints markdown tables and writes ``SWEEP_OUT/aggregate.json``;
@@ -394,7 +394,7 @@ def write_doc(
             if max_conc
             else "so as many concurrent trials as cores)"
         )
-        + ", each an ordinary `training.train` run directory.",
+        + ", each an ordinary `training.run.train` run directory.",
         f"* **Machine**: {_machine(summary, runs)}. " + machine_sharing(summary, runs, max_conc),
         "* **Scores**: after training, `cdcr-gym evaluate RUN_DIR --model best` on "
         "fixed goals (reset seeds from `evaluate.seed`, the same for every run) from each "
@@ -402,7 +402,7 @@ def write_doc(
         "starting shape). Per run: the median final tip error, and the fractions of goals "
         "within 5 mm and 1 mm"
         + (
-            "; for Track, Pose and Obstacle the task's own metrics (`training.task_metrics`): "
+            "; for Track, Pose and Obstacle the task's own metrics (`training.run.metrics`): "
             "the median over the episodes of the tracking RMS (Track, after the settling "
             "window), of the final tip direction error (Pose), the fraction of episodes with a "
             "collision (Obstacle), beside the task's oracle on the same episodes (and, for "

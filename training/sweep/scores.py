@@ -13,6 +13,7 @@ from typing import Any
 
 from training.evaluate.conditions import read_eval
 from training.sweep.statistics import stratified_bootstrap_ci
+from training.sweep.tune import TARGET_KEYS
 
 METRICS = {
     # key: (title, unit, lower is better)
@@ -85,7 +86,7 @@ class RunResult:
 
 def task_scores(summary: dict[str, Any]) -> dict[str, float]:
     """The scores of one policy's Track/Pose/Obstacle summary (``summarize_task`` in
-    :mod:`training.task_metrics`): medians over the episodes (mm, °) and rates (fractions).
+    :mod:`training.run.metrics`): medians over the episodes (mm, °) and rates (fractions).
 
     Every task: ``median_error_mm`` (final tip distance to the goal or target) and
     ``success_rate``; Track: ``tracking_rms_mm``; Pose: ``final_angle_deg``, ``within_1mm_1deg``;
@@ -114,7 +115,6 @@ def _label(record: dict[str, Any]) -> str:
 
 
 def _meets(row: dict[str, float], target: dict[str, float]) -> bool:
-    from training.sweep.tune import TARGET_KEYS
 
     for key, threshold in target.items():
         value = row.get(key)

@@ -47,7 +47,7 @@ A sweep too long for one sitting is split into **parts** (instead of ``configs``
 ``sweep.json`` with all trials (those of parts not run yet: ``not run``), so the parts can run
 on different days or machines into the same output directory and be aggregated together.
 
-Each trial is an ordinary ``python -m training.train`` run directory, ``OUT/runs/<trial id>``,
+Each trial is an ordinary ``python -m training.run.train`` run directory, ``OUT/runs/<trial id>``,
 trained from its resolved config ``OUT/configs/<trial id>.yaml`` (the same code and files as a
 hand-started run), then evaluated. ``OUT/trials/<trial id>.json`` records the outcome (status,
 commands, return codes, wall times, the machine's load average before and after) and
@@ -67,12 +67,13 @@ commands, return codes, wall times, the machine's load average before and after)
   Ray worker running it dies (Linux), so a cancelled sweep leaves no orphaned training.
 
 Aggregation (IQM with stratified bootstrap confidence intervals, performance profiles, the
-benchmark page) is ``python -m training.aggregate OUT``.
+benchmark page) is ``python -m training.sweep.aggregate OUT``.
 """
 
 from __future__ import annotations
 
 import argparse
+import ctypes
 import dataclasses
 import datetime as _dt
 import importlib.util
@@ -90,8 +91,10 @@ import time
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import yaml
 
+import cdcr_gym  # noqa: F401
 from training.run.config import (
     ConfigError,
     config_from_dict,
@@ -99,6 +102,7 @@ from training.run.config import (
     load_config,
     save_config,
 )
+from training.run.packaged import resolve_config
 from training.sweep.spec import (
     TARGET_KEYS,
     PartSpec,
@@ -179,8 +183,6 @@ class Trial:
 
 # -- the grid -----------------------------------------------------------------------------------
 def _find_config(name: str, base_dir: Path) -> Path:
-    from training.cli import resolve_config
-
     for candidate in (Path(name), base_dir / name):
         if candidate.is_file():
             return candidate
@@ -217,9 +219,6 @@ def expand(spec: SweepSpec) -> list[Trial]:
     Raises ConfigError naming the config, the variant and the bad key if any resolved config is
     invalid (nothing runs then).
     """
-    import gymnasium as gym
-
-    import cdcr_gym  # noqa: F401 - registers the ids
 
     grid_variants = [
         dict(zip(spec.grid, values, strict=True))
@@ -342,9 +341,8 @@ def _terminate_with_parent() -> None:
     """In the child, before exec (Linux): SIGTERM when the process that started it dies.
 
     Ray kills a cancelled trial's worker outright; without this its training subprocess would
-    live on as an orphan. ``training.train`` takes SIGTERM as Ctrl-C (checkpoint, exit 130).
+    live on as an orphan. ``training.run.train`` takes SIGTERM as Ctrl-C (checkpoint, exit 130).
     """
-    import ctypes
 
     pr_set_pdeathsig = 1
     ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, signal.SIGTERM)

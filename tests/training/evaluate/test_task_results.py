@@ -1,4 +1,4 @@
-"""training.task_results: collects task evaluations of several runs (fake runs, no training)."""
+"""training.evaluate.task_results: collects task evaluations of several runs (fake runs, no training)."""
 
 from __future__ import annotations
 

@@ -57,7 +57,7 @@ def _small(tmp_path: Path, name: str) -> Path:
 def test_task_config_trains_and_evaluates_beside_its_oracle(tmp_path: Path, name: str) -> None:
     run = tmp_path / "run"
     result = _run(
-        "training.train", _small(tmp_path, name), "--total-timesteps", 512, "--run-dir", run
+        "training.run.train", _small(tmp_path, name), "--total-timesteps", 512, "--run-dir", run
     )
     assert result.returncode == 0, result.stderr[-3000:]
     if yaml.safe_load(_small(tmp_path, name).read_text()).get("demonstrations", {}).get("episodes"):
@@ -93,7 +93,15 @@ def test_task_config_trains_and_evaluates_beside_its_oracle(tmp_path: Path, name
 
 def test_oracle_script_writes_the_numbers_and_figures(tmp_path: Path) -> None:
     result = _run(
-        "training.oracles", "--task", "track", "--episodes", 2, "--figures", 1, "--out", tmp_path
+        "training.evaluate.oracles",
+        "--task",
+        "track",
+        "--episodes",
+        2,
+        "--figures",
+        1,
+        "--out",
+        tmp_path,
     )
     assert result.returncode == 0, result.stderr[-3000:]
     data = json.loads((tmp_path / "oracle_track_CCKA_paper.json").read_text())
@@ -102,10 +110,12 @@ def test_oracle_script_writes_the_numbers_and_figures(tmp_path: Path) -> None:
 
 
 def test_oracle_script_rejects_bad_arguments(tmp_path: Path) -> None:
-    result = _run("training.oracles", "--task", "track", "--episodes", 0, "--out", tmp_path)
+    result = _run(
+        "training.evaluate.oracles", "--task", "track", "--episodes", 0, "--out", tmp_path
+    )
     assert result.returncode == 2 and "--episodes" in result.stderr
     result = _run(
-        "training.oracles", "--task", "track", "--env-kwarg", "speed=-1", "--out", tmp_path
+        "training.evaluate.oracles", "--task", "track", "--env-kwarg", "speed=-1", "--out", tmp_path
     )
     assert result.returncode == 2 and "speed" in result.stderr
 
@@ -147,7 +157,7 @@ def test_off_policy_config_trains_and_evaluates_beside_the_baselines(
     cfg = tmp_path / f"{name}.yaml"
     cfg.write_text(yaml.safe_dump(data))
     run = tmp_path / "run"
-    result = _run("training.train", cfg, "--total-timesteps", 400, "--run-dir", run)
+    result = _run("training.run.train", cfg, "--total-timesteps", 400, "--run-dir", run)
     assert result.returncode == 0, result.stderr[-3000:]
     assert json.loads((run / "run.json").read_text())["status"] == "complete"
     result = _run("training.evaluate", run, "--episodes", 2)

@@ -1,4 +1,4 @@
-"""training.video: MP4 people can play (H.264, yuv420p, even sizes), GIF when asked."""
+"""training.evaluate.video: MP4 people can play (H.264, yuv420p, even sizes), GIF when asked."""
 
 from __future__ import annotations
 
@@ -103,8 +103,8 @@ def test_frames_carry_the_step_the_tip_error_and_the_task_metric():
 
 
 def test_the_evaluation_video_has_text_on_every_frame(monkeypatch, tmp_path):
-    from training.evaluate import agent, video
-    from training.evaluate.rollout import make_specs
+    from training.evaluate import agent
+    from training.run.rollout import make_specs
 
     written = {}
 
@@ -112,7 +112,7 @@ def test_the_evaluation_video_has_text_on_every_frame(monkeypatch, tmp_path):
         written["frames"] = list(frames)
         return path
 
-    monkeypatch.setattr(video, "write_video", capture)
+    monkeypatch.setattr(agent, "write_video", capture)
     specs = make_specs(1, 0, "straight", None)
     agent._write_video(
         "cdcr_gym/CCKAReach-v0", {}, lambda obs: np.zeros((len(obs), 3)), specs, 4, 1, tmp_path, 4

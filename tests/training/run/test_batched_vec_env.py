@@ -19,9 +19,8 @@ def test_batched_vec_env_on_mujoco_equals_a_dummy_vec_env_of_single_envs():
     ``MuJoCoReach-v0`` envs give the same observations, rewards, dones and tips."""
     from stable_baselines3.common.vec_env import DummyVecEnv
 
-    from training.run.sb3_vec import BatchedCCKAVecEnv, BatchedVecEnv
+    from training.run.sb3_vec import BatchedVecEnv
 
-    assert BatchedCCKAVecEnv is BatchedVecEnv  # the former name still works
     n, states = 3, ["straight", "random"]
     kwargs = {"gravity": True, "tension_step": 0.2, "max_episode_steps": 6}
     batched = BatchedVecEnv(

@@ -64,7 +64,7 @@ def test_the_planner_demonstrations_are_complete_episodes_of_raw_data(normalize:
     import gymnasium as gym
 
     import cdcr_gym  # noqa: F401
-    from training.evaluate.metrics import oracle_for
+    from training.run.metrics import oracle_for
 
     venv = _obstacle_venv(3, normalize)
     probe = gym.make("cdcr_gym/CCKAObstacle-v0", tension_step=0.1, clearance_features=True)
@@ -157,7 +157,7 @@ def test_a_run_with_demonstrations_reports_them_and_counts_their_time(tmp_path: 
     config.write_text(yaml.safe_dump(data))
     run = tmp_path / "run"
     result = subprocess.run(
-        [sys.executable, "-m", "training.train", str(config), "--run-dir", str(run)],
+        [sys.executable, "-m", "training.run.train", str(config), "--run-dir", str(run)],
         cwd=REPO,
         env={**os.environ, "PYTHONPATH": str(REPO), "MPLBACKEND": "Agg"},
         capture_output=True,

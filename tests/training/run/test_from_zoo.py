@@ -1,4 +1,4 @@
-"""training.from_zoo: an rl_zoo3 run becomes a run directory training.evaluate reads."""
+"""training.run.from_zoo: an rl_zoo3 run becomes a run directory training.evaluate reads."""
 
 from __future__ import annotations
 

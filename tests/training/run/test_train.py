@@ -96,7 +96,7 @@ def test_bad_values_name_the_key(data: dict, key: str) -> None:
 
 def test_cli_misspelt_key_fails_with_clear_message(tmp_path: Path) -> None:
     config = _tiny_config(tmp_path, normalise={"enabled": True})
-    result = _run("training.train", config, "--run-dir", tmp_path / "run", timeout=60)
+    result = _run("training.run.train", config, "--run-dir", tmp_path / "run", timeout=60)
     assert result.returncode == 2
     assert "unknown config key 'normalise'" in result.stderr
     assert "did you mean 'normalize'" in result.stderr
@@ -116,7 +116,7 @@ def test_cli_misspelt_key_fails_with_clear_message(tmp_path: Path) -> None:
 def test_train_cli_validates_arguments(tmp_path: Path, args: list[str], message: str) -> None:
     cfg = _tiny_config(tmp_path)
     args = [a.format(cfg=cfg, tmp=tmp_path) for a in args]
-    result = _run("training.train", *args, timeout=60)
+    result = _run("training.run.train", *args, timeout=60)
     assert result.returncode != 0
     assert message in result.stderr
 
@@ -197,7 +197,7 @@ def test_train_and_evaluate_default_config_smoke(tmp_path: Path) -> None:
     """The default config, a tiny budget: every run-directory artefact exists; evaluate works."""
     run = tmp_path / "run"
     result = _run(
-        "training.train",
+        "training.run.train",
         "configs/ppo_ccka_reach.yaml",
         "--total-timesteps",
         512,
@@ -246,7 +246,7 @@ def test_train_runs_in_an_existing_dir_only_with_resume(tmp_path: Path) -> None:
     run = tmp_path / "run"
     run.mkdir()
     (run / "something").write_text("x")
-    result = _run("training.train", _tiny_config(tmp_path), "--run-dir", run, timeout=60)
+    result = _run("training.run.train", _tiny_config(tmp_path), "--run-dir", run, timeout=60)
     assert result.returncode == 2 and "--resume" in result.stderr
 
 
@@ -254,14 +254,14 @@ def test_train_runs_in_an_existing_dir_only_with_resume(tmp_path: Path) -> None:
 def test_resume_continues_steps_and_logs(tmp_path: Path) -> None:
     cfg = _tiny_config(tmp_path)
     run = tmp_path / "run"
-    result = _run("training.train", cfg, "--run-dir", run)
+    result = _run("training.run.train", cfg, "--run-dir", run)
     assert result.returncode == 0, result.stderr[-3000:]
     first = _csv_rows(run / "progress.csv")
     assert [int(r["time/total_timesteps"]) for r in first] == [128, 256]
     n_events = len(list((run / "tb").iterdir()))
 
     # Resume to a larger budget: the counter continues from the checkpoint, logs are appended.
-    result = _run("training.train", cfg, "--run-dir", run, "--resume", "--total-timesteps", 512)
+    result = _run("training.run.train", cfg, "--run-dir", run, "--resume", "--total-timesteps", 512)
     assert result.returncode == 0, result.stderr[-3000:]
     assert "resuming" in result.stdout and "from step 256" in result.stdout
     rows = _csv_rows(run / "progress.csv")
@@ -300,7 +300,7 @@ def test_resume_rejects_a_different_config(tmp_path: Path) -> None:
     (run / "run.json").write_text("{}")
     (tmp_path / "other").mkdir()
     other = _tiny_config(tmp_path / "other", ppo={**TINY["ppo"], "n_epochs": 3})
-    result = _run("training.train", other, "--run-dir", run, "--resume", timeout=60)
+    result = _run("training.run.train", other, "--run-dir", run, "--resume", timeout=60)
     assert result.returncode == 2 and "ppo.n_epochs" in result.stderr
 
 
@@ -310,7 +310,7 @@ def test_train_with_the_batched_vec_env(tmp_path: Path) -> None:
         tmp_path,
         env={**TINY["env"], "vec_env": "batched", "per_env_kwargs": [{"initial_state": "random"}]},
     )
-    result = _run("training.train", cfg, "--run-dir", tmp_path / "run")
+    result = _run("training.run.train", cfg, "--run-dir", tmp_path / "run")
     assert result.returncode == 0, result.stderr[-3000:]
     assert (tmp_path / "run" / "best_model" / "model.zip").exists()
 
@@ -331,7 +331,7 @@ def test_fast_config_trains_one_rollout(tmp_path: Path, name: str) -> None:
     assert config.eval.freq >= config.total_timesteps
     run = tmp_path / "run"
     result = _run(
-        "training.train", f"configs/{name}.yaml", "--total-timesteps", 256, "--run-dir", run
+        "training.run.train", f"configs/{name}.yaml", "--total-timesteps", 256, "--run-dir", run
     )
     assert result.returncode == 0, result.stderr[-3000:]
     meta = json.loads((run / "run.json").read_text())
@@ -503,7 +503,7 @@ def test_curriculum_raises_the_obstacle_difficulty_before_each_rollout(tmp_path:
         curriculum={"steps": 384, "start": 0.25},
     )
     run = tmp_path / "run"
-    result = _run("training.train", cfg, "--run-dir", run)
+    result = _run("training.run.train", cfg, "--run-dir", run)
     assert result.returncode == 0, result.stderr[-3000:]
     rows = _csv_rows(run / "progress.csv")
     logged = [float(r["charts/difficulty"]) for r in rows if r.get("charts/difficulty")]

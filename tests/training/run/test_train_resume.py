@@ -2,7 +2,7 @@
 
 A run killed at any moment and resumed must end with the same final model, bit for bit, as an
 uninterrupted run of the same config (CPU): the tests compare every tensor of the saved models.
-Training runs are real ``python -m training.train`` subprocesses on tiny configs.
+Training runs are real ``python -m training.run.train`` subprocesses on tiny configs.
 """
 
 from __future__ import annotations
@@ -141,7 +141,7 @@ def test_ppo_killed_resumed_from_a_truncated_checkpoint_is_bit_identical(
 ) -> None:
     run = tmp_path / "run"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "training.train", str(_write(tmp_path, PPO_TINY))]
+        [sys.executable, "-m", "training.run.train", str(_write(tmp_path, PPO_TINY))]
         + ["--run-dir", str(run)],
         cwd=REPO,
         env=ENV,
@@ -246,7 +246,7 @@ def _interrupt(tmp_path: Path, n_signals: int) -> tuple[int, str, Path]:
     data["env"]["vec_env"] = "subproc"
     run = tmp_path / "run"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "training.train", str(_write(tmp_path, data))]
+        [sys.executable, "-m", "training.run.train", str(_write(tmp_path, data))]
         + ["--run-dir", str(run)],
         cwd=REPO,
         env=ENV,

@@ -1,6 +1,6 @@
 """Config errors are found before anything is written (issue 14, item 9).
 
-Each case runs the trainer's ``main`` (what ``python -m training.train`` runs) and asserts exit
+Each case runs the trainer's ``main`` (what ``python -m training.run.train`` runs) and asserts exit
 status 2, a message naming the key, and that the run directory was not created.
 """
 

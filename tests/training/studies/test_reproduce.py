@@ -1,4 +1,4 @@
-"""Tests of ``python -m training.reproduce``: the physics of the study, not just its files.
+"""Tests of ``python -m training.studies.reproduce``: the physics of the study, not just its files.
 
 Most tests drive the pipeline with stand-in backends (the analytic CCKA backend, a backend that
 never settles); one test runs the study on a coarse grid on the pybullet backbone and

@@ -1,4 +1,4 @@
-"""training.sim2sim: the summary of evaluate JSONs, its target check, table and CLI."""
+"""training.studies.sim2sim: the summary of evaluate JSONs, its target check, table and CLI."""
 
 from __future__ import annotations
 

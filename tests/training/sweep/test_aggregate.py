@@ -1,4 +1,4 @@
-"""training.aggregate: the IQM / stratified-bootstrap estimator, profiles, the benchmark page."""
+"""training.sweep.aggregate: the IQM / stratified-bootstrap estimator, profiles, the benchmark page."""
 
 from __future__ import annotations
 

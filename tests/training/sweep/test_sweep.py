@@ -221,7 +221,7 @@ def test_wall_time_budget_stops_training(tmp_path: Path) -> None:
     )
     run = tmp_path / "run"
     result = subprocess.run(
-        [sys.executable, "-m", "training.train", str(cfg), "--run-dir", str(run)],
+        [sys.executable, "-m", "training.run.train", str(cfg), "--run-dir", str(run)],
         cwd=REPO,
         env=ENV,
         capture_output=True,

@@ -29,11 +29,11 @@ JSON schema (``docs/figures/physics/cosserat_reference.json``)
 Regenerate (static solver only, ~1 min; add ``--pyelastica`` to rerun the cross-check cases,
 ~3–7 min per case on a shared 2-core machine)::
 
-    python -m training.cosserat_reference --write docs/figures/physics/cosserat_reference.json
+    python -m training.studies.cosserat --write docs/figures/physics/cosserat_reference.json
 
 Compare the package's models with it::
 
-    python -m training.cosserat_reference --study
+    python -m training.studies.cosserat --study
 """
 
 from training.studies.cosserat.pyelastica_solver import solve_pyelastica

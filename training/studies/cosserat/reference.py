@@ -25,6 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
+import cdcr_gym
+from cdcr_gym.backends.analytic import AnalyticBackend
+from cdcr_gym.backends.bullet import BulletBackend
 from cdcr_gym.model.params import RobotParams
 from training.studies.cosserat.pyelastica_solver import solve_pyelastica
 from training.studies.cosserat.rod import solve_static
@@ -74,7 +77,7 @@ PYELASTICA_CASES: tuple[tuple[str, bool], ...] = (
 PYELASTICA_MESHES = {"paper": (4, 8, 16), "tdcr2": (2, 4, 8)}
 
 GENERATOR = (
-    "python -m training.cosserat_reference --write docs/figures/physics/cosserat_reference.json"
+    "python -m training.studies.cosserat --write docs/figures/physics/cosserat_reference.json"
 )
 
 
@@ -134,7 +137,6 @@ def write_reference(
     case; with ``pyelastica`` also rerun :data:`PYELASTICA_CASES` (else keep their PyElastica
     entries from ``previous``). ``robots``: only the cases of these presets (the others are
     kept from ``previous``)."""
-    import cdcr_gym
 
     old = {}
     if previous is not None:
@@ -204,7 +206,7 @@ def refine_pyelastica(path: Path, name: str, gravity: bool, elements_per_span: i
         seconds=run["seconds"],
     )
     case["command"] = (
-        f"{GENERATOR} --pyelastica && python -m training.cosserat_reference --refine "
+        f"{GENERATOR} --pyelastica && python -m training.studies.cosserat --refine "
         f"{name}:{int(gravity)}:{elements_per_span}"
     )
     path.write_text(json.dumps(doc, indent=1) + "\n")
@@ -217,7 +219,7 @@ def load_reference(path: Path = REFERENCE_PATH) -> dict:
 
 
 STUDY_MESHES = {"paper": (1, 2, 3, 4), "tdcr2": (1, 2, 3)}
-STUDY_COMMAND = "python -m training.cosserat_reference --study"
+STUDY_COMMAND = "python -m training.studies.cosserat --study"
 
 
 def model_tips(reference: dict) -> dict:
@@ -228,8 +230,6 @@ def model_tips(reference: dict) -> dict:
     dynamics settle to, gravity as in the case) and the analytic PCC model
     (``AnalyticBackend.equilibrium``, which has no gravity).
     """
-    from cdcr_gym.backends.analytic import AnalyticBackend
-    from cdcr_gym.backends.bullet import BulletBackend
 
     out: dict = {}
     for robot, meshes in STUDY_MESHES.items():

@@ -46,7 +46,7 @@ The committed reference, its cases and the study are in
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -306,8 +306,6 @@ def solve_static(
     """
     model = RodModel.of(params, gravity)
     if stretch_scaled:
-        from dataclasses import replace
-
         model = replace(model, stretch_scaled=True)
     seg_t = model.segment_tensions(tensions)
     if guess is None:

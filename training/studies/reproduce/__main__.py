@@ -1,4 +1,4 @@
-"""``python -m training.reproduce``: run the study (see :mod:`training.reproduce.study`)."""
+"""``python -m training.studies.reproduce``: run the study (see :mod:`training.studies.reproduce.study`)."""
 
 import sys
 

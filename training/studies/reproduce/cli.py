@@ -6,6 +6,7 @@ import argparse
 import math
 import os
 import sys
+import tempfile
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -13,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from cdcr_gym.model.params import RobotParams
+from training.studies.reproduce import report
 from training.studies.reproduce.outputs import summary_rows, write_outputs
 from training.studies.reproduce.study import (
     DEFAULT_OUT,
@@ -207,7 +209,6 @@ def _check_out(ap: argparse.ArgumentParser, out: Path, what: str) -> None:
     """A usage error unless ``out`` is (or can be created as) a directory this process can write
     into, checked before the study runs: the nearest existing ancestor is probed with a
     temporary file (``os.access`` passes for root on read-only places such as ``/proc``)."""
-    import tempfile
 
     if out.exists() and not out.is_dir():
         ap.error(f"{what} {str(out)!r} exists and is not a directory")
@@ -287,8 +288,6 @@ def main(argv: Sequence[str] | None = None, factory: BackendFactory | None = Non
         return 2
     paths = write_outputs(res, args.out, dpi=args.dpi, command=command.strip())
     if args.report_copy is not None:
-        from training.studies.reproduce import report
-
         findings = report.findings(res)
         args.report_copy.parent.mkdir(parents=True, exist_ok=True)
         args.report_copy.write_text(

@@ -1,4 +1,4 @@
-"""Figures of ``python -m training.reproduce`` (matplotlib, Agg, PNG; mm, N and degrees).
+"""Figures of ``python -m training.studies.reproduce`` (matplotlib, Agg, PNG; mm, N and degrees).
 
 Every figure is built on a bare :class:`matplotlib.figure.Figure` (no pyplot state), has a title,
 axis labels with units and a legend, and is written at ``dpi`` (100 by default, a few tens of kB).
@@ -22,7 +22,7 @@ AXIS_COLOURS = {"X": "tab:red", "Y": "tab:green", "Z": "tab:blue"}
 
 
 def _paper_sim_mean_mm() -> float:
-    """The paper's mean CCKA-vs-SolidWorks error (mm), from :data:`training.reproduce.PAPER_RESULTS`."""
+    """The paper's mean CCKA-vs-SolidWorks error (mm), from :data:`training.studies.reproduce.PAPER_RESULTS`."""
     return PAPER_RESULTS[0][1]
 
 

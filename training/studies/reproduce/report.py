@@ -1,9 +1,9 @@
 """The Markdown report of ``cdcr-gym reproduce``: numbers computed from the run only.
 
-:func:`findings` condenses a :class:`training.reproduce.StudyResults` into plain numbers (and the
+:func:`findings` condenses a :class:`training.studies.reproduce.StudyResults` into plain numbers (and the
 "where CCKA stops holding" paragraph built from them); :func:`render` writes the report around
 them. Nothing here is hand-typed except the paper's two published errors
-(:data:`training.reproduce.PAPER_RESULTS`).
+(:data:`training.studies.reproduce.PAPER_RESULTS`).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The paper's CCKA-vs-simulation study (``python -m training.reproduce``), and beyond.
+"""The paper's CCKA-vs-simulation study (``python -m training.studies.reproduce``), and beyond.
 
 The paper (section 4) pulls cable 1 with 0–80 N in a nonlinear SolidWorks simulation, feeds the
 resulting cable lengths to the constant-curvature forward kinematics (CCKA, its eq. 5) and compares
@@ -24,13 +24,13 @@ equilibrium under the tensions, then keeps applying the same tensions until the 
 than a tolerance (1 µm by default) over a window of control steps, and raises
 :class:`SettleError` if it does not within a cap.
 
-Outputs (one folder, ``--out``): PNG figures (:mod:`training.reproduce.plots`), one CSV per
+Outputs (one folder, ``--out``): PNG figures (:mod:`training.studies.reproduce.plots`), one CSV per
 sweep (SI units, unit in each column name), ``summary.csv`` (the table), ``report.md``
-(:mod:`training.reproduce.report`) and ``run.json`` (configuration, timings).
+(:mod:`training.studies.reproduce.report`) and ``run.json`` (configuration, timings).
 
 Usage::
 
-    python -m training.reproduce [--out DIR] [--quick] [--forces N] [--payloads-g 0,50,...]
+    python -m training.studies.reproduce [--out DIR] [--quick] [--forces N] [--payloads-g 0,50,...]
 """
 
 from __future__ import annotations
@@ -45,6 +45,8 @@ import numpy as np
 
 from cdcr_gym import kinematics as K
 from cdcr_gym.backends.base import Backend
+from cdcr_gym.backends.bullet import BulletBackend
+from cdcr_gym.backends.mujoco import MuJoCoBackend
 from cdcr_gym.model import statics
 from cdcr_gym.model.params import RobotParams
 
@@ -411,7 +413,6 @@ def bullet_factory(
     **kwargs,
 ) -> Backend:
     """The pybullet backbone (imported here, so that the CCKA part runs without pybullet)."""
-    from cdcr_gym.backends.bullet import BulletBackend
 
     return BulletBackend(
         params,
@@ -435,7 +436,6 @@ def mujoco_factory(
     """The MuJoCo backbone (``MuJoCoBackend``: ball joints, the corrected cable routing — the
     package's reference physics, within 0.2 % of ℓ of a converged Cosserat rod at one link per
     span; docs/mujoco_backend.md). Imported here, so that the CCKA part runs without MuJoCo."""
-    from cdcr_gym.backends.mujoco import MuJoCoBackend
 
     return MuJoCoBackend(
         params,

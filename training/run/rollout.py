@@ -1,15 +1,18 @@
-"""Fixed-goal evaluation episodes, run in lockstep over many envs, for any policy.
+"""The one rollout of the pipeline: episodes of any task, for any policy, run in lockstep over
+a few envs.
 
-Used by the periodic evaluation during training (``training.train``) and by
-``training.evaluate``. A *policy* here is a function from a batch of observations (b, obs_dim)
-to a batch of actions (b, 3): a PPO model behind its VecNormalize statistics
-(:class:`SB3Policy`, any algo) or the analytic-IK controller (``cdcr_gym.controllers``), so both run on
-exactly the same goals and starting shapes.
+Used by the periodic evaluation during training (:mod:`training.run.callbacks`), by
+``cdcr-gym evaluate``, ``oracles`` and the demonstrations. A *policy* here is a function from a
+batch of observations (b, obs_dim) (or a dict of batches) to a batch of actions (b, n_cables): a
+trained model behind its VecNormalize statistics (:class:`SB3Policy`, any algo) or a task's
+oracle (``cdcr_gym.controllers``), so every policy runs on exactly the same episodes.
 
-Episode specs (goal, starting tensions) are drawn by resetting a CCKA env with seeds
-``seed, seed + 1, ...``: the goal and start sampling depends only on the robot parameters and the
-seed, not on the backend, so the same specs serve every backend, and the IK controller and the
-policy are put on them with ``reset(options={"goal": ..., "initial_tensions": ...})``.
+An episode is given by :class:`EpisodeSpecs`: either a reset seed (``reset(seed=seed + i)``: the
+task draws its own scene) or an explicit goal and starting tensions, drawn by resetting a CCKA
+Reach env with seeds ``seed, seed + 1, ...`` (:func:`make_specs`; the goal and start sampling
+depends only on the robot parameters and the seed, not on the backend, so the same specs serve
+every backend) and put on the env with ``reset(options={"goal": ..., "initial_tensions": ...})``.
+The per-task numbers of the episodes are computed by :mod:`training.run.metrics`.
 """
 
 from __future__ import annotations
@@ -23,8 +26,10 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+import cdcr_gym  # noqa: F401
 from cdcr_gym.backends.analytic import AnalyticBackend
 from cdcr_gym.envs.env import CDCREnv
+from cdcr_gym.params import RobotParams
 
 __all__ = [
     "parse_env_kwarg",
@@ -32,15 +37,12 @@ __all__ = [
     "cdcr_env_ids",
     "EpisodeSpecs",
     "Rollouts",
-    "PPOPolicy",
     "SB3Policy",
     "algo_class",
     "make_specs",
     "concat_specs",
     "make_env",
     "run_episodes",
-    "error_stats",
-    "summarize",
 ]
 
 PolicyFn = Callable[[np.ndarray], np.ndarray]
@@ -48,29 +50,56 @@ PolicyFn = Callable[[np.ndarray], np.ndarray]
 
 @dataclass
 class EpisodeSpecs:
-    """Goals (n, 3) m and starting tensions (n, 3) N of n evaluation episodes."""
+    """n evaluation episodes: goals (n, 3) m and starting tensions (n, n_cables) N put on the env
+    with reset options, or (``goals`` None) reset seeds ``seed + i`` with which the task draws
+    its own scene."""
 
-    goals: np.ndarray
-    initial_tensions: np.ndarray
+    goals: np.ndarray | None
+    initial_tensions: np.ndarray | None
     initial_state: str
     seed: int
+    n: int = 0
+
+    def __post_init__(self) -> None:
+        if self.goals is not None:
+            self.n = len(self.goals)
 
     def __len__(self) -> int:
-        return len(self.goals)
+        return self.n
+
+    @classmethod
+    def from_seeds(cls, n: int, seed: int) -> EpisodeSpecs:
+        """``n`` episodes reset with seeds ``seed + i`` (the env's own initial state)."""
+        return cls(None, None, "", seed, n)
+
+    def reset_kwargs(self, i: int) -> dict[str, Any]:
+        """The keyword arguments of ``env.reset`` for episode ``i``."""
+        if self.goals is None or self.initial_tensions is None:
+            return {"seed": self.seed + i}
+        return {"options": {"goal": self.goals[i], "initial_tensions": self.initial_tensions[i]}}
 
 
 @dataclass
 class Rollouts:
-    """What happened in n episodes of ``horizon`` steps (arrays float64, SI units)."""
+    """What happened in n episodes of up to ``horizon`` steps (arrays float64, SI units).
+
+    An episode that terminates (or is truncated before ``horizon``) keeps its last state: its
+    ``distances`` stay at their last value."""
 
     distances: np.ndarray  # (n, horizon + 1) tip-to-goal distance after reset and each step, m
     final_tip: np.ndarray  # (n, 3) m
-    final_tensions: np.ndarray  # (n, 3) N
-    final_lengths: np.ndarray  # (n, 3) m
+    final_tensions: np.ndarray  # (n, n_cables) N
+    final_lengths: np.ndarray  # (n, n_cables) m
     returns: np.ndarray  # (n,) sum of rewards
-    episode_length: np.ndarray  # (n,) steps actually taken (< horizon if terminated)
-    goals: np.ndarray  # (n, 3) m
-    trajectories: list[np.ndarray] | None = None  # tips (steps + 1, 3) per episode, if recorded
+    episode_length: np.ndarray  # (n,) steps actually taken
+    goals: np.ndarray  # (n, 3) m (Track: the last target)
+    final_infos: list[dict[str, Any]]  # the last ``info`` of each episode
+    min_clearance: np.ndarray  # (n,) smallest ``info["min_clearance"]`` over the steps, m (inf)
+    collided: np.ndarray  # (n,) bool: any step with ``info["collision"]``
+    filtered_steps: np.ndarray  # (n,) steps with ``info["safety_filtered"]``
+    #: the first ``record`` episodes: ``tip`` (steps + 1, 3) m and ``target`` (steps + 1, 3) m
+    #: (the moving target of Track, else the goal), and for Obstacle ``obstacles``, ``goal``
+    paths: list[dict[str, Any]]
 
     @property
     def final_distance(self) -> np.ndarray:
@@ -115,8 +144,6 @@ def make_env(
     """
     kwargs = dict(env_kwargs or {})
     if isinstance(kwargs.get("params"), dict):
-        from cdcr_gym.params import RobotParams
-
         kwargs["params"] = RobotParams(**kwargs["params"])
     if render_mode is not None:
         kwargs["render_mode"] = render_mode
@@ -127,7 +154,6 @@ def make_env(
 
 def cdcr_env_ids() -> list[str]:
     """The registered cdcr_gym ids."""
-    import cdcr_gym  # noqa: F401 - registers the ids
 
     return sorted(k for k in gym.registry if k.startswith("cdcr_gym/"))
 
@@ -186,7 +212,7 @@ def algo_class(algo: str) -> Any:
 
 class SB3Policy:
     """A saved model of any algo and its VecNormalize statistics as a batched, deterministic
-    policy (``PPOPolicy`` is the same class, kept under its old name).
+    policy.
 
     Args:
         model_path: the ``.zip`` saved by stable-baselines3.
@@ -250,9 +276,6 @@ class SB3Policy:
         return action
 
 
-PPOPolicy = SB3Policy
-
-
 def _stack_obs(obs_list: list[Any]) -> Any:
     """Single-env observations stacked into a batch (a dict of batches for Dict observations)."""
     if isinstance(obs_list[0], dict):
@@ -272,39 +295,50 @@ def run_episodes(
     env_fn: Callable[[], gym.Env],
     policy: PolicyFn,
     specs: EpisodeSpecs,
-    horizon: int,
+    horizon: int | None = None,
     batch_size: int = 50,
-    record_trajectories: bool = False,
+    record: int = 0,
 ) -> Rollouts:
-    """Run one episode per spec, ``horizon`` steps each, ``batch_size`` envs in lockstep.
+    """Run one episode per spec, ``horizon`` steps at most (None: the env's own episode length),
+    ``batch_size`` envs in lockstep; keep the paths of the first ``record`` episodes.
 
     ``env_fn`` makes one env (its own TimeLimit must not be shorter than ``horizon``). An
-    episode that terminates (``terminate_on_success``) keeps its terminal state from then on.
+    episode ends when it terminates (e.g. ``terminate_on_success``) or is truncated.
     """
     n = len(specs)
+    envs = [env_fn() for _ in range(max(1, min(batch_size, n)))]
+    if horizon is None:
+        spec = envs[0].spec
+        if spec is None or spec.max_episode_steps is None:
+            for env in envs:
+                env.close()
+            raise ValueError("horizon: None needs an env with a TimeLimit (max_episode_steps)")
+        horizon = int(spec.max_episode_steps)
     distances = np.empty((n, horizon + 1))
-    final_tip = np.empty((n, 3))
-    final_tensions = np.empty((n, 3))
-    final_lengths = np.empty((n, 3))
     returns = np.zeros(n)
     lengths = np.full(n, horizon)
-    trajectories: list[np.ndarray] | None = [] if record_trajectories else None
-    envs = [env_fn() for _ in range(min(batch_size, n))]
+    min_clearance = np.full(n, np.inf)
+    collided = np.zeros(n, dtype=bool)
+    filtered = np.zeros(n, dtype=int)
+    final_infos: list[dict[str, Any]] = [{} for _ in range(n)]
+    paths: list[dict[str, Any]] = []
     try:
         for start in range(0, n, len(envs)):
             idx = np.arange(start, min(start + len(envs), n))
             obs_list, infos = [], []
             for env, i in zip(envs, idx, strict=False):
-                obs, info = env.reset(
-                    options={"goal": specs.goals[i], "initial_tensions": specs.initial_tensions[i]}
-                )
+                obs, info = env.reset(**specs.reset_kwargs(int(i)))
                 obs_list.append(obs)
                 infos.append(info)
             obs = _stack_obs(obs_list)
             alive = np.ones(len(idx), dtype=bool)
             tips = [[info["tip"]] for info in infos]
+            targets = [[info.get("target", info.get("goal"))] for info in infos]
             distances[idx, 0] = [info["distance"] for info in infos]
             for t in range(1, horizon + 1):
+                if not alive.any():
+                    distances[idx, t] = distances[idx, t - 1]
+                    continue
                 actions = np.asarray(policy(obs))
                 for k, (env, i) in enumerate(zip(envs, idx, strict=False)):
                     if alive[k]:
@@ -312,49 +346,43 @@ def run_episodes(
                         _set_obs_row(obs, k, o)
                         infos[k] = info
                         returns[i] += reward
-                        if terminated or (truncated and t < horizon):
+                        if "min_clearance" in info:
+                            min_clearance[i] = min(min_clearance[i], info["min_clearance"])
+                        collided[i] |= bool(info.get("collision", False))
+                        filtered[i] += bool(info.get("safety_filtered", False))
+                        if i < record:
+                            tips[k].append(info["tip"])
+                            targets[k].append(info.get("target", info.get("goal")))
+                        if terminated or truncated:
                             alive[k] = False
                             lengths[i] = t
                     distances[i, t] = infos[k]["distance"]
-                    if record_trajectories and alive[k]:
-                        tips[k].append(infos[k]["tip"])
             for k, i in enumerate(idx):
-                final_tip[i] = infos[k]["tip"]
-                final_tensions[i] = infos[k]["tensions"]
-                final_lengths[i] = infos[k]["cable_lengths"]
-                if trajectories is not None:
-                    trajectories.append(np.asarray(tips[k]))
+                final_infos[i] = infos[k]
+                if i < record:
+                    entry = {"tip": np.array(tips[k]), "target": np.array(targets[k])}
+                    if "obstacles" in infos[k]:
+                        entry["obstacles"] = infos[k]["obstacles"]
+                        entry["goal"] = infos[k]["goal"]
+                    paths.append(entry)
     finally:
         for env in envs:
             env.close()
     return Rollouts(
-        distances,
-        final_tip,
-        final_tensions,
-        final_lengths,
-        returns,
-        lengths,
-        specs.goals.copy(),
-        trajectories,
+        distances=distances,
+        final_tip=np.array([info["tip"] for info in final_infos]),
+        final_tensions=np.array([info["tensions"] for info in final_infos]),
+        final_lengths=np.array([info["cable_lengths"] for info in final_infos]),
+        returns=returns,
+        episode_length=lengths,
+        goals=(
+            specs.goals.copy()
+            if specs.goals is not None
+            else np.array([info.get("goal", info.get("target")) for info in final_infos])
+        ),
+        final_infos=final_infos,
+        min_clearance=min_clearance,
+        collided=collided,
+        filtered_steps=filtered,
+        paths=paths,
     )
-
-
-def error_stats(values: np.ndarray, scale: float = 1.0) -> dict[str, float]:
-    """``mean``, ``median``, ``p95``, ``max`` of ``values`` × ``scale``."""
-    v = np.asarray(values, dtype=np.float64) * scale
-    return {
-        "mean": float(np.mean(v)),
-        "median": float(np.median(v)),
-        "p95": float(np.percentile(v, 95)),
-        "max": float(np.max(v)),
-    }
-
-
-def summarize(final_distance: np.ndarray, threshold: float) -> dict[str, Any]:
-    """Success rate (at ``threshold`` m), fraction within 1 mm and error statistics in mm."""
-    d = np.asarray(final_distance, dtype=np.float64)
-    return {
-        "success_rate": float(np.mean(d <= threshold)),
-        "within_1mm": float(np.mean(d <= 0.001)),
-        "error_mm": error_stats(d, 1000.0),
-    }

@@ -1,0 +1,72 @@
+"""The evaluation tables fit 100 characters by default, ``--wide`` shows every column, and a
+legend explains each shown column (read from the committed result JSONs)."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+from training.evaluate import agent, results, tables
+
+REPO = Path(__file__).resolve().parents[3]
+REACH_EVAL = REPO / "docs/figures/training/ppo_mujoco_reach_seed0_eval.json"
+TASK_RESULTS = REPO / "docs/figures/tasks/ppo_results.json"
+
+
+def _widest(text: str) -> int:
+    return max(len(line) for line in text.splitlines())
+
+
+def _headers_explained(text: str, columns: list[tables.Column], wide: bool) -> None:
+    legend = text[text.index(tables.shown(columns, wide)[0].header + ":") :]
+    for column in tables.shown(columns, wide):
+        assert f"{column.header}: " in legend, column.header
+
+
+def test_the_evaluate_table_fits_100_characters_and_wide_shows_every_column(capsys):
+    result = json.loads(REACH_EVAL.read_text())
+    result["_json_path"] = "runs/ppo_mujoco_reach_seed0/eval.json"
+    agent._print_table(result)
+    narrow = capsys.readouterr().out
+    agent._print_table(result, wide=True)
+    wide = capsys.readouterr().out
+    assert _widest(narrow) <= tables.WIDTH < _widest(wide)
+    columns = agent.reach_columns(result)
+    assert "ΔT IK" in wide and "ΔT IK" not in narrow.splitlines()[2]
+    assert "--wide shows" in narrow and "--wide shows" not in wide
+    _headers_explained(narrow, columns, False)
+    _headers_explained(wide, columns, True)
+
+
+def test_the_task_table_fits_100_characters(capsys):
+    for run in json.loads(TASK_RESULTS.read_text())["runs"]:
+        agent._print_task_table({**run, "env_id": run["env_id"], "episodes": run["episodes"]})
+        out = capsys.readouterr().out
+        assert _widest(out) <= tables.WIDTH, out
+        assert run["task"] in out and "success" in out
+
+
+def test_results_reads_a_committed_evaluation_and_fits_100_characters(tmp_path, capsys):
+    run = tmp_path / "ppo_mujoco_reach_seed0"
+    run.mkdir()
+    shutil.copy(REACH_EVAL, run / "eval.json")
+    (run / "run.json").write_text(json.dumps({"total_wall_time_s": 600.0, "total_steps": 819200}))
+    assert results.main([str(run)]) == 0
+    narrow = capsys.readouterr().out
+    assert results.main([str(run), "--wide"]) == 0
+    wide = capsys.readouterr().out
+    assert _widest(narrow) <= tables.WIDTH < _widest(wide)
+    assert narrow.count("| ppo_mujoco_reach_seed0 |") == 4  # one row per condition
+    assert "10.0 min" in wide and "819,200" in wide and "10.0 min" not in narrow
+    _headers_explained(narrow, results.COLUMNS, False)
+
+
+def test_a_legend_is_wrapped_and_names_the_hidden_columns():
+    cols = [
+        tables.Column("a", " ".join(["first"] * 30), str),
+        tables.Column("b", "second", str, narrow=False),
+    ]
+    text = tables.legend(cols)
+    assert _widest(text) <= tables.WIDTH and "--wide shows 1 more column." in " ".join(text.split())
+    assert "b: second" in tables.legend(cols, wide=True)

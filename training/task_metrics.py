@@ -1,5 +1,0 @@
-"""Deprecated alias of :mod:`training.evaluate.metrics`: keeps ``import training.task_metrics`` working."""
-
-from training.deprecated import alias
-
-alias(__name__, "training.task_metrics")
