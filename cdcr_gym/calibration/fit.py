@@ -33,15 +33,20 @@ from scipy.optimize import least_squares
 from scipy.stats import t as student_t
 
 from cdcr_gym.calibration.data import Measurements
+from cdcr_gym.calibration.drive import TendonDrive
 from cdcr_gym.calibration.parameters import (
     ParameterSpec,
+    check_start,
+    drive_only,
+    expand_names,
     parameter_specs,
+    pin_ill_posed,
     resolve_names,
-    robot_with,
 )
 from cdcr_gym.calibration.simulate import (
     AnalyticReplay,
     BackendReplay,
+    DriveReplay,
     Prediction,
     backend_class,
 )
@@ -94,6 +99,10 @@ class CalibrationResult:
     success: bool
     unsettled: float = 0.0
     notes: list[str] = field(default_factory=list)
+    drive: TendonDrive | None = None
+    validation_data: Measurements | None = None
+    validation: Prediction | None = None
+    pinned: list[str] = field(default_factory=list)
 
     @property
     def errors_before(self) -> np.ndarray:
@@ -121,6 +130,8 @@ def _fit_base(params: RobotParams, data: Measurements) -> tuple[RobotParams, lis
             f"the data have {data.n_cables} cable column(s) but the robot has "
             f"{params.n_cables} cables"
         )
+    if data.tensions is None:
+        return params, []
     peak = float(data.tensions.max(initial=0.0))
     if peak > params.max_tension:
         return replace(params, max_tension=peak), [
@@ -142,6 +153,10 @@ def calibrate(
     settle_steps: int = 100,
     max_nfev: int | None = None,
     progress: Callable[[str], None] | None = None,
+    drive: TendonDrive | None = None,
+    validate: Measurements | None = None,
+    slack: bool = True,
+    stiffness_scale: float = 1.0,
 ) -> CalibrationResult:
     """Fit the parameters ``fit`` of the robot ``params`` to the measurements ``data``.
 
@@ -161,6 +176,15 @@ def calibrate(
         max_nfev: limit on least_squares' steps (its nfev: evaluations outside the
             finite-difference Jacobian; default scipy's, 100·p).
         progress: called with a line of text after every evaluation (e.g. ``print``).
+        drive: the robot's nominal tendon drive (displacement data; default the one the robot
+            carries, :meth:`TendonDrive.of`).
+        validate: held-out measurements, replayed with the fitted values after the fit (they
+            never enter it).
+        slack, stiffness_scale: the CCKA drive law's ablations (linear law; k multiplied).
+
+    Backends: "analytic" and "ccka" are the same CCKA model; with displacement data, or any
+    name of the drive model (base frame, lengths, tendon drive), it is
+    :class:`~cdcr_gym.calibration.simulate.DriveReplay`, whose Jacobian is one batched solve.
 
     Returns:
         A :class:`CalibrationResult`.
@@ -172,14 +196,40 @@ def calibrate(
     base, notes = _fit_base(params, data)
     cls = backend_class(backend)
     names = resolve_names(list(fit) if not isinstance(fit, str) else fit, base, cls, backend)
+    names, pin_notes = pin_ill_posed(names, base)
+    notes += pin_notes
+    if drive is None:
+        drive = TendonDrive.of(base)
+    if cls is not None and data.displacements is not None:
+        raise ValueError(
+            f"the {backend} backend cannot replay displacement data yet (no tendon drive in "
+            "the physics backends); use --backend ccka"
+        )
+    if validate is not None and validate.n_cables != data.n_cables:
+        raise ValueError(
+            f"the validation data have {validate.n_cables} tendon column(s), the training data "
+            f"{data.n_cables}"
+        )
+    if validate is not None and (validate.displacements is None) != (data.displacements is None):
+        raise ValueError(
+            "the validation and training data must both give displacements or both tensions"
+        )
     if len(data) < len(names) + 1:
         raise ValueError(
             f"too few points: {len(data)} measurement(s) for {len(names)} parameter(s) "
             f"{names}; need at least {len(names) + 1}"
         )
-    stray = sorted(set(start or {}) - set(names))
+    start = {
+        canon: float(v) for key, v in (start or {}).items() for canon in expand_names([key], base)
+    }
+    for key, v in start.items():
+        check_start(key, v)
+    stray = sorted(set(start) - set(names))
+    pinned_here = [n for n in stray if any(n in note for note in pin_notes)]
+    stray = [n for n in stray if n not in pinned_here]
     if stray:
         raise ValueError(f"start values given for {stray}, which are not fitted (fitted: {names})")
+    owner = np.asarray(base.cable_section)
     fixed = dict(backend_kwargs or {})
     start_values: dict[str, float] = {}
     for n in names:
@@ -191,10 +241,38 @@ def calibrate(
             start_values[n] = max(base.cable_radii)
         elif n in fixed:
             start_values[n] = float(fixed.pop(n))
+        elif n.startswith("length_s"):
+            start_values[n] = base.sections[int(n[8:]) - 1].length
+        elif n.startswith("cable_radius_s"):
+            start_values[n] = base.sections[int(n[14:]) - 1].cable_radius
+        elif n.startswith(("tendon_stiffness", "tendon_pretension")):
+            if drive is None:
+                raise ValueError(
+                    f"parameter {n!r} needs the robot's tendon drive (stiffness, pretension) "
+                    "or a --start value"
+                )
+            arr = np.array(drive.stiffness if "stiffness" in n else drive.pretension)
+            tail = n.split("_")[-1]
+            if tail.startswith("s"):
+                arr = arr[owner == int(tail[1:]) - 1]
+            elif tail.isdigit():
+                arr = arr[int(tail) - 1 : int(tail)]
+            start_values[n] = float(arr.mean())
         else:
             start_values[n] = DEFAULT_START.get(n, 0.0)
-    model: AnalyticReplay | BackendReplay
-    if cls is None:
+    use_drive = cls is None and (
+        data.displacements is not None
+        or backend == "ccka"
+        or any(drive_only(n) for n in names)
+        or not slack
+        or stiffness_scale != 1.0
+    )
+    model: AnalyticReplay | BackendReplay | DriveReplay
+    if use_drive:
+        if fixed:
+            raise ValueError(f"the ccka backend takes no backend arguments, got {sorted(fixed)}")
+        model = DriveReplay(data, base, drive, slack=slack, stiffness_scale=stiffness_scale)
+    elif cls is None:
         model = AnalyticReplay(data, base, fixed)
     else:
         model = BackendReplay(data, base, cls, fixed, ramp_steps, settle_steps)
@@ -217,11 +295,30 @@ def calibrate(
             progress(f"  eval {count[0]:3d}: cost {0.5 * float(r @ r):.6g}  ({shown})")
         return r
 
+    jac: Any = "2-point"
+    if isinstance(model, DriveReplay):
+        drive_model = model
+
+        def jac(x: np.ndarray) -> np.ndarray:
+            # forward differences, every column in one batched solve
+            h = 1e-6 * np.maximum(1.0, np.abs(x))
+            h = np.where(x + h > hi, -h, h)
+            batch = [values_of(x)]
+            for k in range(len(x)):
+                xk = x.copy()
+                xk[k] += h[k]
+                batch.append(values_of(xk))
+            tips, dirs = drive_model.batch(batch)
+            res = [_residuals(Prediction(tips[b], dirs[b]), data) for b in range(len(batch))]
+            count[0] += len(x)
+            return np.stack([(res[k + 1] - res[0]) / h[k] for k in range(len(x))], axis=1)
+
     t0 = time.perf_counter()
     before = model(start_values)
     result = least_squares(
         residuals,
         x0,
+        jac=jac,
         bounds=(lo, hi),
         method="trf",
         x_scale=1.0,
@@ -231,6 +328,17 @@ def calibrate(
     seconds = time.perf_counter() - t0
     values = values_of(result.x)
     after = model(values)
+    validation = None
+    if validate is not None:
+        replay = (
+            DriveReplay(validate, base, drive, slack=slack, stiffness_scale=stiffness_scale)
+            if isinstance(model, DriveReplay)
+            else AnalyticReplay(validate, base, fixed)
+            if cls is None
+            else BackendReplay(validate, base, cls, fixed, ramp_steps, settle_steps)
+        )
+        validation = replay(values)
+        seconds = time.perf_counter() - t0
     n_res, p = result.fun.size, len(specs)
     dof = max(n_res - p, 1)
     s2 = float(result.fun @ result.fun) / dof
@@ -255,6 +363,17 @@ def calibrate(
     at_bound = [s.name for k, s in enumerate(specs) if result.active_mask[k] != 0]
     if at_bound:
         notes.append(f"at a bound of its range: {at_bound}")
+    strong = [
+        f"{names[i]}/{names[j]} ({corr[i, j]:+.3f})"
+        for i in range(len(names))
+        for j in range(i + 1, len(names))
+        if np.isfinite(corr[i, j]) and abs(corr[i, j]) > 0.95
+    ]
+    if strong:
+        notes.append(
+            "strongly correlated (|r| > 0.95), traded against each other by the data: "
+            + ", ".join(strong)
+        )
     return CalibrationResult(
         names=names,
         start=start_values,
@@ -262,7 +381,7 @@ def calibrate(
         ci95=ci,
         std=std,
         correlation=corr,
-        params=robot_with(base, values),
+        params=_fitted_robot(base, values),
         backend_kwargs=model.backend_kwargs(values),
         backend=backend,
         data=data,
@@ -276,6 +395,71 @@ def calibrate(
         success=bool(result.success),
         unsettled=max(before.unsettled, after.unsettled),
         notes=notes,
+        drive=_fitted_drive(base, drive, values),
+        validation_data=validate,
+        validation=validation,
+        pinned=[n for n in pin_notes],
+    )
+
+
+def _fitted_robot(base: RobotParams, values: dict[str, float]) -> RobotParams:
+    """The robot with the fitted geometry (section lengths and radii, angles, E); if the fitted
+    robot's bend limits exceed π at the nominal ``max_tension``, that limit is lowered."""
+    sections = []
+    owner = np.asarray(base.cable_section)
+    k = 0
+    common = values.get("cable_radius", max(base.cable_radii)) - max(base.cable_radii)
+    for j, sec in enumerate(base.sections):
+        angles = []
+        for a in sec.cable_angles:
+            k += 1
+            angles.append(
+                a + values.get(f"cable_angle_{k}", 0.0) + values.get(f"section_angle_s{j + 1}", 0.0)
+            )
+        sections.append(
+            replace(
+                sec,
+                length=values.get(f"length_s{j + 1}", sec.length),
+                cable_radius=values.get(f"cable_radius_s{j + 1}", sec.cable_radius + common),
+                cable_angles=tuple(angles),
+            )
+        )
+    del owner
+    e = values.get("youngs_modulus", base.youngs_modulus)
+    try:
+        return replace(
+            base,
+            sections=tuple(sections),
+            youngs_modulus=e,
+            length=None,  # type: ignore[arg-type]
+            n_disks=None,  # type: ignore[arg-type]
+            cable_radius=None,
+        )
+    except ValueError:
+        probe = replace(
+            base,
+            sections=tuple(sections),
+            youngs_modulus=e,
+            length=None,  # type: ignore[arg-type]
+            n_disks=None,  # type: ignore[arg-type]
+            cable_radius=None,
+            max_tension=1e-6,
+        )
+        limit = max(probe.section_bend_limits) / 1e-6
+        return replace(probe, max_tension=0.999 * math.pi / limit)
+
+
+def _fitted_drive(
+    base: RobotParams, drive: TendonDrive | None, values: dict[str, float]
+) -> TendonDrive | None:
+    """The drive with the fitted stiffness and pretension."""
+    if drive is None:
+        return None
+    from cdcr_gym.calibration.simulate import drive_geometry
+
+    g = drive_geometry(base, drive, [values])
+    return TendonDrive(
+        tuple(g.stiffness[0]), tuple(g.pretension[0]), drive.displacement_range, drive.max_tension
     )
 
 

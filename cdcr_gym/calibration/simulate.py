@@ -23,10 +23,25 @@ from typing import Any
 import numpy as np
 
 from cdcr_gym.calibration.data import Measurements
+from cdcr_gym.calibration.drive import (
+    DriveGeometry,
+    TendonDrive,
+    forward_tips,
+    rotation_zyx,
+    solve_drive,
+)
 from cdcr_gym.calibration.parameters import accepts, robot_with, tilt_matrix, tilt_quaternion
 from cdcr_gym.model.params import RobotParams
 
-__all__ = ["BACKENDS", "backend_class", "AnalyticReplay", "BackendReplay", "Prediction"]
+__all__ = [
+    "BACKENDS",
+    "backend_class",
+    "AnalyticReplay",
+    "BackendReplay",
+    "DriveReplay",
+    "drive_geometry",
+    "Prediction",
+]
 
 #: Backend name → "module:class" of the physics backends (imported when used).
 BACKENDS = {
@@ -41,7 +56,7 @@ def backend_class(name: str) -> Any:
     Raises:
         ValueError: for an unknown name, or a backend this installation does not have.
     """
-    if name == "analytic":
+    if name in ("analytic", "ccka"):
         return None
     if name not in BACKENDS:
         raise ValueError(f"backend must be one of {['analytic', *BACKENDS]}, got {name!r}")
@@ -170,3 +185,131 @@ class BackendReplay:
             rot = tilt_matrix(values)
             tip, direction = tip @ rot.T, direction @ rot.T
         return Prediction(tip, direction, moved)
+
+
+def drive_geometry(
+    base: RobotParams,
+    drive: TendonDrive | None,
+    batch: list[dict[str, float]],
+    *,
+    slack: bool = True,
+    stiffness_scale: float = 1.0,
+) -> DriveGeometry:
+    """The arrays of :class:`~cdcr_gym.calibration.drive.DriveGeometry` for a batch of value
+    sets (SI; names of :mod:`cdcr_gym.calibration.parameters`); unset values are the robot's
+    and the drive's. ``stiffness_scale`` multiplies every k (the rigid-tendon ablation)."""
+    s, c = base.n_sections, base.n_cables
+    owner = np.asarray(base.cable_section)
+    b = len(batch)
+    lengths = np.empty((b, s))
+    radii = np.empty((b, c))
+    angles = np.empty((b, c))
+    ei = np.empty(b)
+    k = np.empty((b, c))
+    t0 = np.empty((b, c))
+    yaw, tx, ty = np.zeros(b), np.zeros(b), np.zeros(b)
+    trans = np.zeros((b, 3))
+    marker = np.zeros(b)
+    k_nom = np.array(drive.stiffness) if drive is not None else np.ones(c)
+    t_nom = np.array(drive.pretension) if drive is not None else np.zeros(c)
+    sec_len = np.array(base.section_lengths)
+    sec_r = np.array([sec.cable_radius for sec in base.sections])
+    beta = np.array(base.cable_angles)
+    moment = base.second_moment_of_area
+    for n, v in enumerate(batch):
+        ell = sec_len.copy()
+        r = sec_r + (v.get("cable_radius", sec_r.max()) - sec_r.max())
+        ang = beta.copy()
+        kk, tt = k_nom.copy(), t_nom.copy()
+        for j in range(s):
+            ell[j] = v.get(f"length_s{j + 1}", ell[j])
+            r[j] = v.get(f"cable_radius_s{j + 1}", r[j])
+            ang[owner == j] += v.get(f"section_angle_s{j + 1}", 0.0)
+            for q, arr in (("tendon_stiffness", kk), ("tendon_pretension", tt)):
+                if f"{q}_s{j + 1}" in v:
+                    arr[owner == j] = v[f"{q}_s{j + 1}"]
+        for i in range(c):
+            ang[i] += v.get(f"cable_angle_{i + 1}", 0.0)
+            kk[i] = v.get(f"tendon_stiffness_{i + 1}", kk[i])
+            tt[i] = v.get(f"tendon_pretension_{i + 1}", tt[i])
+        if "tendon_stiffness" in v:
+            kk[:] = v["tendon_stiffness"]
+        if "tendon_pretension" in v:
+            tt[:] = v["tendon_pretension"]
+        lengths[n], radii[n], angles[n] = ell, r[owner], ang
+        k[n], t0[n] = kk * stiffness_scale, tt
+        ei[n] = v.get("youngs_modulus", base.youngs_modulus) * moment
+        yaw[n] = v.get("base_yaw", 0.0)
+        tx[n], ty[n] = v.get("base_tilt_x", 0.0), v.get("base_tilt_y", 0.0)
+        trans[n] = [v.get("base_x", 0.0), v.get("base_y", 0.0), v.get("base_z", 0.0)]
+        marker[n] = v.get("marker_offset", 0.0)
+    return DriveGeometry(
+        lengths=lengths,
+        section_of=owner,
+        radii=radii,
+        angles=angles,
+        ei=ei,
+        stiffness=k,
+        pretension=t0,
+        max_tension=drive.max_tension if drive is not None else np.inf,
+        slack=slack,
+        base_rotation=rotation_zyx(yaw, ty, tx),
+        base_translation=trans,
+        marker=marker,
+    )
+
+
+class DriveReplay:
+    """The CCKA model of every row at once, driven by the rows' displacements (through the
+    tendon drive law) or their tensions, with a base frame and a marker offset
+    (:mod:`cdcr_gym.calibration.drive`). Quasi-static, frictionless, no gravity.
+
+    Args:
+        data: the measurements (displacements or tensions).
+        base: the nominal robot; ``drive``: its nominal tendon drive (needed for displacements).
+        slack: False: the linear drive law (no slack), an ablation.
+        stiffness_scale: multiplies every k (e.g. 1e3: the rigid-tendon limit).
+    """
+
+    name = "ccka"
+
+    def __init__(
+        self,
+        data: Measurements,
+        base: RobotParams,
+        drive: TendonDrive | None = None,
+        *,
+        slack: bool = True,
+        stiffness_scale: float = 1.0,
+    ) -> None:
+        if data.displacements is not None and drive is None:
+            raise ValueError(
+                "displacement data need the robot's tendon drive (stiffness, pretension): give "
+                "a params YAML with calibration.tendons (docs/calibration.md) or a robot that "
+                "carries tendon_stiffness/tendon_pretension"
+            )
+        self.data = data
+        self.base = base
+        self.drive = drive
+        self.slack = slack
+        self.stiffness_scale = float(stiffness_scale)
+
+    def backend_kwargs(self, values: dict[str, float]) -> dict[str, Any]:
+        return {}
+
+    def batch(self, batch: list[dict[str, float]]) -> tuple[np.ndarray, np.ndarray]:
+        """Tips and tangents (B, M, 3) for B value sets in one batched solve."""
+        geom = drive_geometry(
+            self.base, self.drive, batch, slack=self.slack, stiffness_scale=self.stiffness_scale
+        )
+        if self.data.displacements is not None:
+            curvature = solve_drive(geom, self.data.displacements).curvature
+        else:
+            g, _ = geom.coupling()
+            u = np.einsum("bcn,mc->bmn", g, self.data.tensions) / geom.ei[:, None, None]
+            curvature = u.reshape(len(batch), len(self.data), -1, 2)
+        return forward_tips(geom, curvature)
+
+    def __call__(self, values: dict[str, float]) -> Prediction:
+        tip, direction = self.batch([values])
+        return Prediction(tip[0], direction[0])

@@ -1,0 +1,337 @@
+"""The CCKA (piecewise constant curvature) model of a robot driven by tendon **displacements**,
+batched over measurement rows and over parameter sets (for a one-call finite-difference Jacobian).
+
+Model (SPEC §6 and §8): section j bends with a constant curvature vector κ_j = (κx, κy)_j in its
+own frame (sections compose without torsion). Tendon i belongs to section m_i, sits at radius r_i
+and angle β_i and runs through sections 1…m_i; with g_i = r_i·(cos β_i, sin β_i) its geometric
+shortening is ``s_i = Σ_{j ≤ m_i} ℓ_j·g_i·κ_j`` (linear in κ: ``s = G·Λ·u`` with u the stacked
+curvatures, G (C, 2S) holding g_i in the blocks of the sections the tendon runs through and
+Λ = diag(ℓ_j, ℓ_j)). The drive law is ``T_i = clip(T0_i + k_i·(d_i − s_i), 0, T_max)`` (slack: a
+tendon with ``T0 + k(d − s) ≤ 0`` carries nothing; ``slack=False`` drops the clip at zero: the
+linear law, an ablation) and the rod balances the tendon moments: ``EI·κ_j = Σ_{m_i ≥ j} T_i g_i``
+(``EI·u = Gᵀ·T``).
+
+``Λ·(EI·u − Gᵀ·T(u))`` is the gradient of a strictly convex energy (the rod's bending energy plus
+each tendon's spring energy ``(1/2k)·clip(…)²``), so the equilibrium is unique; it is found by a
+semismooth Newton iteration on ``F(u) = EI·u − Gᵀ·T(u)`` with the active set (taut, unsaturated
+tendons) updated every step and a residual backtracking, from the straight robot. The law is
+piecewise linear, so once the active set is right the step is exact (machine precision).
+
+Geometry of a prediction: ``tip = R_base·(Σ_j R_1…R_{j−1}·p_j + R_1…R_S·(0, 0, marker)) + t_base``
+with p_j, R_j the arc of section j (``p_j = ℓ_j·((1−cosθ)/θ²·w, sinθ/θ)``, w = κ_j ℓ_j, θ = |w|;
+``R_j`` the rotation by θ about (−w_y, w_x, 0)/θ), everything in metres; the marker offset is
+along the tip tangent (a motion-capture marker above the last disk).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+__all__ = ["DriveGeometry", "DriveState", "solve_drive", "forward_tips", "rotation_zyx"]
+
+
+@dataclass
+class DriveGeometry:
+    """A batch of B robots (parameter sets) in array form, SI units.
+
+    Attributes:
+        lengths: (B, S) section lengths, m.
+        section_of: (C,) int, the section (0-based) each tendon ends in.
+        radii: (B, C) tendon routing radii, m.
+        angles: (B, C) tendon angles β, rad.
+        ei: (B,) bending stiffness EI, N·m².
+        stiffness: (B, C) tendon stiffness k, N/m (``inf`` not allowed: use a large value).
+        pretension: (B, C) pretension T0 at d = 0 on the straight robot, N.
+        max_tension: tension cap, N (``inf``: none).
+        slack: whether tendons go slack (the clip at zero); False = linear law.
+        base_rotation: (B, 3, 3) robot base frame in the measurement frame.
+        base_translation: (B, 3) robot base origin in the measurement frame, m.
+        marker: (B,) marker offset along the tip tangent, m.
+    """
+
+    lengths: np.ndarray
+    section_of: np.ndarray
+    radii: np.ndarray
+    angles: np.ndarray
+    ei: np.ndarray
+    stiffness: np.ndarray
+    pretension: np.ndarray
+    max_tension: float = np.inf
+    slack: bool = True
+    base_rotation: np.ndarray | None = None
+    base_translation: np.ndarray | None = None
+    marker: np.ndarray | None = None
+
+    @property
+    def batch(self) -> int:
+        return int(self.lengths.shape[0])
+
+    @property
+    def n_sections(self) -> int:
+        return int(self.lengths.shape[1])
+
+    def coupling(self) -> tuple[np.ndarray, np.ndarray]:
+        """G (B, C, 2S) and the diagonal of Λ (B, 2S)."""
+        b, s = self.lengths.shape
+        c = self.section_of.shape[0]
+        g = np.zeros((b, c, 2 * s))
+        gx = self.radii * np.cos(self.angles)
+        gy = self.radii * np.sin(self.angles)
+        for j in range(s):
+            through = self.section_of >= j
+            g[:, through, 2 * j] = gx[:, through]
+            g[:, through, 2 * j + 1] = gy[:, through]
+        lam = np.repeat(self.lengths, 2, axis=1)
+        return g, lam
+
+
+@dataclass
+class DriveState:
+    """The equilibrium of B robots × M rows.
+
+    Attributes:
+        curvature: (B, M, S, 2) section curvature vectors κ_j in their own frames, 1/m.
+        tensions: (B, M, C) tendon tensions, N.
+        slack: (B, M, C) bool, tendons carrying nothing.
+        saturated: (B, M, C) bool, tendons at ``max_tension``.
+        shortening: (B, M, C) geometric shortenings s_i, m.
+        iterations: Newton iterations used.
+    """
+
+    curvature: np.ndarray
+    tensions: np.ndarray
+    slack: np.ndarray
+    saturated: np.ndarray
+    shortening: np.ndarray
+    iterations: int
+
+
+def solve_drive(
+    geom: DriveGeometry, displacements: np.ndarray, max_iter: int = 60, tol: float = 1e-10
+) -> DriveState:
+    """The equilibrium (module docstring) of every robot of ``geom`` under every row of
+    ``displacements`` (M, C) m (positive = pulled in).
+
+    Raises:
+        ValueError: for a displacement array of the wrong shape or with non-finite values.
+    """
+    d = np.asarray(displacements, dtype=np.float64)
+    c = geom.section_of.shape[0]
+    if d.ndim != 2 or d.shape[1] != c or not np.isfinite(d).all():
+        raise ValueError(f"displacements must be finite (M, {c}) m, got shape {d.shape}")
+    g, lam = geom.coupling()  # (B, C, 2S), (B, 2S)
+    b, n = lam.shape
+    a = g * lam[:, None, :]  # s = a @ u  (B, C, 2S)
+    k = geom.stiffness[:, None, :]  # (B, 1, C)
+    t0 = geom.pretension[:, None, :]
+    ei = geom.ei[:, None, None]
+    u = np.zeros((b, d.shape[0], n))
+    eye = np.eye(n)
+    gt = np.swapaxes(g, 1, 2)  # (B, 2S, C)
+
+    def law(u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        s = np.einsum("bcn,bmn->bmc", a, u)
+        raw = t0 + k * (d[None] - s)
+        if geom.slack:
+            t = np.clip(raw, 0.0, geom.max_tension)
+            active = (raw > 0.0) & (raw < geom.max_tension)
+        else:
+            t = np.minimum(raw, geom.max_tension)
+            active = raw < geom.max_tension
+        return t, active, s
+
+    def residual(u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        t, active, s = law(u)
+        return ei * u - np.einsum("bnc,bmc->bmn", gt, t), t, active, s
+
+    f, t, active, s = residual(u)
+    iterations = 0
+    for it in range(1, max_iter + 1):
+        iterations = it
+        # J = EI·I + Gᵀ·diag(k·active)·G·Λ
+        w = k * active  # (B, M, C)
+        jac = ei[..., None] * eye + np.einsum("bnc,bmc,bcp->bmnp", gt, w, a)
+        step = np.linalg.solve(jac, -f[..., None])[..., 0]
+        norm0 = np.linalg.norm(f, axis=-1)
+        alpha = np.ones(f.shape[:2])
+        for _ in range(12):
+            trial = u + alpha[..., None] * step
+            f1, t1, act1, s1 = residual(trial)
+            worse = np.linalg.norm(f1, axis=-1) > norm0 * (1.0 - 1e-4 * alpha) + 1e-300
+            if not worse.any():
+                break
+            alpha = np.where(worse, 0.5 * alpha, alpha)
+        u, f, t, active, s = trial, f1, t1, act1, s1
+        if float(np.max(np.abs(f) / ei, initial=0.0)) < tol:  # curvature error, 1/m
+            break
+    raw = t0 + k * (d[None] - s)
+    return DriveState(
+        curvature=u.reshape(b, d.shape[0], n // 2, 2),
+        tensions=t,
+        slack=raw <= 0.0 if geom.slack else np.zeros_like(raw, dtype=bool),
+        saturated=raw >= geom.max_tension,
+        shortening=s,
+        iterations=iterations,
+    )
+
+
+def _sinc(x: np.ndarray) -> np.ndarray:
+    return np.sinc(x / np.pi)
+
+
+def forward_tips(geom: DriveGeometry, curvature: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Tips (B, M, 3) m and unit tip tangents (B, M, 3) in the measurement frame for section
+    curvatures (B, M, S, 2) (module docstring: base frame and marker offset applied)."""
+    b, m, s, _ = curvature.shape
+    rot = np.broadcast_to(np.eye(3), (b, m, 3, 3)).copy()
+    pos = np.zeros((b, m, 3))
+    for j in range(s):
+        w = curvature[:, :, j, :] * geom.lengths[:, j, None, None]  # (B, M, 2)
+        theta = np.hypot(w[..., 0], w[..., 1])
+        f1 = _sinc(theta)  # sinθ/θ
+        f2 = 0.5 * _sinc(0.5 * theta) ** 2  # (1−cosθ)/θ²
+        ell = geom.lengths[:, j, None]
+        p = np.stack([ell * f2 * w[..., 0], ell * f2 * w[..., 1], ell * f1], axis=-1)
+        # Rodrigues with the (unnormalised) axis ω = (−w_y, w_x, 0), |ω| = θ
+        ox, oy = -w[..., 1], w[..., 0]
+        zero = np.zeros_like(ox)
+        kx = np.stack(
+            [
+                np.stack([zero, zero, oy], -1),
+                np.stack([zero, zero, -ox], -1),
+                np.stack([-oy, ox, zero], -1),
+            ],
+            -2,
+        )
+        rj = np.eye(3) + f1[..., None, None] * kx + f2[..., None, None] * (kx @ kx)
+        pos = pos + np.einsum("bmij,bmj->bmi", rot, p)
+        rot = rot @ rj
+    tangent = rot[..., :, 2]
+    if geom.marker is not None:
+        pos = pos + geom.marker[:, None, None] * tangent
+    if geom.base_rotation is not None:
+        pos = np.einsum("bij,bmj->bmi", geom.base_rotation, pos)
+        tangent = np.einsum("bij,bmj->bmi", geom.base_rotation, tangent)
+    if geom.base_translation is not None:
+        pos = pos + geom.base_translation[:, None, :]
+    return pos, tangent
+
+
+def rotation_zyx(yaw: np.ndarray, tilt_y: np.ndarray, tilt_x: np.ndarray) -> np.ndarray:
+    """R = Rz(yaw)·Ry(tilt_y)·Rx(tilt_x), (B, 3, 3), for angles (B,) rad."""
+    cz, sz = np.cos(yaw), np.sin(yaw)
+    cy, sy = np.cos(tilt_y), np.sin(tilt_y)
+    cx, sx = np.cos(tilt_x), np.sin(tilt_x)
+    one, zero = np.ones_like(cz), np.zeros_like(cz)
+    rz = np.stack(
+        [
+            np.stack([cz, -sz, zero], -1),
+            np.stack([sz, cz, zero], -1),
+            np.stack([zero, zero, one], -1),
+        ],
+        -2,
+    )
+    ry = np.stack(
+        [
+            np.stack([cy, zero, sy], -1),
+            np.stack([zero, one, zero], -1),
+            np.stack([-sy, zero, cy], -1),
+        ],
+        -2,
+    )
+    rx = np.stack(
+        [
+            np.stack([one, zero, zero], -1),
+            np.stack([zero, cx, -sx], -1),
+            np.stack([zero, sx, cx], -1),
+        ],
+        -2,
+    )
+    return rz @ ry @ rx
+
+
+@dataclass(frozen=True)
+class TendonDrive:
+    """The nominal tendon drive of a robot (SPEC §8), SI units.
+
+    Attributes:
+        stiffness: (C,) tendon stiffness k, N/m.
+        pretension: (C,) pretension T0 at d = 0 on the straight robot, N.
+        displacement_range: (low, high) commanded displacements the drive accepts, m (the
+            reader's unit check).
+        max_tension: tension cap of the drive law, N (``inf``: none).
+    """
+
+    stiffness: tuple[float, ...]
+    pretension: tuple[float, ...]
+    displacement_range: tuple[float, float] = (-np.inf, np.inf)
+    max_tension: float = np.inf
+
+    def __post_init__(self) -> None:
+        k = np.asarray(self.stiffness, dtype=np.float64)
+        t0 = np.asarray(self.pretension, dtype=np.float64)
+        if k.ndim != 1 or t0.shape != k.shape:
+            raise ValueError(
+                f"tendon stiffness and pretension must be (C,) each, got {k.shape} and {t0.shape}"
+            )
+        if not (np.isfinite(k).all() and np.all(k > 0.0)):
+            raise ValueError(f"tendon stiffness must be finite and > 0 N/m, got {k.tolist()}")
+        if not np.isfinite(t0).all():
+            raise ValueError(f"tendon pretension must be finite (N), got {t0.tolist()}")
+        lo, hi = (float(v) for v in self.displacement_range)
+        if not lo < hi:
+            raise ValueError(f"displacement_range must be (low, high), got {(lo, hi)}")
+        if not self.max_tension > 0.0:
+            raise ValueError(f"max_tension must be > 0 N, got {self.max_tension!r}")
+        object.__setattr__(self, "stiffness", tuple(float(v) for v in k))
+        object.__setattr__(self, "pretension", tuple(float(v) for v in t0))
+        object.__setattr__(self, "displacement_range", (lo, hi))
+
+    @classmethod
+    def of(cls, params: Any) -> TendonDrive | None:
+        """The drive a ``RobotParams`` carries (``tendon_stiffness``, ``tendon_pretension``,
+        ``displacement_range`` fields, where the robot has them), else None."""
+        k = getattr(params, "tendon_stiffness", None)
+        t0 = getattr(params, "tendon_pretension", None)
+        if k is None or t0 is None:
+            return None
+        n = int(params.n_cables)
+        k_arr = np.broadcast_to(np.asarray(k, dtype=np.float64), (n,))
+        t_arr = np.broadcast_to(np.asarray(t0, dtype=np.float64), (n,))
+        rng = getattr(params, "displacement_range", None) or (-np.inf, np.inf)
+        rng_arr = np.asarray(rng, dtype=np.float64)
+        if rng_arr.ndim == 2:  # per tendon (C, 2): the widest
+            rng_arr = np.array([rng_arr[:, 0].min(), rng_arr[:, 1].max()])
+        return cls(tuple(k_arr), tuple(t_arr), (float(rng_arr[0]), float(rng_arr[1])))
+
+    def to_dict(self) -> dict:
+        lo, hi = self.displacement_range
+        out: dict = {"stiffness": list(self.stiffness), "pretension": list(self.pretension)}
+        if np.isfinite(lo) and np.isfinite(hi):
+            out["displacement_range"] = [lo, hi]
+        if np.isfinite(self.max_tension):
+            out["max_tension"] = float(self.max_tension)
+        return out
+
+    @classmethod
+    def from_dict(cls, data: dict, n: int, where: str) -> TendonDrive:
+        """From a mapping with ``stiffness``, ``pretension`` (a number or C numbers each) and
+        optional ``displacement_range``, ``max_tension`` (ValueError naming ``where``)."""
+        allowed = {"stiffness", "pretension", "displacement_range", "max_tension"}
+        if not isinstance(data, dict) or set(data) - allowed or "stiffness" not in data:
+            raise ValueError(
+                f"{where}: a mapping with stiffness (N/m), pretension (N) and optional "
+                f"displacement_range (m), max_tension (N), got {data!r}"
+            )
+        try:
+            k = np.broadcast_to(np.asarray(data["stiffness"], dtype=np.float64), (n,))
+            t0 = np.broadcast_to(np.asarray(data.get("pretension", 0.0), dtype=np.float64), (n,))
+        except ValueError as exc:
+            raise ValueError(
+                f"{where}: stiffness/pretension need 1 or {n} values ({exc})"
+            ) from None
+        rng = tuple(data.get("displacement_range", (-np.inf, np.inf)))
+        return cls(tuple(k), tuple(t0), rng, float(data.get("max_tension", np.inf)))  # type: ignore[arg-type]
