@@ -88,7 +88,8 @@ def render(result: dict) -> str:
         "```",
         "",
         "The sweep is `configs/sweeps/benchmark.yaml` (its parts set the budgets); "
-        "`cdcr-gym aggregate` writes `results.json` and the full tables (every metric, every run).",
+        "`cdcr-gym aggregate` writes `results.json` and the full tables (every metric, every run: "
+        "[benchmark tables](experiments/benchmark.md)).",
         "",
     ]
     for condition, title in CONDITIONS:
