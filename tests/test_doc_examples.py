@@ -1,4 +1,4 @@
-"""Every Python block of the README and the getting-started page runs on its own and shows its
+"""Every Python block of the README and the user-guide pages below runs on its own and shows its
 result: a script block in a fresh interpreter (exit 0, something printed), a ``>>>`` block as a
 doctest. A block that needs an earlier block's variables fails here."""
 
@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PAGES = ("README.md", "docs/getting-started.md", "docs/index.md")
+PAGES = ("README.md", "docs/getting-started.md", "docs/index.md", "docs/model.md")
 
 
 def _python_blocks() -> list[tuple[str, str]]:
