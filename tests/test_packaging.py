@@ -100,6 +100,13 @@ def test_the_wheel_ships_the_configs_and_the_package_data(tmp_path):
         assert module.relative_to(REPO).as_posix() in names, "every module ships (namespace too)"
     assert "cdcr_gym/py.typed" in names
     assert "training/cli.py" in names and "cdcr_gym/rendering.py" in names
-    assert not any(n.startswith(("tests/", "configs/")) for n in names)
+    assert not any(n.startswith(("tests/", "configs/", "experiments/")) for n in names)
     entry_points = next(n for n in names if n.endswith("entry_points.txt"))
     assert "cdcr-gym = training.cli:main" in zipfile.ZipFile(wheel).read(entry_points).decode()
+
+
+def test_the_experiments_stay_out_of_the_wheel_and_in_the_sdist():
+    setup = (REPO / "setup.py").read_text()
+    assert '"experiments"' not in setup and "experiments." not in setup
+    assert "recursive-include experiments *.py" in (REPO / "MANIFEST.in").read_text()
+    assert (REPO / "experiments" / "__init__.py").is_file()

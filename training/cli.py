@@ -11,8 +11,9 @@
     cdcr-gym demo [--env-id ID] ...                     # training.evaluate.ik_demo
     cdcr-gym configs                                    # the packaged experiment configs
 
-and ``from-zoo``, ``oracles``, ``results``, ``task-results``, ``sim2sim``, ``hysteresis``,
-``step-response``, ``transfer-probe``, ``verification``, ``bench-realism``, ``bench-physics``, ``calibrate``, ``oracle-feedback``, ``cosserat-reference``, ``bench-single``, ``friction-chatter`` (``cdcr-gym --help``).
+and ``from-zoo``, ``oracles``, ``results``, ``task-results``, ``bench-physics``, ``calibrate``
+(``cdcr-gym --help``). One-off studies and benchmarks are not commands: they live in the
+checkout's ``experiments/`` package (``python -m experiments.<name>``), outside the wheel.
 Each subcommand's module also runs as ``python -m <module>`` (``python -m training.run.train``).
 
 Everything after the subcommand goes to that module's ``main`` unchanged (``cdcr-gym train
@@ -72,47 +73,6 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
         "collect task evaluations into a JSON",
         "train",
     ),
-    "sim2sim": ("training.studies.sim2sim", "summarise zero-shot sim-to-sim evaluations", "train"),
-    "hysteresis": (
-        "training.studies.hysteresis",
-        "cable-friction hysteresis study (pybullet)",
-        "train",
-    ),
-    "step-response": (
-        "training.studies.step_response",
-        "tip step response: physics vs CCKA",
-        "train",
-    ),
-    "transfer-probe": (
-        "training.studies.transfer_probe",
-        "probes of the CCKA -> bullet gap",
-        "train",
-    ),
-    "verification": (
-        "training.studies.verification",
-        "the pybullet backend vs closed-form mechanics",
-        "train",
-    ),
-    "bench-single": (
-        "training.studies.bench_single",
-        "the single env against Pendulum-v1 as a ratio in one run",
-        "",
-    ),
-    "friction-chatter": (
-        "training.studies.friction_chatter",
-        "cable friction through a 10 N load-unload cycle: does every hold settle?",
-        "",
-    ),
-    "cosserat-reference": (
-        "training.studies.cosserat",
-        "the converged Cosserat-rod reference and the models' errors against it",
-        "",
-    ),
-    "oracle-feedback": (
-        "training.evaluate.oracle_feedback",
-        "open- vs closed-loop oracles on the same episodes (any backend)",
-        "",
-    ),
     "bench-physics": (
         "training.studies.bench_physics",
         "MuJoCo vs bullet: env steps/s ratios and accuracy vs the Cosserat reference",
@@ -121,11 +81,6 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "calibrate": (
         "training.studies.calibrate",
         "fit robot parameters to measured tip positions (CSV)",
-        "",
-    ),
-    "bench-realism": (
-        "training.studies.bench_realism",
-        "step time with randomisation/imperfections",
         "",
     ),
 }

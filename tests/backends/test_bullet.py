@@ -1,7 +1,7 @@
 """The pybullet backend: construction, hygiene, cable loading, physics against theory, envs.
 
 Physics tests compare the simulated (settled) robot with closed-form mechanics; the numbers
-they check are tabulated in docs/bullet_backend.md (``cdcr-gym verification``).
+they check are tabulated in docs/bullet_backend.md (``python -m experiments.verification``).
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from cdcr_gym.backends.bullet import (
 )
 from cdcr_gym.model import statics
 from cdcr_gym.params import RobotParams
-from training.studies.verification import (
+from experiments.verification import (
     HORIZONTAL,
     beam_theory_sag,
     bending_angle_of_tip,

@@ -180,7 +180,7 @@ def test_randomized_bullet_robot_acts_like_the_robot_built_with_those_parameters
 
 
 def test_capstan_prediction_of_the_hysteresis_study():
-    from training.studies.hysteresis import capstan_equilibrium
+    from experiments.hysteresis import capstan_equilibrium
 
     b = BulletBackend(gravity=False)
     try:
@@ -230,9 +230,9 @@ def test_loading_branch_bends_less_than_frictionless_and_settles(links_per_span)
 def test_friction_settles_where_a_cosserat_rod_with_capstan_tensions_does():
     """Bullet (4 links per span) with μ = 0.2, loaded to 80 N, against an independent static
     Cosserat solve whose segment tensions are the capstan decay over the rod's own wrap angles
-    (training.studies.cosserat.solve_static_capstan, at bullet's slip state): as close as
+    (experiments.cosserat.solve_static_capstan, at bullet's slip state): as close as
     the frictionless chain is to the rod (≈ 1 mm at 80 N), far below the friction effect."""
-    from training.studies.cosserat import solve_static_capstan
+    from experiments.cosserat import solve_static_capstan
 
     params = RobotParams()
     b = BulletBackend(gravity=False, links_per_span=4, friction_coefficient=0.2)
@@ -251,12 +251,12 @@ def test_friction_settles_where_a_cosserat_rod_with_capstan_tensions_does():
 
 def test_load_unload_in_10_newton_steps_settles_at_every_hold():
     """Issue 21 item 4 on bullet (paper robot, gravity off, μ = 0.2, 10 N steps up to 80 N and
-    back, 300 control steps per hold; ``training.studies.friction_chatter``): settled at every
+    back, 300 control steps per hold; ``experiments.friction_chatter``): settled at every
     hold, on the loading branch while loading, above it while unloading. Before the slip law's
     slope was taken in the step's own sliding direction the first step back (70 N after 80 N)
     kept moving by 1.7 mm per 20 control steps (the stick stiffness of a reversing cable was
     left explicit)."""
-    from training.studies.friction_chatter import branch_violations, frictionless_tips, load_unload
+    from experiments.friction_chatter import branch_violations, frictionless_tips, load_unload
 
     rough = BulletBackend(gravity=False, friction_coefficient=0.2)
     plain = BulletBackend(gravity=False)

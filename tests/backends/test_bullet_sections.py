@@ -20,7 +20,7 @@ from cdcr_gym.backends.bullet import (
 )
 from cdcr_gym.model.workspace import sample_tensions_each
 from cdcr_gym.params import RobotParams, SectionParams
-from training.studies.verification import linearised_critical_load
+from experiments.verification import linearised_critical_load
 
 pytestmark = pytest.mark.filterwarnings("error")
 

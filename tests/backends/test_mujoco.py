@@ -353,7 +353,7 @@ def test_load_unload_in_10_newton_steps_settles_at_every_hold():
     hold, ζ = 1: no overshoot, so that every step stays on its branch). Before the slip state
     was implicit in the step (``backends/mujoco/friction.py``) the tip kept moving by 1.1–1.5
     mm per 20 steps from 50 N up and the anchor read 105 N at 80 N (slip cycling)."""
-    from training.studies.friction_chatter import branch_violations, frictionless_tips, load_unload
+    from experiments.friction_chatter import branch_violations, frictionless_tips, load_unload
 
     b = MuJoCoBackend(gravity=False, friction_coefficient=0.2, damping_ratio=1.0)
     holds = load_unload(b, 300)
@@ -364,7 +364,7 @@ def test_load_unload_settles_with_the_default_damping():
     """The same protocol with the default ζ = 0.7 (steps overshoot): still settled at every
     hold (the overshoot may leave the first load step's slip released, so only settling and
     the loading branch's tip at 80 N are checked)."""
-    from training.studies.friction_chatter import load_unload
+    from experiments.friction_chatter import load_unload
 
     holds = load_unload(MuJoCoBackend(gravity=False, friction_coefficient=0.2), 300)
     assert max(h.motion for h in holds) < 1e-5
@@ -376,11 +376,11 @@ def test_load_unload_settles_with_the_default_damping():
 def test_loading_branch_of_the_10_newton_steps_is_the_capstan_rod():
     """The 80 N hold of the 10 N-step loading (ζ = 1) against an independent static Cosserat
     solve with capstan-decayed tensions at the backend's slip state
-    (``training.studies.cosserat.solve_static_capstan``): within 1.5 mm (measured 0.89 mm; the
+    (``experiments.cosserat.solve_static_capstan``): within 1.5 mm (measured 0.89 mm; the
     frictionless chain is 1.13 mm from the frictionless rod at 80 N, the friction effect ≈ 20
     mm)."""
-    from training.studies.cosserat import solve_static_capstan
-    from training.studies.friction_chatter import load_unload
+    from experiments.cosserat import solve_static_capstan
+    from experiments.friction_chatter import load_unload
 
     b = MuJoCoBackend(gravity=False, friction_coefficient=0.2, damping_ratio=1.0)
     levels = tuple(float(t) for t in range(10, 90, 10))

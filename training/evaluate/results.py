@@ -5,10 +5,12 @@ Usage::
     cdcr-gym results RUN_DIR[:EVAL_NAME] ... [--conditions straight_100steps,...] [--wide]
 
 ``EVAL_NAME`` picks the evaluation file (``eval`` = ``eval.json``, the default;
-``eval_BulletReach-v0`` = ``eval_BulletReach-v0.json``). One row per run and condition: the
-policy's final-error statistics and the analytic-IK oracle's on the same goals (from the
-evaluation JSON); ``--wide`` adds the training command's wall time and steps (from
-``run.json``) and the remaining statistics. A legend under the table explains each column.
+``eval_BulletReach-v0`` = ``eval_BulletReach-v0.json``). Reach evaluations: one row per run and
+condition, the policy's final-error statistics and the analytic-IK oracle's on the same goals;
+``--wide`` adds the training command's wall time and steps (from ``run.json``) and the remaining
+statistics. Track, Pose and Obstacle evaluations: one table per task, one row per run,
+condition and policy (the trained policy, the task's oracle and the baselines), with the task's
+own numbers. A legend under each table explains its columns.
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ from typing import Any
 from training.evaluate import tables
 from training.evaluate.conditions import canonical_condition, read_eval
 
-__all__ = ["COLUMNS", "records", "rows", "main"]
+__all__ = ["COLUMNS", "records", "task_records", "rows", "main"]
 
 
 def _fmt(x: float) -> str:
@@ -107,6 +109,21 @@ def records(
     ]
 
 
+def task_records(
+    run_dir: Path, eval_name: str = "eval", conditions: list[str] | None = None
+) -> tuple[str, list[tuple[str, str, dict[str, Any]]]]:
+    """The task and the rows ``(run condition, policy, summary)`` of a Track/Pose/Obstacle
+    evaluation file (rows for :func:`training.evaluate.tables.task_columns`)."""
+    data: dict[str, Any] = read_eval(run_dir / f"{eval_name}.json")
+    wanted = {canonical_condition(c) for c in conditions} if conditions else None
+    return data["task"], [
+        (f"{run_dir.name} {name}", who, summary)
+        for name, block in data["conditions"].items()
+        if wanted is None or name in wanted
+        for who, summary in block.items()
+    ]
+
+
 def rows(
     run_dir: Path, eval_name: str = "eval", conditions: list[str] | None = None, wide: bool = False
 ) -> list[str]:
@@ -131,6 +148,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     conditions = args.conditions.split(",") if args.conditions else None
     found: list[dict[str, Any]] = []
+    by_task: dict[str, list[tuple[str, str, dict[str, Any]]]] = {}
     for spec in args.runs:
         path, _, name = spec.partition(":")
         run_dir = Path(path)
@@ -140,10 +158,24 @@ def main(argv: list[str] | None = None) -> int:
         if not (run_dir / f"{name or 'eval'}.json").is_file():
             print(f"error: {run_dir / (name or 'eval')}.json does not exist", file=sys.stderr)
             return 2
-        found.extend(records(run_dir, name or "eval", conditions))
-    print(tables.markdown_table(COLUMNS, found, args.wide))
-    print()
-    print(tables.legend(COLUMNS, args.wide))
+        if "task" in read_eval(run_dir / f"{name or 'eval'}.json"):
+            task, task_rows = task_records(run_dir, name or "eval", conditions)
+            by_task.setdefault(task, []).extend(task_rows)
+        else:
+            found.extend(records(run_dir, name or "eval", conditions))
+    blocks = []
+    if found:
+        blocks.append((COLUMNS, found))
+    for task, task_rows in by_task.items():
+        blocks.append(
+            (tables.task_columns(task, ("run", "the run directory and condition")), task_rows)
+        )
+    for k, (columns, table_rows) in enumerate(blocks):
+        if k:
+            print()
+        print(tables.markdown_table(columns, table_rows, args.wide))
+        print()
+        print(tables.legend(columns, args.wide))
     return 0
 
 

@@ -1,3 +1,4 @@
-"""Studies that use the envs and the pipeline: the paper's reproduction, the cable-friction
-hysteresis, sim-to-sim transfer, the actuator step response, the pybullet verification against
-closed-form mechanics, and the throughput benchmarks (``cdcr-gym bench``)."""
+"""What users run beside training and evaluation: the paper's reproduction (``cdcr-gym
+reproduce``), the throughput benchmark (``cdcr-gym bench``), the physics backends' benchmark
+(``cdcr-gym bench-physics``) and the calibration from measured tip positions (``cdcr-gym
+calibrate``). One-off studies live in the checkout's ``experiments/`` package."""

@@ -70,3 +70,17 @@ def test_a_legend_is_wrapped_and_names_the_hidden_columns():
     text = tables.legend(cols)
     assert _widest(text) <= tables.WIDTH and "--wide shows 1 more column." in " ".join(text.split())
     assert "b: second" in tables.legend(cols, wide=True)
+
+
+def test_results_reads_task_evaluations_too(tmp_path, capsys):
+    run = json.loads(TASK_RESULTS.read_text())["runs"][0]
+    run_dir = tmp_path / "ppo_task"
+    run_dir.mkdir()
+    evaluation = {"task": run["task"], "env_id": run["env_id"], "conditions": run["conditions"]}
+    (run_dir / "eval.json").write_text(json.dumps(evaluation))
+    (run_dir / "run.json").write_text("{}")
+    assert results.main([str(run_dir)]) == 0
+    out = capsys.readouterr().out
+    assert _widest(out) <= tables.WIDTH, out
+    n_rows = sum(len(block) for block in run["conditions"].values())
+    assert out.count("| ppo_task ") == n_rows and "| oracle |" in out

@@ -1,4 +1,4 @@
-"""training.studies.sim2sim: the summary of evaluate JSONs, its target check, table and CLI."""
+"""experiments.sim2sim: the summary of evaluate JSONs, its target check, table and CLI."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from training.studies import sim2sim
+from experiments import sim2sim
 
 
 def _eval_json(path: Path, run: str, median: float, success: float) -> Path:
@@ -78,7 +78,7 @@ def test_cli_writes_json_and_figure_and_rejects_bad_input(tmp_path, capsys):
 
 def test_transfer_probe_cotension_and_step_response():
     """CCKA ignores equal tension on all cables; bullet with gravity bends more with it."""
-    from training.studies import transfer_probe
+    from experiments import transfer_probe
 
     rows = transfer_probe.cotension_table(base_tensions=(0.0, 40.0), deltas=(10,))
     (_, _, ccka0, bullet0), (_, _, ccka40, bullet40) = rows

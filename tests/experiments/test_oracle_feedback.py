@@ -1,10 +1,10 @@
-"""The open- vs closed-loop oracle study (``cdcr-gym oracle-feedback``) runs end to end."""
+"""The open- vs closed-loop oracle study (``python -m experiments.oracle_feedback``) runs end to end."""
 
 from __future__ import annotations
 
 import json
 
-from training.evaluate import oracle_feedback
+from experiments import oracle_feedback
 
 
 def test_study_writes_json_and_table(tmp_path):

@@ -1,9 +1,9 @@
-"""A converged Cosserat-rod reference for the physics backends (``cdcr-gym cosserat-reference``).
+"""A converged Cosserat-rod reference for the physics backends (``python -m experiments.cosserat``).
 
-* :mod:`~training.studies.cosserat.rod` — the robot as a Cosserat rod with cable point loads at
+* :mod:`~experiments.cosserat.rod` — the robot as a Cosserat rod with cable point loads at
   the disks, and its static solver by shooting (also with capstan-decayed segment tensions);
-* :mod:`~training.studies.cosserat.pyelastica_solver` — PyElastica 1.0 as the cross-check;
-* :mod:`~training.studies.cosserat.reference` — the committed JSON (cases, writing, reading) and
+* :mod:`~experiments.cosserat.pyelastica_solver` — PyElastica 1.0 as the cross-check;
+* :mod:`~experiments.cosserat.reference` — the committed JSON (cases, writing, reading) and
   the comparison of the package's models with it.
 
 JSON schema (``docs/figures/physics/cosserat_reference.json``)
@@ -29,15 +29,15 @@ JSON schema (``docs/figures/physics/cosserat_reference.json``)
 Regenerate (static solver only, ~1 min; add ``--pyelastica`` to rerun the cross-check cases,
 ~3–7 min per case on a shared 2-core machine)::
 
-    python -m training.studies.cosserat --write docs/figures/physics/cosserat_reference.json
+    python -m experiments.cosserat --write docs/figures/physics/cosserat_reference.json
 
 Compare the package's models with it::
 
-    python -m training.studies.cosserat --study
+    python -m experiments.cosserat --study
 """
 
-from training.studies.cosserat.pyelastica_solver import solve_pyelastica
-from training.studies.cosserat.reference import (
+from experiments.cosserat.pyelastica_solver import solve_pyelastica
+from experiments.cosserat.reference import (
     CASES,
     REFERENCE_PATH,
     load_reference,
@@ -48,7 +48,7 @@ from training.studies.cosserat.reference import (
     study,
     write_reference,
 )
-from training.studies.cosserat.rod import (
+from experiments.cosserat.rod import (
     POISSON_RATIO,
     SHEAR_FACTOR,
     RodModel,

@@ -4,13 +4,13 @@ is written and read, and the comparison of the package's models with it (``--stu
 Regenerate (static solver only, ~1 min; add ``--pyelastica`` to rerun the cross-check cases,
 ~3–7 min per case on a shared 2-core machine)::
 
-    cdcr-gym cosserat-reference --write docs/figures/physics/cosserat_reference.json
+    python -m experiments.cosserat --write docs/figures/physics/cosserat_reference.json
 
 Compare the package's models with it::
 
-    cdcr-gym cosserat-reference --study
+    python -m experiments.cosserat --study
 
-The JSON schema is in :mod:`training.studies.cosserat` (the package docstring).
+The JSON schema is in :mod:`experiments.cosserat` (the package docstring).
 """
 
 from __future__ import annotations
@@ -29,8 +29,8 @@ import cdcr_gym
 from cdcr_gym.backends.analytic import AnalyticBackend
 from cdcr_gym.backends.bullet import BulletBackend
 from cdcr_gym.model.params import RobotParams
-from training.studies.cosserat.pyelastica_solver import solve_pyelastica
-from training.studies.cosserat.rod import solve_static
+from experiments.cosserat.pyelastica_solver import solve_pyelastica
+from experiments.cosserat.rod import solve_static
 
 __all__ = [
     "CASES",
@@ -45,7 +45,7 @@ __all__ = [
 ]
 
 REFERENCE_PATH = (
-    Path(__file__).resolve().parents[3] / "docs/figures/physics/cosserat_reference.json"
+    Path(__file__).resolve().parents[2] / "docs/figures/physics/cosserat_reference.json"
 )
 
 # ----------------------------------------------------------------------------- the reference
@@ -76,9 +76,7 @@ PYELASTICA_CASES: tuple[tuple[str, bool], ...] = (
 #: before is the convergence delta, < 0.3 mm required).
 PYELASTICA_MESHES = {"paper": (4, 8, 16), "tdcr2": (2, 4, 8)}
 
-GENERATOR = (
-    "python -m training.studies.cosserat --write docs/figures/physics/cosserat_reference.json"
-)
+GENERATOR = "python -m experiments.cosserat --write docs/figures/physics/cosserat_reference.json"
 
 
 def reference_cases() -> list[dict]:
@@ -206,7 +204,7 @@ def refine_pyelastica(path: Path, name: str, gravity: bool, elements_per_span: i
         seconds=run["seconds"],
     )
     case["command"] = (
-        f"{GENERATOR} --pyelastica && python -m training.studies.cosserat --refine "
+        f"{GENERATOR} --pyelastica && python -m experiments.cosserat --refine "
         f"{name}:{int(gravity)}:{elements_per_span}"
     )
     path.write_text(json.dumps(doc, indent=1) + "\n")
@@ -219,7 +217,7 @@ def load_reference(path: Path = REFERENCE_PATH) -> dict:
 
 
 STUDY_MESHES = {"paper": (1, 2, 3, 4), "tdcr2": (1, 2, 3)}
-STUDY_COMMAND = "python -m training.studies.cosserat --study"
+STUDY_COMMAND = "python -m experiments.cosserat --study"
 
 
 def model_tips(reference: dict) -> dict:
@@ -282,7 +280,7 @@ def study(reference: dict | None = None) -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="cdcr-gym cosserat-reference")
+    parser = argparse.ArgumentParser(prog="python -m experiments.cosserat")
     parser.add_argument("--write", type=Path, help="solve every case and write the JSON here")
     parser.add_argument(
         "--pyelastica", action="store_true", help="also rerun the PyElastica cross-check cases"

@@ -1,8 +1,8 @@
 """Side-by-side timing of two checkouts of cdcr_gym (e.g. before/after a refactor), run as a script.
 
     git worktree add /tmp/pre d9c52c3
-    PYTHONPATH=/tmp/pre python training/bench_compare.py pre-refactor
-    PYTHONPATH=.        python training/bench_compare.py now
+    PYTHONPATH=/tmp/pre python experiments/bench_compare.py pre-refactor
+    PYTHONPATH=.        python experiments/bench_compare.py now
 
 ``cdcr_gym`` is imported from ``PYTHONPATH`` (so the same loop times any checkout, including ones
 older than ``training.studies.bench``). Prints the batched CCKA reach env at 16 384 envs (M env-steps/s,
@@ -12,7 +12,7 @@ resets included). Alternate the checkouts a few times: the machine is
 shared, so only numbers taken close together compare. ``--against CHECKOUT`` does the
 alternating itself and prints the medians and the per-round ratios:
 
-    python training/bench_compare.py --against /tmp/pre --rounds 5
+    python experiments/bench_compare.py --against /tmp/pre --rounds 5
 """
 
 from __future__ import annotations
@@ -90,7 +90,7 @@ def measure() -> dict[str, float]:
 def alternate(baseline: str, rounds: int) -> None:
     """Time this checkout and ``baseline`` (a checkout's directory) in alternating subprocesses,
     ``rounds`` rounds each, and print every round and the medians (ratios measured in one run)."""
-    here = str(Path(__file__).resolve().parents[2])
+    here = str(Path(__file__).resolve().parents[1])
     runs: dict[str, list[dict[str, float]]] = {"baseline": [], "this": []}
     for k in range(rounds):
         for label, root in (("baseline", baseline), ("this", here)):
@@ -127,7 +127,9 @@ def _line(r: dict[str, float]) -> str:
 
 
 if __name__ == "__main__":
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(
+        prog="python -m experiments.bench_compare", description=__doc__.split("\n")[0]
+    )
     parser.add_argument("label", nargs="?", default="this checkout", help="name printed")
     parser.add_argument("--json", action="store_true", help="print one JSON line")
     parser.add_argument(

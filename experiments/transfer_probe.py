@@ -2,7 +2,7 @@
 
 Usage::
 
-    python -m training.studies.transfer_probe [--trace RUN_DIR] [--friction MU]
+    python -m experiments.transfer_probe [--trace RUN_DIR] [--friction MU]
 
 Prints, on the paper robot:
 
@@ -123,7 +123,9 @@ def trace(run_dir: str | Path, friction: float = 0.0, steps: int = 150) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="cdcr-gym transfer-probe", description=__doc__)
+    parser = argparse.ArgumentParser(
+        prog="python -m experiments.transfer_probe", description=__doc__
+    )
     parser.add_argument("--trace", default=None, help="a run directory: trace its policy")
     parser.add_argument("--friction", type=float, default=0.0, help="bullet μ for --trace")
     args = parser.parse_args(argv)

@@ -39,8 +39,8 @@ The static solver is exact to its ODE tolerance and fast (seconds), so it gives 
 tips; PyElastica cross-checks it on a subset (their difference is recorded per case).
 
 The committed reference, its cases and the study are in
-:mod:`training.studies.cosserat.reference`; PyElastica in
-:mod:`training.studies.cosserat.pyelastica_solver`.
+:mod:`experiments.cosserat.reference`; PyElastica in
+:mod:`experiments.cosserat.pyelastica_solver`.
 """
 
 from __future__ import annotations

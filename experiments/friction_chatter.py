@@ -1,6 +1,6 @@
 """Friction chatter probe (issue 21 item 4): does a load–unload cycle settle at every hold?
 
-``cdcr-gym friction-chatter [--backend mujoco|bullet|both] [--hold N]
+``python -m experiments.friction_chatter [--backend mujoco|bullet|both] [--hold N]
 [--mu MU] [--damping-ratio Z]``: paper robot, gravity off, cable 1 loaded 10 → 80 N in 10 N
 steps and unloaded to 0 N, each level held ``--hold`` control steps (default 600). Per hold it
 prints the tip x (mm), the *motion* — the peak-to-peak tip x over the last 20 control steps of
@@ -124,7 +124,7 @@ def _backend(name: str, mu: float, damping_ratio: float):
 
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(
-        prog="cdcr-gym friction-chatter", description=__doc__.splitlines()[0]
+        prog="python -m experiments.friction_chatter", description=__doc__.splitlines()[0]
     )
     ap.add_argument("--backend", choices=("mujoco", "bullet", "both"), default="both")
     ap.add_argument("--hold", type=int, default=600)

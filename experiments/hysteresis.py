@@ -1,6 +1,6 @@
 """Hysteresis study: cable–disk friction in the paper's load sweep (the paper's error source ii).
 
-``python -m training.studies.hysteresis [--out DIR] [--ramp-steps R] [--settle-steps N]``: on the
+``python -m experiments.hysteresis [--out DIR] [--ramp-steps R] [--settle-steps N]``: on the
 physics backend (paper robot, gravity off as in the paper's simulation), cable 1 is loaded from
 0 to 80 N and back in 10 N steps, each ramped linearly over ``--ramp-steps`` control steps of
 20 ms (default 25 = 0.5 s: slow enough that the backbone does not overshoot and reverse the
@@ -122,7 +122,7 @@ def plot(result: dict[str, Any], path: Path) -> None:
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(prog="cdcr-gym hysteresis", description=__doc__)
+    parser = argparse.ArgumentParser(prog="python -m experiments.hysteresis", description=__doc__)
     parser.add_argument("--out", type=Path, default=Path("docs/figures/sim2real"))
     parser.add_argument("--ramp-steps", type=int, default=25)
     parser.add_argument("--settle-steps", type=int, default=50)

@@ -2,7 +2,7 @@
 
 Usage::
 
-    cdcr-gym oracle-feedback [--backend Bullet CCKA] [--task reach pose track obstacle]
+    python -m experiments.oracle_feedback [--backend Bullet CCKA] [--task reach pose track obstacle]
                                        [--episodes 100] [--seed 1000000] [--gain 0.08]
                                        [--no-gravity] [--modes open closed]
                                        [--out docs/figures/tasks]
@@ -203,7 +203,9 @@ def markdown_table(results: list[dict[str, Any]]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="cdcr-gym oracle-feedback", description=__doc__)
+    parser = argparse.ArgumentParser(
+        prog="python -m experiments.oracle_feedback", description=__doc__
+    )
     parser.add_argument("--backend", nargs="+", default=["Bullet", "CCKA"])
     parser.add_argument("--task", nargs="+", default=list(TASKS), choices=list(TASKS))
     parser.add_argument("--episodes", type=int, default=100)
@@ -233,7 +235,9 @@ def main(argv: list[str] | None = None) -> int:
     except (ValueError, gym_error.Error) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    command = "cdcr-gym oracle-feedback " + " ".join(argv if argv is not None else sys.argv[1:])
+    command = "python -m experiments.oracle_feedback " + " ".join(
+        argv if argv is not None else sys.argv[1:]
+    )
     table = markdown_table(results)
     stem = "oracle_feedback_" + "_".join(args.backend)
     args.out.mkdir(parents=True, exist_ok=True)

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from cdcr_gym.params import RobotParams
-from training.studies import cosserat as cr
+from experiments import cosserat as cr
 
 REF = cr.load_reference()
 #: the command that wrote the committed file: this module, or its path before 0.3.0

@@ -4,8 +4,8 @@ It lives in ``training/`` (the tools that run the package, next to ``training.st
 the backend: it is a study of the backend against closed-form mechanics, needs nothing a user
 of the backend needs, and is not part of the paper's reproduction (``training.studies.reproduce``).
 
-``python -m training.studies.verification`` prints every table of that document (a few
-seconds); ``python -m training.studies.verification --bench`` also measures the speed
+``python -m experiments.verification`` prints every table of that document (a few
+seconds); ``python -m experiments.verification --bench`` also measures the speed
 (``apply_tensions`` calls per second of the backend and env steps per second of
 ``cdcr_gym/BulletReach-v0``, both at default settings, as wall-clock and as CPU-time rates).
 ``tests/test_bullet.py`` asserts the same quantities through these functions.
@@ -424,7 +424,7 @@ def _sections_report() -> None:  # pragma: no cover - prints the n-section table
 
 def main(argv: list[str] | None = None) -> None:  # pragma: no cover
     parser = argparse.ArgumentParser(
-        prog="cdcr-gym verification", description=__doc__.splitlines()[0]
+        prog="python -m experiments.verification", description=__doc__.splitlines()[0]
     )
     parser.add_argument("--bench", action="store_true", help="also measure the speed")
     parser.add_argument("--bench-only", action="store_true", help="only measure the speed")

@@ -2,7 +2,7 @@
 
 Usage::
 
-    python -m training.studies.sim2sim EVAL_JSON [EVAL_JSON ...] --out docs/figures/sim2real/NAME
+    python -m experiments.sim2sim EVAL_JSON [EVAL_JSON ...] --out docs/figures/sim2real/NAME
         [--target-median-mm 3.0] [--target-success 0.9]
 
 Each ``EVAL_JSON`` is a ``training.evaluate`` output (``RUN_DIR/eval_<tag>.json``), typically one
@@ -159,7 +159,7 @@ def _figure(summary: dict[str, Any], path: Path, title: str) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="cdcr-gym sim2sim", description=__doc__)
+    parser = argparse.ArgumentParser(prog="python -m experiments.sim2sim", description=__doc__)
     parser.add_argument("evals", nargs="+", help="training.evaluate JSON files")
     parser.add_argument("--out", required=True, help="output stem: writes OUT.json and OUT.png")
     parser.add_argument("--target-median-mm", type=float, default=3.0)
@@ -173,7 +173,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    summary["command"] = "python -m training.studies.sim2sim " + " ".join(
+    summary["command"] = "python -m experiments.sim2sim " + " ".join(
         argv if argv is not None else sys.argv[1:]
     )
     out.with_suffix(".json").write_text(json.dumps(summary, indent=1) + "\n")

@@ -1,6 +1,6 @@
 """Step time of the batched CCKA env with and without randomisation and imperfections.
 
-``python -m training.studies.bench_realism [--num-envs N] [--steps S] [--repeats R]``: the median over R
+``python -m experiments.bench_realism [--num-envs N] [--steps S] [--repeats R]``: the median over R
 repeats of S steps of ``gymnasium.make_vec("cdcr_gym/CCKAReach-v0", num_envs=N)`` with zero
 actions, plain and with ``randomize`` (E, cable radius) plus ``imperfections`` (tip noise,
 tension lag, actuator noise), in µs per step. Run it in two checkouts to compare commits.
@@ -92,7 +92,9 @@ def bullet_resets(n: int) -> None:
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(prog="cdcr-gym bench-realism", description=__doc__)
+    parser = argparse.ArgumentParser(
+        prog="python -m experiments.bench_realism", description=__doc__
+    )
     parser.add_argument("--num-envs", type=int, default=256)
     parser.add_argument("--steps", type=int, default=200)
     parser.add_argument("--repeats", type=int, default=7)

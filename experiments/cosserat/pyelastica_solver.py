@@ -1,4 +1,4 @@
-"""PyElastica 1.0 as the cross-check of :func:`training.studies.cosserat.rod.solve_static`.
+"""PyElastica 1.0 as the cross-check of :func:`experiments.cosserat.rod.solve_static`.
 
 The rod is extended half an element past both ends so that its element centres fall on
 s = 0, h/m, …, ℓ: the clamped first element is centred on the base disk (a rod starting at the
@@ -16,7 +16,7 @@ import time
 import numpy as np
 
 from cdcr_gym.model.params import RobotParams
-from training.studies.cosserat.rod import POISSON_RATIO, RodModel
+from experiments.cosserat.rod import POISSON_RATIO, RodModel
 
 __all__ = ["solve_pyelastica"]
 

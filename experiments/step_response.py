@@ -1,6 +1,6 @@
 """Step response of the tip: the physics backend vs CCKA with a modelled actuator response.
 
-``python -m training.studies.step_response [--tension 40] [--omega 0.44] [--steps 30]``: from the
+``python -m experiments.step_response [--tension 40] [--omega 0.44] [--steps 30]``: from the
 straight robot, cable 1 is commanded ``--tension`` N at step 0 (``action_mode="tension"``) and
 held; printed is the remaining fraction of the tip's way to its final position,
 |tip_k − tip_final| / |tip_0 − tip_final|, after k control steps, for bullet (gravity on and off)
@@ -34,7 +34,9 @@ def remaining(env_id: str, tension: float, steps: int, **kwargs) -> np.ndarray:
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(prog="cdcr-gym step-response", description=__doc__)
+    parser = argparse.ArgumentParser(
+        prog="python -m experiments.step_response", description=__doc__
+    )
     parser.add_argument("--tension", type=float, default=40.0)
     parser.add_argument("--omega", type=float, default=0.44)
     parser.add_argument("--steps", type=int, default=30)

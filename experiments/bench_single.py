@@ -4,8 +4,8 @@ shared, loaded machine where absolute rates are not). Optionally the batched env
 
 Usage::
 
-    cdcr-gym bench-single [--rounds 9] [--steps 4000]
-    cdcr-gym bench-single --against /tmp/base --rounds 5 [--batched 64 16384]
+    python -m experiments.bench_single [--rounds 9] [--steps 4000]
+    python -m experiments.bench_single --against /tmp/base --rounds 5 [--batched 64 16384]
         [--batched-repeats 3]
 
 ``--against CHECKOUT`` alternates this checkout and another one (imported from its directory)
@@ -111,7 +111,7 @@ def batched_rates(sizes: list[int], repeats: int = 3) -> dict[str, float]:
 
 
 def _alternate(baseline: str, rounds: int, sizes: list[int], steps: int, repeats: int) -> None:
-    here = str(Path(__file__).resolve().parents[2])
+    here = str(Path(__file__).resolve().parents[1])
     runs: dict[str, list[dict[str, float]]] = {"baseline": [], "this": []}
     args = ["--json", "--rounds", "3", "--steps", str(steps)]
     if sizes:
@@ -159,7 +159,7 @@ def _line(r: dict[str, float]) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="cdcr-gym bench-single", description=__doc__.split("\n")[0]
+        prog="python -m experiments.bench_single", description=__doc__.split("\n")[0]
     )
     parser.add_argument("--rounds", type=int, default=9, help="alternation rounds")
     parser.add_argument("--steps", type=int, default=4000, help="steps per env per round")
