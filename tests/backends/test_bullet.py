@@ -22,13 +22,9 @@ import pytest
 
 from cdcr_gym import kinematics
 from cdcr_gym.backends.base import Backend
-from cdcr_gym.backends.bullet import (
-    MAX_JOINTS,
-    BulletBackend,
-    DiscreteBackbone,
-    SimulationDivergedError,
-)
+from cdcr_gym.backends.bullet import MAX_JOINTS, BulletBackend, SimulationDivergedError
 from cdcr_gym.model import statics
+from cdcr_gym.model.discrete import DiscreteBackbone
 from cdcr_gym.params import RobotParams
 from training.studies.verification import (
     HORIZONTAL,

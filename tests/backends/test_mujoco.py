@@ -14,10 +14,10 @@ import pytest
 import cdcr_gym  # noqa: F401  (registers the ids)
 from cdcr_gym.backends.bullet import BulletBackend
 from cdcr_gym.backends.bullet import SimulationDivergedError as BulletDiverged
-from cdcr_gym.backends.bullet.chain import DiscreteBackbone
 from cdcr_gym.backends.mujoco import MuJoCoBackend, SimulationDivergedError, build_mjcf
 from cdcr_gym.backends.mujoco import backend as mj_backend
 from cdcr_gym.model import friction as F
+from cdcr_gym.model.discrete import DiscreteBackbone
 from cdcr_gym.params import RobotParams, SectionParams
 
 THREE_SECTIONS = RobotParams(

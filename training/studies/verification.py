@@ -13,7 +13,7 @@ seconds); ``python -m training.verification --bench`` also measures the speed
 "Settled" states are static equilibria: :meth:`BulletBackend.static_equilibrium`, which the
 simulated dynamics settle to exactly (tests check it). Chains longer than one pybullet
 multibody holds (n_disks × links_per_span > 60 joints) are evaluated with the same model's
-statics, :class:`~cdcr_gym.backends.bullet.chain.DiscreteBackbone`.
+statics, :class:`~cdcr_gym.model.discrete.DiscreteBackbone`.
 """
 
 from __future__ import annotations
@@ -26,13 +26,9 @@ from dataclasses import replace
 import numpy as np
 
 from cdcr_gym import kinematics
-from cdcr_gym.backends.bullet import (
-    MAX_JOINTS,
-    BulletBackend,
-    DiscreteBackbone,
-    span_buckling_loads,
-)
+from cdcr_gym.backends.bullet import MAX_JOINTS, BulletBackend
 from cdcr_gym.model import statics
+from cdcr_gym.model.discrete import DiscreteBackbone, span_buckling_loads
 from cdcr_gym.model.params import STANDARD_GRAVITY as GRAVITY
 from cdcr_gym.params import RobotParams, SectionParams
 
@@ -73,7 +69,7 @@ def discrete_routing_theta(
     so Σ_i T_i·(h²κ/12) adds to the bending moment: θ = θ₀ + (ΣT)·h²·θ/(12·EI), i.e.
     θ = θ₀ / (1 − ΣT·h²/(12·EI)), θ₀ the elastica's angle. With ``links_per_span`` = m the
     estimate is for the rigid-link model instead, whose span-mean excess is (1 + 2/m²) times
-    larger (see ``cdcr_gym.backends.bullet.chain``).
+    larger (see ``cdcr_gym.model.discrete``).
     """
     tensions = np.asarray(tensions, dtype=np.float64)
     theta0, _ = statics.arc_from_tensions(tensions, params)

@@ -34,22 +34,23 @@ from collections.abc import Sequence
 import numpy as np
 
 from cdcr_gym import validation
-from cdcr_gym.backends.base import Backend, Readings
-from cdcr_gym.backends.bullet.chain import (
+from cdcr_gym.backends.base import (
+    MAX_JOINT_ANGLE,
+    Backend,
+    Readings,
+    SimulationDivergedError,
+    diverged,
+)
+from cdcr_gym.backends.bullet.client import Connection, copy_refused
+from cdcr_gym.backends.bullet.integrator import ImplicitIntegrator
+from cdcr_gym.backends.bullet.multibody import MAX_JOINTS, build_multibody
+from cdcr_gym.model.discrete import (
     ChainPose,
     DiscreteBackbone,
+    bending_modes,
     check_span_buckling,
     quat_to_matrix,
 )
-from cdcr_gym.backends.bullet.client import Connection, copy_refused
-from cdcr_gym.backends.bullet.integrator import (
-    MAX_JOINT_ANGLE,
-    ImplicitIntegrator,
-    SimulationDivergedError,
-    bending_modes,
-    diverged,
-)
-from cdcr_gym.backends.bullet.multibody import MAX_JOINTS, build_multibody
 from cdcr_gym.model.params import STANDARD_GRAVITY, RobotParams
 from cdcr_gym.model.statics import check_tip_payload
 
@@ -63,7 +64,7 @@ class BulletBackend(Backend):
         params: the robot (:class:`~cdcr_gym.params.RobotParams`; default: the paper's Table 1),
             any number of sections and of cables per section. Rejected (``ValueError``) if its
             disk spans buckle with every cable at ``max_tension``
-            (:func:`~cdcr_gym.backends.bullet.chain.check_span_buckling`).
+            (:func:`~cdcr_gym.model.discrete.check_span_buckling`).
         gravity: ``True`` (default) applies −9.81 m/s² along −Z_world; ``False`` switches
             gravity off (the paper's simulation and the pure-moment statics have none).
         links_per_span: rigid links per disk span, m >= 1 (default 1): the chain has
@@ -171,7 +172,7 @@ class BulletBackend(Backend):
                 f"params: n_disks ({disks}) × links_per_span {self.links_per_span} = {n_links} "
                 f"joints, but a pybullet multibody holds at most {MAX_JOINTS} (its state holds "
                 "121 joint coordinates); use fewer disks or links per span "
-                "(cdcr_gym.backends.bullet.chain.DiscreteBackbone evaluates longer chains' statics)"
+                "(cdcr_gym.model.discrete.DiscreteBackbone evaluates longer chains' statics)"
             )
         check_span_buckling(p, self.links_per_span)
         self._base_rot = quat_to_matrix(np.asarray(self.base_orientation))
@@ -361,7 +362,7 @@ class BulletBackend(Backend):
             )
             raise self._diverged(
                 "no static equilibrium found: the cables' destabilising load stiffness (which grows "
-                "with the disk spacing, see backends.bullet.chain) exceeds the joint stiffness; "
+                "with the disk spacing, see cdcr_gym.model.discrete) exceeds the joint stiffness; "
                 "use more disks, more links_per_span or lower tensions" + payload,
                 q,
                 np.zeros(self.n_dof),

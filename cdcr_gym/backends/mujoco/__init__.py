@@ -5,7 +5,7 @@ spatial tendon per cable.
 Importing this package imports ``mujoco`` only when a backend is built.
 """
 
-from cdcr_gym.backends.bullet.integrator import SimulationDivergedError
+from cdcr_gym.backends.base import SimulationDivergedError
 from cdcr_gym.backends.mujoco.backend import MuJoCoBackend
 from cdcr_gym.backends.mujoco.mjcf import JOINTS, ROUTINGS, build_mjcf
 

@@ -1,7 +1,7 @@
 """The MJCF model of the discretised backbone, built from :class:`~cdcr_gym.params.RobotParams`.
 
-The robot is the rigid-link, elastic-joint chain of ``cdcr_gym.backends.bullet.chain``
-(:class:`~cdcr_gym.backends.bullet.chain.DiscreteBackbone`: the same links, joint placement
+The robot is the rigid-link, elastic-joint chain of ``cdcr_gym.model.discrete``
+(:class:`~cdcr_gym.model.discrete.DiscreteBackbone`: the same links, joint placement
 half-way between the rod stations, masses and inertias), written as MuJoCo data:
 
 Bodies and joints
@@ -64,7 +64,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cdcr_gym.backends.bullet.chain import DiscreteBackbone
+from cdcr_gym.model.discrete import DiscreteBackbone
 from cdcr_gym.model.params import RobotParams
 
 __all__ = ["JOINTS", "ROUTINGS", "PARKED", "MJCFModel", "build_mjcf", "via_offset"]

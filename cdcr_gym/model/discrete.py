@@ -1,10 +1,11 @@
-"""The discretised backbone of the pybullet backend, as pure numpy (no simulator).
+"""The discretised backbone shared by the physics backends, as pure numpy (no simulator).
 
-``cdcr_gym.backends.bullet.BulletBackend`` simulates this model's dynamics in pybullet; this
-module holds its geometry, mass properties, cable and gravity loads and statics, so that they
-are written once, can be
-checked against pybullet (tests), and can be evaluated for chains longer than one pybullet
-multibody can hold (pybullet's API keeps 121 joint coordinates per body: 60 Cardan joints).
+``cdcr_gym.backends.bullet.BulletBackend`` simulates this model's dynamics in pybullet and
+``cdcr_gym.backends.mujoco.MuJoCoBackend`` builds its MJCF from it; this module holds its
+geometry, mass properties, cable routing, cable and gravity loads, statics and the span-buckling
+bound, so that they are written once, can be checked against both simulators (tests), and can be
+evaluated for chains longer than one pybullet multibody can hold (pybullet's API keeps 121 joint
+coordinates per body: 60 Cardan joints).
 
 Discretisation and joint placement
     The backbone carries a fixed base disk at s = 0 and, section after section, each section's
@@ -102,6 +103,7 @@ __all__ = [
     "quat_to_matrix",
     "span_buckling_loads",
     "check_span_buckling",
+    "bending_modes",
 ]
 
 _LEVI_CIVITA = np.zeros((3, 3, 3))
@@ -603,3 +605,18 @@ class DiscreteBackbone:
             if step < tol:
                 return q, True
         return q, False
+
+
+def bending_modes(mass: np.ndarray, stiffness: np.ndarray) -> tuple[float, float]:
+    """Lowest and highest angular frequency (rad/s) of K·v = ω²·M·v for a diagonal K.
+
+    ``mass`` (2n, 2n) kg·m², ``stiffness`` (2n,) N·m/rad. With K = k·I (one section) the
+    frequencies are √(k / eig(M)); otherwise those of the symmetric K^{-1/2}·M·K^{-1/2}.
+    """
+    if np.all(stiffness == stiffness[0]):
+        eig = np.linalg.eigvalsh(mass)  # ascending
+        k = float(stiffness[0])
+        return float(math.sqrt(k / eig[-1])), float(math.sqrt(k / eig[0]))
+    scale = 1.0 / np.sqrt(stiffness)
+    eig = np.linalg.eigvalsh(mass * scale[:, None] * scale[None, :])
+    return float(math.sqrt(1.0 / eig[-1])), float(math.sqrt(1.0 / eig[0]))
