@@ -99,6 +99,7 @@ def settled_tip(
             gravity=gravity,
             links_per_span=links_per_span,
             base_orientation=base_orientation,
+            routing="disk",
         )
         try:
             backend.reset(tensions)
@@ -266,7 +267,7 @@ def _report() -> None:  # pragma: no cover - prints the tables of docs/bullet_ba
     print("|---|---|---|---|---|---|")
     for gravity in (False, True):
         for m in (1, 4):
-            backend = BulletBackend(p, gravity=gravity, links_per_span=m)
+            backend = BulletBackend(p, gravity=gravity, links_per_span=m, routing="disk")
             errs = []
             for t1 in np.linspace(0.0, 80.0, 17):
                 backend.reset(np.array([t1, 0.0, 0.0]))
@@ -315,7 +316,7 @@ def _report() -> None:  # pragma: no cover - prints the tables of docs/bullet_ba
     print("|---|---|---|---|---|---|")
     for zeta in (0.5, 0.7, 1.0):
         for h in (0.005, 0.01, 0.02):
-            backend = BulletBackend(p, damping_ratio=zeta, physics_timestep=h)
+            backend = BulletBackend(p, damping_ratio=zeta, physics_timestep=h, routing="disk")
             res = [
                 settling_time(backend, np.array(a), np.array(b))
                 for a, b in (
@@ -330,7 +331,7 @@ def _report() -> None:  # pragma: no cover - prints the tables of docs/bullet_ba
                 + " | ".join(f"{r[0]:.2f} s" for r in res)
                 + f" | {1e3 * max(r[1] for r in res):.1f} |"
             )
-    backend = BulletBackend(p)
+    backend = BulletBackend(p, routing="disk")
     print(
         f"\nFirst bending mode ω₁ = {backend.first_mode_frequency:.2f} rad/s, highest mode "
         f"ω_max = {backend.highest_mode_frequency:.0f} rad/s, damping time β = {backend.damping_time:.4f} s"

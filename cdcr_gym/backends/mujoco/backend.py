@@ -28,10 +28,11 @@ from cdcr_gym.backends.base import (
     SimulationDivergedError,
 )
 from cdcr_gym.backends.mujoco import friction as mj_friction
-from cdcr_gym.backends.mujoco.mjcf import JOINTS, ROUTINGS, MJCFModel, build_mjcf
+from cdcr_gym.backends.mujoco.mjcf import JOINTS, MJCFModel, build_mjcf
 from cdcr_gym.backends.mujoco.obstacles import ObstacleScene
 from cdcr_gym.model import friction
 from cdcr_gym.model.discrete import (
+    ROUTINGS,
     DiscreteBackbone,
     bending_modes,
     check_span_buckling,
