@@ -466,28 +466,35 @@ class DiscreteBackbone:
         return pins
 
     def cable_lengths(self, q: np.ndarray) -> np.ndarray:
-        """Cable path lengths (C,) m at joint angles ``q`` (2n,) rad: with ``"disk"`` routing
+        """Cable path lengths (C,) m at joint angles ``q`` (2n,) rad (:meth:`lengths_of_pose`)."""
+        return self.lengths_of_pose(self.pose(q))
+
+    def lengths_of_pose(self, pose: ChainPose) -> np.ndarray:
+        """Cable path lengths (C,) m of a :meth:`pose`: with ``"disk"`` routing
         :meth:`lengths_between_pinholes`; with ``"corrected"`` the straight segments between the
         via-points of neighbouring disks (:meth:`span_cable_lengths`) plus
         :attr:`rigid_lengths` (a straight robot's lengths are the exact cable lengths either
         way)."""
         if not self._corrected:
-            return self.lengths_between_pinholes(self.stations_and_pinholes(q)[1])
-        return self.span_cable_lengths(q).sum(axis=0) + self.rigid_lengths
+            return self.lengths_between_pinholes(pose.pinholes)
+        return self._span_lengths(pose).sum(axis=0) + self.rigid_lengths
 
     def span_cable_lengths(self, q: np.ndarray) -> np.ndarray:
         """Length (n_disks, C) m of every cable's straight segment across every disk span
         [span, cable] at joint angles ``q`` (2n,) rad (0 where the cable does not cross the
         span): pinhole to pinhole, or via-point to via-point with ``"corrected"`` routing."""
-        c, s = np.cos(q), np.sin(q)
-        rot = self._orientations(c[0::2], s[0::2], c[1::2], s[1::2])
-        stations = self._joint_points_and_stations(rot[:, :, 2])[1]
+        return self._span_lengths(self.pose(q))
+
+    def _span_lengths(self, pose: ChainPose) -> np.ndarray:
+        """:meth:`span_cable_lengths` of a pose: the via-points are the pinholes ± b_k along
+        the disks' axes, so segment k is p_{k+1} − p_k − (b_k·z_k + b_{k+1}·z_{k+1})."""
         m = self.links_per_span
-        disk_rot = rot[0::m].transpose(0, 2, 1)  # base, then the disk links (n_disks+1, 3, 3)
-        disk_pos = stations[0::m]  # (n_disks+1, 3)
-        start = disk_pos[:-1, None, :] + np.matmul(self._via_out, disk_rot[:-1])
-        end = disk_pos[1:, None, :] + np.matmul(self._via_in, disk_rot[1:])
-        seg = end - start
+        axis = np.empty((self.n_disks + 1, 3))  # base, then the disk links' z axes
+        axis[0] = self.base_rotation[:, 2]
+        axis[1:] = pose.link_rot[m - 1 :: m, :, 2]
+        shift = axis * self.via_offsets[:, None]
+        pins = pose.pinholes
+        seg = pins[1:] - pins[:-1] - (shift[:-1] + shift[1:])[:, None, :]
         return np.sqrt((seg * seg).sum(axis=-1)) * self._routed_f
 
     def lengths_between_pinholes(self, pinholes: np.ndarray) -> np.ndarray:

@@ -437,7 +437,7 @@ class BulletBackend(Backend):
         self._check_open()
         if self.routing == "disk":
             return self.chain.lengths_between_pinholes(self._read_points()[1])
-        return self.chain.cable_lengths(self._state()[0])
+        return self.chain.lengths_of_pose(self._read())
 
     @property
     def tensions(self) -> np.ndarray:
@@ -641,11 +641,7 @@ class BulletBackend(Backend):
             pose = self.chain.pose(q)
             tips.append(self._to_base(pose.stations[-1]))
             dirs.append(self._direction(pose.link_rot))
-            lengths.append(
-                self.chain.lengths_between_pinholes(pose.pinholes)
-                if self.routing == "disk"
-                else self.chain.cable_lengths(q)
-            )
+            lengths.append(self.chain.lengths_of_pose(pose))
         return Readings(np.array(tips), np.array(dirs), np.array(lengths), t_all.copy())
 
     def disk_frames(self, index: int = 0) -> tuple[np.ndarray, np.ndarray]:
