@@ -1,11 +1,13 @@
 """``cdcr-gym calibrate``: fit robot parameters to measured tip positions.
 
     cdcr-gym calibrate DATA.csv --robot paper --backend bullet --fit E,mu,payload --out DIR
+    cdcr-gym calibrate train.csv --robot ftdcr_v4 --backend ccka --validate val.csv \
+        --fit base_frame,marker,k_tendons,T0_tendons,cable_angles --out DIR
 
 writes ``DIR/params.yaml`` (the fitted robot, which every env reads:
 ``gym.make(id, params="DIR/params.yaml")``, and the fitted backend arguments), ``DIR/report.md``
 (parameters with 95 % confidence intervals, residuals per point before/after) and
-``DIR/residuals.png``. The CSV format and the fit are documented in
+``DIR/residuals.png`` and ``DIR/report.json`` (train/held-out error numbers). The CSV format and the fit are documented in
 :mod:`cdcr_gym.calibration` and ``docs/calibration.md``.
 
 ``cdcr-gym calibrate --synthetic-study --out docs/figures/calibration`` runs the
@@ -99,25 +101,67 @@ def build_parser() -> argparse.ArgumentParser:
         description="Fit robot parameters (stiffness, friction, cable offsets, payload, base "
         "tilt) to measured tip positions; writes params.yaml, report.md and residuals.png.",
     )
-    p.add_argument("data", nargs="?", type=Path, help="measurement CSV (docs/calibration.md)")
+    p.add_argument(
+        "data",
+        nargs="?",
+        type=Path,
+        help="measurement file: this package's CSV (T/m/d columns) or the published format "
+        "(timestamp, pattern_label, servo_<id>_mm..., tip_x, tip_y, tip_z; mm) "
+        "(docs/calibration.md)",
+    )
+    p.add_argument(
+        "--format",
+        default="auto",
+        choices=("auto", "cdcr", "published"),
+        help="measurement file format (default: auto, from the header)",
+    )
+    p.add_argument(
+        "--validate",
+        type=Path,
+        metavar="VAL.csv",
+        help="held-out measurements (same format rules): replayed with the fitted model after "
+        "the fit, never fitted; their errors go into report.json/report.md",
+    )
+    p.add_argument(
+        "--linear-law",
+        action="store_true",
+        help="ablation: the drive law without slack (T = T0 + k(d - s), may go negative)",
+    )
+    p.add_argument(
+        "--stiffness-scale",
+        type=float,
+        default=1.0,
+        help="ablation: multiply every tendon stiffness (e.g. 1000: the rigid-tendon limit)",
+    )
     p.add_argument(
         "--robot",
         default="paper",
-        help="preset name (paper, tdcr2) or a params YAML file to start from (default: paper)",
+        help="preset name (paper, tdcr2, ftdcr_v4, ...) or a params YAML file to start from "
+        "(default: paper); --params is the same",
     )
+    p.add_argument("--params", dest="robot", help=argparse.SUPPRESS)
     p.add_argument(
         "--backend",
         default="analytic",
-        choices=("analytic", "bullet", "mujoco"),
-        help="model to fit: analytic (CCKA/PCC, fast, no gravity/friction) or a physics "
-        "backend replayed through the rows in order (default: analytic)",
+        choices=("analytic", "ccka", "bullet", "mujoco"),
+        help="model to fit: ccka (= analytic: CCKA/PCC, fast, no gravity/friction; tension or "
+        "displacement data) or a physics backend replayed through the rows in order "
+        "(tension data only) (default: analytic)",
     )
     p.add_argument(
         "--fit",
         default="E",
-        help="comma-separated parameters: youngs_modulus (E), cable_radius (r), cable_angle_i, "
-        "cable_angles, friction_coefficient (mu), tip_payload (payload), base_tilt_x, "
-        "base_tilt_y, tilt (default: E)",
+        help="comma-separated parameters (SI units; i = tendon 1..C, j = section 1..S): "
+        "youngs_modulus (E); cable_radius (r, all sections), cable_radius_s<j> (cable_radii); "
+        "cable_angle_<i> (cable_angles), section_angle_s<j> (section_angles); length_s<j> "
+        "(lengths); base_x, base_y, base_z (base_translation), base_tilt_x, base_tilt_y "
+        "(tilt), base_yaw (base_rotation = tilt + yaw; base_frame = translation + rotation); "
+        "marker_offset (marker, along the tip tangent); tendon_stiffness (k), "
+        "tendon_stiffness_s<j> (k_sections), tendon_stiffness_<i> (k_tendons); "
+        "tendon_pretension (T0), tendon_pretension_s<j> (T0_sections), tendon_pretension_<i> "
+        "(T0_tendons); physics only: friction_coefficient (mu), tip_payload (payload). "
+        "Ill-posed pairs are pinned and reported: base_yaw with every tendon angle free pins "
+        "the first angle; E with every k and T0 free pins E (default: E)",
     )
     p.add_argument("--out", type=Path, help="output directory (created; must be writable)")
     p.add_argument(
@@ -133,7 +177,8 @@ def build_parser() -> argparse.ArgumentParser:
         action="append",
         default=[],
         metavar="NAME=VALUE",
-        help="start value of a fitted parameter in SI units, repeatable",
+        help="start value of a fitted parameter in SI units (the names and aliases of --fit; "
+        "an alias sets every parameter it covers), repeatable",
     )
     p.add_argument("--ramp-steps", type=int, default=25, help="physics replay: ramp steps per row")
     p.add_argument(
@@ -197,12 +242,17 @@ def main(argv: list[str] | None = None) -> int:
     if args.data is None:
         parser.error("DATA.csv is required (or --synthetic-study)")
     from cdcr_gym.calibration import calibrate, read_csv, write_outputs
+    from cdcr_gym.calibration.drive import TendonDrive
 
     try:
-        data = read_csv(args.data)
         robot = _robot(args.robot)
+        drive = TendonDrive.of(robot)
+        data = read_csv(args.data, args.format, robot, drive)
+        validate = read_csv(args.validate, args.format, robot, drive) if args.validate else None
         kwargs = _backend_args(args.backend_arg, args.backend)
         start = _start(args.start)
+        if not (math.isfinite(args.stiffness_scale) and args.stiffness_scale > 0):
+            raise ValueError(f"--stiffness-scale must be > 0, got {args.stiffness_scale!r}")
         result = calibrate(
             data,
             robot,
@@ -214,6 +264,10 @@ def main(argv: list[str] | None = None) -> int:
             settle_steps=args.settle_steps,
             max_nfev=args.max_evals,
             progress=None if args.quiet else print,
+            drive=drive,
+            validate=validate,
+            slack=not args.linear_law,
+            stiffness_scale=args.stiffness_scale,
         )
     except ValueError as exc:
         parser.error(str(exc))
@@ -233,6 +287,14 @@ def _print_summary(result) -> None:
         print(f"{n:>22s} = {result.values[n] * f:.6g} {ci_text} {unit}")
     e0, e1 = result.errors_before * 1e3, result.errors_after * 1e3
     print(f"median tip error: {np.median(e0):.3f} mm -> {np.median(e1):.4f} mm")
+    from cdcr_gym.calibration.report import report_json
+
+    doc = report_json(result)
+    print(f"train: {doc['train']}")
+    if doc["validation"] is not None:
+        print(f"validation: {doc['validation']}")
+    for note in result.notes:
+        print(f"note: {note}")
 
 
 # -- the validation study ---------------------------------------------------------------------------
