@@ -253,7 +253,7 @@ def calibrate(
                 )
             arr = np.array(drive.stiffness if "stiffness" in n else drive.pretension)
             tail = n.split("_")[-1]
-            if tail.startswith("s"):
+            if tail.startswith("s") and tail[1:].isdigit():
                 arr = arr[owner == int(tail[1:]) - 1]
             elif tail.isdigit():
                 arr = arr[int(tail) - 1 : int(tail)]
@@ -277,7 +277,7 @@ def calibrate(
     else:
         model = BackendReplay(data, base, cls, fixed, ramp_steps, settle_steps)
         model.name = backend
-    specs = parameter_specs(names, base, start_values)
+    specs = parameter_specs(names, base, start_values, bend_limit=not use_drive)
     x0 = np.array([s.to_x(start_values[s.name]) for s in specs])
     lo, hi = (np.array(b) for b in zip(*(s.bounds_x() for s in specs)))
     x0 = np.clip(x0, lo + 1e-6, hi - 1e-6)  # trf starts strictly inside the bounds

@@ -340,9 +340,12 @@ def check_start(name: str, value: float) -> None:
 
 
 def parameter_specs(
-    names: list[str], params: RobotParams, start: dict[str, float]
+    names: list[str], params: RobotParams, start: dict[str, float], *, bend_limit: bool = True
 ) -> list[ParameterSpec]:
-    """Scaling and bounds of ``names`` around the robot ``params`` and the start values."""
+    """Scaling and bounds of ``names`` around the robot ``params`` and the start values.
+
+    ``bend_limit``: E's lower bound keeps every section's bend within π at ``max_tension``
+    (tension data); False (the drive model, whose tensions come from the law) allows E/10."""
     specs = []
     radius = max(params.cable_radii)
     for n in names:
@@ -351,6 +354,8 @@ def parameter_specs(
             limit = max(params.section_bend_limits)
             r_gain = (params.disk_radius * 0.999) / radius if "cable_radius" in names else 1.0
             lowest = params.youngs_modulus * limit * r_gain / math.pi * 1.001
+            if not bend_limit:
+                lowest = 0.0
             specs.append(
                 ParameterSpec(
                     n,

@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["main", "build_parser", "synthetic_study", "DEFAULT_BACKEND_ARGS"]
+__all__ = ["main", "build_parser", "synthetic_study", "ablation_table", "DEFAULT_BACKEND_ARGS"]
 
 #: Backend arguments a calibration uses unless overridden with ``--backend-arg``.
 #: ``friction_slip_length`` 2 mm: with the backends' default 0.1 mm the unloading branch of a
@@ -189,6 +189,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--quiet", action="store_true", help="no per-evaluation progress")
     p.add_argument(
+        "--ablation-table",
+        type=Path,
+        metavar="DIR",
+        help="collect DIR/params.yaml and DIR/ablation/*/params.yaml into DIR/ablation.md and "
+        "DIR/ablation.json (held-out errors of each variant) instead of fitting",
+    )
+    p.add_argument(
         "--synthetic-study",
         action="store_true",
         help="run the validation study on synthetic measurements instead (DATA not used)",
@@ -230,6 +237,12 @@ def main(argv: list[str] | None = None) -> int:
     command = "cdcr-gym calibrate " + " ".join(
         shlex.quote(a) for a in (sys.argv[1:] if argv is None else argv)
     )
+    if args.ablation_table is not None:
+        try:
+            ablation_table(args.ablation_table)
+        except ValueError as exc:
+            parser.error(str(exc))
+        return 0
     if args.out is None:
         parser.error("--out DIR is required")
     try:
@@ -295,6 +308,64 @@ def _print_summary(result) -> None:
         print(f"validation: {doc['validation']}")
     for note in result.notes:
         print(f"note: {note}")
+
+
+#: What each ablation variant changes (ablation_table).
+ABLATIONS = {
+    ".": "full model: compliant one-sided tendons, base frame fitted",
+    "rigid_tendons": "rigid tendons (k x 1000 of nominal, not fitted)",
+    "no_slack": "no slack: the linear law T = T0 + k(d - s)",
+    "no_base_frame": "no base-frame fit (robot base = measurement frame)",
+}
+
+
+def ablation_table(folder: Path) -> dict[str, Any]:
+    """Collect the held-out errors of ``folder/params.yaml`` and ``folder/ablation/<name>/``
+    into ``ablation.json`` and ``ablation.md`` in ``folder``; returns the rows."""
+    from cdcr_gym.model.params_yaml import load_yaml
+
+    folder = Path(folder)
+    rows: dict[str, Any] = {}
+    for name in ABLATIONS:
+        path = folder / ("" if name == "." else f"ablation/{name}") / "params.yaml"
+        if not path.is_file():
+            continue
+        cal = load_yaml(path)["calibration"]
+        val = cal.get("validation")
+        if val is None:
+            raise ValueError(f"{path} has no validation record (run with --validate)")
+        length = sum(s["length"] for s in load_yaml(path)["robot"]["sections"])
+        rows["full" if name == "." else name] = {
+            "what": ABLATIONS[name],
+            "fitted": len(cal["fitted"]),
+            "rmse_aligned_mm": val["rmse_aligned_mm"],
+            "rmse_aligned_xyz_mm": val["rmse_aligned_xyz_mm"],
+            "mean_mm": val["mean_mm"],
+            "percent_of_length": 100.0 * val["mean_mm"] * 1e-3 / length,
+            "command": cal.get("command", ""),
+        }
+    if not rows:
+        raise ValueError(f"--ablation-table: no params.yaml under {str(folder)!r}")
+    (folder / "ablation.json").write_text(json.dumps(rows, indent=1) + "\n")
+    lines = [
+        "# CCKA ablation on the held-out rows",
+        "",
+        "Aligned RMSE: Euclidean tip RMSE after removing the mean offset over the held-out set "
+        "(mm); X / Y / Z its components; % of length: the plain mean error over the robot's "
+        "length.",
+        "",
+        "| variant | fitted parameters | aligned RMSE | X / Y / Z | mean | % of length |",
+        "|---|---|---|---|---|---|",
+    ]
+    for r in rows.values():
+        xyz = " / ".join(f"{v:.2f}" for v in r["rmse_aligned_xyz_mm"])
+        lines.append(
+            f"| {r['what']} | {r['fitted']} | {r['rmse_aligned_mm']:.2f} | {xyz} | "
+            f"{r['mean_mm']:.2f} | {r['percent_of_length']:.2f} |"
+        )
+    lines += ["", "Commands:", ""] + [f"- `{r['command']}`" for r in rows.values()]
+    (folder / "ablation.md").write_text("\n".join(lines) + "\n")
+    return rows
 
 
 # -- the validation study ---------------------------------------------------------------------------
