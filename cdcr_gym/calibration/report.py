@@ -319,7 +319,13 @@ def plot_residuals(result: CalibrationResult, path: str | Path, title: str = "")
     def radial(p: np.ndarray) -> np.ndarray:
         return np.hypot(p[:, 0], p[:, 1]) * 1e3
 
-    load = d.commands.sum(axis=1) * (1e3 if d.displacements is not None else 1.0)
+    if d.displacements is not None:
+        _plot_displacement(result, fig, ax0, ax1, title)
+        fig.tight_layout()
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        return
+    load = d.commands.sum(axis=1)
     for pts, style, label in (
         (d.tip, dict(color="k", marker="o", ms=5, ls="none", mfc="none"), "measured"),
         (result.before.tip, dict(color="tab:red", marker="x", ms=4, lw=0.6), "start values"),
@@ -358,6 +364,53 @@ def plot_residuals(result: CalibrationResult, path: str | Path, title: str = "")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def _plot_displacement(result: CalibrationResult, fig: Any, ax0: Any, ax1: Any, title: str) -> None:
+    """Displacement data: predicted against measured tip coordinates (left, training and
+    held-out rows) and the per-row errors in order (right)."""
+    d = result.data
+    sets = [("train", result.after.tip, d.tip, "tab:blue")]
+    if result.validation is not None and result.validation_data is not None:
+        sets.append(("held out", result.validation.tip, result.validation_data.tip, "tab:orange"))
+    lo, hi = np.inf, -np.inf
+    for label, pred, meas, color in sets:
+        for axis, marker in zip("xyz", ("o", "s", "^")):
+            k = "xyz".index(axis)
+            ax0.plot(
+                meas[:, k] * 1e3,
+                pred[:, k] * 1e3,
+                marker,
+                ms=2,
+                alpha=0.4,
+                color=color,
+                label=f"{label} {axis}",
+            )
+        lo, hi = min(lo, meas.min() * 1e3), max(hi, meas.max() * 1e3)
+    ax0.plot([lo, hi], [lo, hi], "k-", lw=0.6)
+    ax0.set_xlabel("measured tip coordinate (mm)")
+    ax0.set_ylabel("fitted model (mm)")
+    ax0.grid(alpha=0.3)
+    ax0.legend(fontsize=7, ncol=2, markerscale=3)
+    start = 0
+    for label, pred, meas, color in sets:
+        err = np.linalg.norm(pred - meas, axis=1) * 1e3
+        idx = np.arange(start, start + len(err))
+        ax1.semilogy(idx, np.maximum(err, 1e-3), ".", ms=2, color=color, label=label)
+        start += len(err)
+    e0 = result.errors_before * 1e3
+    ax1.semilogy(
+        np.arange(len(e0)), np.maximum(e0, 1e-3), ".", ms=1, color="0.7", label="train, start"
+    )
+    ax1.set_xlabel("row (training rows, then held-out rows; in order)")
+    ax1.set_ylabel("Euclidean tip error (mm)")
+    ax1.grid(alpha=0.3, which="both")
+    ax1.legend(fontsize=8, markerscale=4)
+    doc = report_json(result)
+    text = f"train aligned RMSE {doc['train']['rmse_aligned_mm']:.2f} mm"
+    if doc["validation"] is not None:
+        text += f", held-out {doc['validation']['rmse_aligned_mm']:.2f} mm"
+    fig.suptitle(title or f"{d.source}, {result.backend}: {text}")
 
 
 def write_outputs(result: CalibrationResult, out: str | Path, command: str = "") -> dict[str, Path]:
