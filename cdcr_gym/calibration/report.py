@@ -1,6 +1,6 @@
 """The outputs of a calibration: ``params.yaml`` (what envs read), ``report.md``, the
 before/after residual figure and ``report.json`` (the numbers, :func:`report_json`), written
-atomically (a temporary folder renamed at the end: nothing half-written on an error).
+atomically (all four into a temporary folder first: nothing half-written on an error).
 
 Error metrics (:func:`error_stats`), over a set of rows, in mm: ``rmse_aligned_mm`` is the RMSE
 of the Euclidean tip error after subtracting the mean of (model − measured) over the set (the
@@ -415,8 +415,9 @@ def _plot_displacement(result: CalibrationResult, fig: Any, ax0: Any, ax1: Any, 
 
 def write_outputs(result: CalibrationResult, out: str | Path, command: str = "") -> dict[str, Path]:
     """Write ``params.yaml``, ``report.md``, ``residuals.png`` and ``report.json`` into
-    ``out`` (atomically: a temporary folder beside it, renamed at the end; an existing ``out``
-    is replaced whole); their paths."""
+    ``out`` (atomically: all four are written into a temporary folder beside it, which is then
+    renamed to ``out``; into an existing ``out`` each is moved by an atomic rename, other files
+    there stay); their paths."""
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     names = {
@@ -433,10 +434,10 @@ def write_outputs(result: CalibrationResult, out: str | Path, command: str = "")
         doc = report_json(result)
         (tmp / names["json"]).write_text(json.dumps(doc, indent=1, allow_nan=False) + "\n")
         if out.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old.", dir=out.parent))
-            os.rename(out, old / "out")
-            os.rename(tmp, out)
-            shutil.rmtree(old, ignore_errors=True)
+            # every file complete before any is moved in; other files in ``out`` stay
+            for name in names.values():
+                os.replace(tmp / name, out / name)
+            tmp.rmdir()
         else:
             os.rename(tmp, out)
     except BaseException:

@@ -243,6 +243,23 @@ def test_outputs_are_atomic(tmp_path, monkeypatch):
     with pytest.raises(RuntimeError):
         write_outputs(res, tmp_path / "out")
     assert list(tmp_path.iterdir()) == []
+    # into an existing folder: an error leaves it as it was; success keeps other files
+    out = tmp_path / "existing"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")
+    with pytest.raises(RuntimeError):
+        write_outputs(res, out)
+    assert [p.name for p in tmp_path.iterdir()] == ["existing"]
+    assert [p.name for p in out.iterdir()] == ["notes.txt"]
+    monkeypatch.undo()
+    write_outputs(res, out)
+    assert {p.name for p in out.iterdir()} == {
+        "notes.txt",
+        "params.yaml",
+        "report.md",
+        "residuals.png",
+        "report.json",
+    }
 
 
 def test_cli_start_values_are_checked(tmp_path, capsys):
