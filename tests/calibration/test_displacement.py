@@ -327,3 +327,19 @@ def test_real_data_full_fit_meets_the_published_error(tmp_path):
     assert code == 0
     doc = json.loads((out / "report.json").read_text())
     assert doc["validation"]["rmse_aligned_mm"] <= 7.7
+
+
+def test_tension_data_through_the_drive_model_equal_the_analytic_backend():
+    """The drive model's tension path (fit names of the base frame on tension data) predicts
+    what AnalyticBackend.equilibrium does."""
+    from cdcr_gym.calibration.simulate import AnalyticReplay
+
+    p = RobotParams.preset("tdcr2")
+    t = np.random.default_rng(3).uniform(0.0, 3.0, (20, p.n_cables))
+    data = Measurements(t, np.zeros((20, 3)), None, None)
+    a = AnalyticReplay(data, p)({})
+    b = DriveReplay(data, p)({})
+    np.testing.assert_allclose(b.tip, a.tip, atol=1e-12)
+    np.testing.assert_allclose(b.tip_direction, a.tip_direction, atol=1e-12)
+    shifted = DriveReplay(data, p)({"base_z": 0.01})
+    np.testing.assert_allclose(shifted.tip - b.tip, np.tile([0.0, 0.0, 0.01], (20, 1)), atol=1e-12)
