@@ -78,6 +78,21 @@ def test_inextensible_limit_is_the_least_squares_shape_and_limit_of_stiff():
     assert np.allclose(limit.tensions.mean(axis=-1), 40.0, atol=1e-9)  # common mode kept at T0
 
 
+@pytest.mark.parametrize("model", [MODEL, TDCR2])
+def test_inextensible_tensions_are_the_limit_of_stiff_tendons_with_slack(model):
+    """k = inf with slack tendons: the shape is unique, the tensions are the k → ∞ limit."""
+    rng = np.random.default_rng(6)
+    d = rng.uniform(-0.01, 0.01, (200, model.n_cables))
+    limit = solve_displacement_statics(model, d, np.inf, 1.0, max_tension=np.inf)
+    assert limit.slack.any()
+    consistent = limit.shortening  # commands a shape can have: finite k converges
+    errors = []
+    for k in (1e8, 1e10):
+        stiff = solve_displacement_statics(model, consistent, k, 1.0, max_tension=np.inf)
+        errors.append(np.max(np.abs(stiff.tensions - limit.tensions)))
+    assert errors[1] < 1e-4 and errors[1] < errors[0] / 50  # ∝ 1/k
+
+
 # -- slack ---------------------------------------------------------------------------------------
 def test_slack_tendon_carries_zero_and_acts_as_if_absent():
     k, t0 = 2000.0, 5.0
