@@ -10,7 +10,10 @@ column         unit     meaning
 ``T1`` … ``Tn`` N       cable tensions at the actuators, one column per cable in the robot's cable
                         order (section by section, proximal first) — **or**
 ``m1`` … ``mn`` kg      hanging masses on the cables (the paper's protocol), converted to tensions
-                        with g = 9.81 m/s² (``cdcr_gym.params.STANDARD_GRAVITY``). Give one kind.
+                        with g = 9.81 m/s² (``cdcr_gym.params.STANDARD_GRAVITY``) — **or**
+``d1`` … ``dn`` m       commanded tendon displacements (positive = pulled in), for robots driven
+                        by position-controlled drives (SPEC §8). Give one kind.
+``timestamp``   s       optional: when the row was measured (kept; must not decrease).
 ``x, y, z``     m       measured tip (last disk centre) in the base frame R0: origin at the base
                         disk centre, backbone along +Z0 (up), cable 1 at +X0.
 ``direction``   —       optional: ``up`` (loading) or ``down`` (unloading); empty = unknown.
@@ -23,6 +26,11 @@ column         unit     meaning
 ``sigma_dir``   rad     optional: the tangent's standard deviation (default 0.01 rad).
 ``label``       —       optional free text (ignored by the fit, kept in the report).
 ============== ======== ==========================================================================
+
+The published format of real-robot recordings (``timestamp, pattern_label, servo_<id>_mm …,
+tip_x, tip_y, tip_z``, mm, servo columns in tendon order) is read by :func:`read_published`;
+:func:`read_csv` tells the two apart by the header (or ``format=``). A UTF-8 byte-order mark is
+accepted. Given the robot (and its tendon drive), :func:`check_units` catches mm/m mix-ups.
 
 Errors name the file, the 1-based line and the column: ``data.csv line 7, column 'z': 'abc' is
 not a number``.

@@ -253,7 +253,7 @@ def calibrate(
                 )
             arr = np.array(drive.stiffness if "stiffness" in n else drive.pretension)
             tail = n.split("_")[-1]
-            if tail.startswith("s"):
+            if tail.startswith("s") and tail[1:].isdigit():
                 arr = arr[owner == int(tail[1:]) - 1]
             elif tail.isdigit():
                 arr = arr[int(tail) - 1 : int(tail)]
@@ -277,7 +277,7 @@ def calibrate(
     else:
         model = BackendReplay(data, base, cls, fixed, ramp_steps, settle_steps)
         model.name = backend
-    specs = parameter_specs(names, base, start_values)
+    specs = parameter_specs(names, base, start_values, bend_limit=not use_drive)
     x0 = np.array([s.to_x(start_values[s.name]) for s in specs])
     lo, hi = (np.array(b) for b in zip(*(s.bounds_x() for s in specs)))
     x0 = np.clip(x0, lo + 1e-6, hi - 1e-6)  # trf starts strictly inside the bounds
@@ -374,6 +374,20 @@ def calibrate(
             "strongly correlated (|r| > 0.95), traded against each other by the data: "
             + ", ".join(strong)
         )
+    fitted_drive = _fitted_drive(base, drive, values)
+    fitted_robot = _fitted_robot(base, values)
+    if fitted_drive is not None and hasattr(fitted_robot, "tendon_stiffness"):
+        try:
+            fitted_robot = replace(
+                fitted_robot,
+                tendon_stiffness=fitted_drive.stiffness,  # type: ignore[call-arg]
+                tendon_pretension=fitted_drive.pretension,  # type: ignore[call-arg]
+            )
+        except ValueError as exc:
+            notes.append(
+                "the robot in params.yaml keeps the nominal tendon drive (the fitted one is in "
+                f"calibration.tendons): {exc}"
+            )
     return CalibrationResult(
         names=names,
         start=start_values,
@@ -381,7 +395,7 @@ def calibrate(
         ci95=ci,
         std=std,
         correlation=corr,
-        params=_fitted_robot(base, values),
+        params=fitted_robot,
         backend_kwargs=model.backend_kwargs(values),
         backend=backend,
         data=data,
@@ -395,7 +409,7 @@ def calibrate(
         success=bool(result.success),
         unsettled=max(before.unsettled, after.unsettled),
         notes=notes,
-        drive=_fitted_drive(base, drive, values),
+        drive=fitted_drive,
         validation_data=validate,
         validation=validation,
         pinned=[n for n in pin_notes],

@@ -38,9 +38,9 @@ section_angle_s<j> (``section_angles``) rad  offset/1°              every tendo
 tendon_stiffness (``k``),              N/m   ln(k/k₀)               all tendons / section j's /
 tendon_stiffness_s<j> (``k_sections``),                             tendon i's k (the drive law
 tendon_stiffness_<i> (``k_tendons``)                                T = T0 + k·(d − s))
-tendon_pretension (``T0``), …_s<j>     N     (T0 − T0₀)/1 N         likewise T0 (may be < 0: the
-(``T0_sections``), …_<i>                                            tendon is slack at d = 0 until
-(``T0_tendons``)                                                    the drive takes up −T0/k)
+tendon_pretension (``T0``), …_s<j>     N     (T0 − T0₀)/1 N         likewise T0 (≥ 0, as the
+(``T0_sections``), …_<i>                                            robot's ``tendon_pretension``)
+(``T0_tendons``)
 ====================================== ===== ====================== =============================
 
 ``base_frame`` = the translation, the tilt and the yaw. Gravity and payload are not modelled by
@@ -340,9 +340,12 @@ def check_start(name: str, value: float) -> None:
 
 
 def parameter_specs(
-    names: list[str], params: RobotParams, start: dict[str, float]
+    names: list[str], params: RobotParams, start: dict[str, float], *, bend_limit: bool = True
 ) -> list[ParameterSpec]:
-    """Scaling and bounds of ``names`` around the robot ``params`` and the start values."""
+    """Scaling and bounds of ``names`` around the robot ``params`` and the start values.
+
+    ``bend_limit``: E's lower bound keeps every section's bend within π at ``max_tension``
+    (tension data); False (the drive model, whose tensions come from the law) allows E/10."""
     specs = []
     radius = max(params.cable_radii)
     for n in names:
@@ -351,6 +354,8 @@ def parameter_specs(
             limit = max(params.section_bend_limits)
             r_gain = (params.disk_radius * 0.999) / radius if "cable_radius" in names else 1.0
             lowest = params.youngs_modulus * limit * r_gain / math.pi * 1.001
+            if not bend_limit:
+                lowest = 0.0
             specs.append(
                 ParameterSpec(
                     n,
@@ -388,7 +393,7 @@ def parameter_specs(
             k0 = start.get(n, 1.0)
             specs.append(ParameterSpec(n, "N/m", 1.0, k0, 1e-3 * k0, 1e3 * k0, log=True))
         elif n.startswith("tendon_pretension"):
-            specs.append(ParameterSpec(n, "N", 1.0, 0.0, -np.inf, np.inf))
+            specs.append(ParameterSpec(n, "N", 1.0, 0.0, 0.0, np.inf))
         else:  # pragma: no cover - resolve_names guards
             raise ValueError(f"unknown parameter {n!r}")
     return specs

@@ -1,5 +1,11 @@
-"""The outputs of a calibration: ``params.yaml`` (what envs read), ``report.md`` and the
-before/after residual figure.
+"""The outputs of a calibration: ``params.yaml`` (what envs read), ``report.md``, the
+before/after residual figure and ``report.json`` (the numbers, :func:`report_json`), written
+atomically (all four into a temporary folder first: nothing half-written on an error).
+
+Error metrics (:func:`error_stats`), over a set of rows, in mm: ``rmse_aligned_mm`` is the RMSE
+of the Euclidean tip error after subtracting the mean of (model − measured) over the set (the
+metric published real-robot results use); ``mean_mm``, ``median_mm``, ``p95_mm`` are of the
+plain Euclidean error.
 
 ``params.yaml`` holds the fitted robot under ``robot:`` (read by ``RobotParams.from_yaml`` and by
 ``gymnasium.make(id, params="params.yaml")``), the fitted backend arguments under ``backend:``
@@ -11,7 +17,11 @@ before/after residual figure.
 from __future__ import annotations
 
 import datetime
+import json
 import math
+import os
+import shutil
+import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -29,21 +39,81 @@ __all__ = [
     "plot_residuals",
     "write_outputs",
     "display",
+    "error_stats",
+    "report_json",
+    "REPORT_KEYS",
 ]
 
 #: How a parameter is shown in reports: (unit, factor from SI).
 _DISPLAY = {
     "youngs_modulus": ("GPa", 1e-9),
     "cable_radius": ("mm", 1e3),
+    "base_x": ("mm", 1e3),
+    "base_y": ("mm", 1e3),
+    "base_z": ("mm", 1e3),
+    "marker_offset": ("mm", 1e3),
     "friction_coefficient": ("", 1.0),
     "tip_payload": ("g", 1e3),
 }
+
+
+def error_stats(pred: np.ndarray, meas: np.ndarray) -> dict[str, Any]:
+    """Tip error statistics (mm) of predictions (M, 3) m against measurements (M, 3) m
+    (module docstring), plus the aligned RMSE along X, Y, Z and the mean offset (mm)."""
+    err = np.asarray(pred, dtype=np.float64) - np.asarray(meas, dtype=np.float64)
+    offset = err.mean(axis=0)
+    aligned = err - offset
+    plain = np.linalg.norm(err, axis=1) * 1e3
+    return {
+        "rmse_aligned_mm": float(np.sqrt(np.mean(np.sum(aligned**2, axis=1))) * 1e3),
+        "mean_mm": float(plain.mean()),
+        "median_mm": float(np.median(plain)),
+        "p95_mm": float(np.percentile(plain, 95)),
+        "rmse_aligned_xyz_mm": [float(v) for v in np.sqrt(np.mean(aligned**2, axis=0)) * 1e3],
+        "mean_offset_mm": [float(v) for v in offset * 1e3],
+    }
+
+
+#: The keys of ``report.json`` (nested: ``train`` and ``validation`` are mappings).
+REPORT_KEYS = {
+    "train": ("rmse_aligned_mm", "mean_mm"),
+    "validation": ("rmse_aligned_mm", "mean_mm", "median_mm", "p95_mm", "percent_of_length"),
+    "backend": None,
+    "fitted": None,
+    "seconds": None,
+}
+
+
+def report_json(result: CalibrationResult) -> dict[str, Any]:
+    """The ``report.json`` document: ``{"train": {"rmse_aligned_mm", "mean_mm"},
+    "validation": {"rmse_aligned_mm", "mean_mm", "median_mm", "p95_mm", "percent_of_length"}
+    (null without held-out data), "backend", "fitted" (name → SI value), "seconds"}`` — numbers
+    in mm unless named; ``percent_of_length`` = validation mean / the fitted robot's length."""
+    train = error_stats(result.after.tip, result.data.tip)
+    validation = None
+    if result.validation is not None and result.validation_data is not None:
+        v = error_stats(result.validation.tip, result.validation_data.tip)
+        validation = {k: v[k] for k in REPORT_KEYS["validation"] if k in v}  # type: ignore[union-attr]
+        validation["percent_of_length"] = 100.0 * v["mean_mm"] * 1e-3 / result.params.length
+    return {
+        "train": {k: train[k] for k in REPORT_KEYS["train"]},  # type: ignore[union-attr]
+        "validation": validation,
+        "backend": result.backend,
+        "fitted": {n: float(result.values[n]) for n in result.names},
+        "seconds": float(result.seconds),
+    }
 
 
 def display(name: str) -> tuple[str, float]:
     """Display unit and factor of parameter ``name`` (angles in degrees)."""
     if name in _DISPLAY:
         return _DISPLAY[name]
+    if name.startswith(("length_s", "cable_radius_s")):
+        return ("mm", 1e3)
+    if name.startswith("tendon_stiffness"):
+        return ("N/m", 1.0)
+    if name.startswith("tendon_pretension"):
+        return ("N", 1.0)
     return ("°", 180.0 / math.pi)
 
 
@@ -77,6 +147,22 @@ def write_params_yaml(result: CalibrationResult, path: str | Path, command: str 
     }
     if command:
         record["command"] = command
+    if result.drive is not None:
+        record["tendons"] = result.drive.to_dict()
+    frame = {
+        n: result.values[n]
+        for n in ("base_x", "base_y", "base_z", "base_tilt_x", "base_tilt_y", "base_yaw")
+        + ("marker_offset",)
+        if n in result.values
+    }
+    if frame:
+        record["frame"] = frame
+    if result.validation is not None and result.validation_data is not None:
+        record["validation"] = {
+            "data": result.validation_data.source,
+            "points": len(result.validation_data),
+            **error_stats(result.validation.tip, result.validation_data.tip),
+        }
     doc = {
         "robot": params_to_dict(result.params),
         "backend": _plain(result.backend_kwargs),
@@ -111,6 +197,10 @@ def backend_kwargs_from_yaml(path: str | Path, data: Any = None) -> dict[str, An
 def _fmt(name: str, value: float) -> str:
     unit, factor = display(name)
     return f"{value * factor:.6g}"
+
+
+#: Longest data set whose per-point table goes into report.md.
+PER_POINT_ROWS = 300
 
 
 def report_markdown(result: CalibrationResult, command: str = "", figure: str = "") -> str:
@@ -162,6 +252,26 @@ def report_markdown(result: CalibrationResult, command: str = "", figure: str = 
         f"| after (fitted) | {np.median(e1):.3f} | {e1.mean():.3f} | {e1.max():.3f} |",
         "",
     ]
+    stats = error_stats(result.after.tip, result.data.tip)
+    rows = [("training (fitted)", stats, len(result.data))]
+    if result.validation is not None and result.validation_data is not None:
+        v = error_stats(result.validation.tip, result.validation_data.tip)
+        rows.append((f"held-out `{result.validation_data.source}`", v, len(result.validation_data)))
+    out += [
+        "Aligned RMSE: the Euclidean tip RMSE after subtracting the mean of (model − measured) "
+        "over the set; X/Y/Z: its components.",
+        "",
+        "| set | rows | aligned RMSE | mean | median | p95 | aligned X / Y / Z | % of length (mean) |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for label, st, n_rows in rows:
+        xyz = " / ".join(f"{c:.2f}" for c in st["rmse_aligned_xyz_mm"])
+        pct = 100.0 * st["mean_mm"] * 1e-3 / result.params.length
+        out.append(
+            f"| {label} | {n_rows} | {st['rmse_aligned_mm']:.3f} | {st['mean_mm']:.3f} | "
+            f"{st['median_mm']:.3f} | {st['p95_mm']:.3f} | {xyz} | {pct:.2f} |"
+        )
+    out.append("")
     if figure:
         out += [f"![residuals]({figure})", ""]
     if result.notes or result.unsettled > 1e-6:
@@ -174,16 +284,20 @@ def report_markdown(result: CalibrationResult, command: str = "", figure: str = 
             )
         out.append("")
     words = {1: "up", -1: "down", 0: ""}
-    cables = [f"T{i + 1} (N)" for i in range(result.data.n_cables)]
+    d = result.data
+    disp = d.displacements is not None
+    if len(d) > PER_POINT_ROWS:
+        out += [f"(Per-point table left out: {len(d)} rows > {PER_POINT_ROWS}.)", ""]
+        return "\n".join(out) + "\n"
+    cables = [f"d{i + 1} (mm)" if disp else f"T{i + 1} (N)" for i in range(result.data.n_cables)]
     out += [
         "## Per point",
         "",
         "| line | " + " | ".join(cables) + " | direction | before (mm) | after (mm) |",
         "|---" * (len(cables) + 4) + "|",
     ]
-    d = result.data
     for k in range(len(d)):
-        ts = " | ".join(f"{t:.4g}" for t in d.tensions[k])
+        ts = " | ".join(f"{t * (1e3 if disp else 1.0):.4g}" for t in d.commands[k])
         out.append(
             f"| {d.lines[k]} | {ts} | {words[int(d.direction[k])]} | {e0[k]:.3f} | {e1[k]:.3f} |"
         )
@@ -205,14 +319,24 @@ def plot_residuals(result: CalibrationResult, path: str | Path, title: str = "")
     def radial(p: np.ndarray) -> np.ndarray:
         return np.hypot(p[:, 0], p[:, 1]) * 1e3
 
-    load = d.tensions.sum(axis=1)
+    if d.displacements is not None:
+        _plot_displacement(result, fig, ax0, ax1, title)
+        fig.tight_layout()
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        return
+    load = d.commands.sum(axis=1)
     for pts, style, label in (
         (d.tip, dict(color="k", marker="o", ms=5, ls="none", mfc="none"), "measured"),
         (result.before.tip, dict(color="tab:red", marker="x", ms=4, lw=0.6), "start values"),
         (result.after.tip, dict(color="tab:blue", marker="+", ms=6, lw=0.6), "fitted"),
     ):
         ax0.plot(load, radial(pts), label=label, **style)  # type: ignore[arg-type]
-    ax0.set_xlabel("total cable tension (N), rows in order")
+    ax0.set_xlabel(
+        "total tendon displacement (mm)"
+        if d.displacements is not None
+        else "total cable tension (N), rows in order"
+    )
     ax0.set_ylabel("tip distance from the axis √(x²+y²) (mm)")
     ax0.grid(alpha=0.3)
     ax0.legend()
@@ -242,16 +366,81 @@ def plot_residuals(result: CalibrationResult, path: str | Path, title: str = "")
     plt.close(fig)
 
 
+def _plot_displacement(result: CalibrationResult, fig: Any, ax0: Any, ax1: Any, title: str) -> None:
+    """Displacement data: predicted against measured tip coordinates (left, training and
+    held-out rows) and the per-row errors in order (right)."""
+    d = result.data
+    sets = [("train", result.after.tip, d.tip, "tab:blue")]
+    if result.validation is not None and result.validation_data is not None:
+        sets.append(("held out", result.validation.tip, result.validation_data.tip, "tab:orange"))
+    lo, hi = np.inf, -np.inf
+    for label, pred, meas, color in sets:
+        for axis, marker in zip("xyz", ("o", "s", "^")):
+            k = "xyz".index(axis)
+            ax0.plot(
+                meas[:, k] * 1e3,
+                pred[:, k] * 1e3,
+                marker,
+                ms=2,
+                alpha=0.4,
+                color=color,
+                label=f"{label} {axis}",
+            )
+        lo, hi = min(lo, meas.min() * 1e3), max(hi, meas.max() * 1e3)
+    ax0.plot([lo, hi], [lo, hi], "k-", lw=0.6)
+    ax0.set_xlabel("measured tip coordinate (mm)")
+    ax0.set_ylabel("fitted model (mm)")
+    ax0.grid(alpha=0.3)
+    ax0.legend(fontsize=7, ncol=2, markerscale=3)
+    start = 0
+    for label, pred, meas, color in sets:
+        err = np.linalg.norm(pred - meas, axis=1) * 1e3
+        idx = np.arange(start, start + len(err))
+        ax1.semilogy(idx, np.maximum(err, 1e-3), ".", ms=2, color=color, label=label)
+        start += len(err)
+    e0 = result.errors_before * 1e3
+    ax1.semilogy(
+        np.arange(len(e0)), np.maximum(e0, 1e-3), ".", ms=1, color="0.7", label="train, start"
+    )
+    ax1.set_xlabel("row (training rows, then held-out rows; in order)")
+    ax1.set_ylabel("Euclidean tip error (mm)")
+    ax1.grid(alpha=0.3, which="both")
+    ax1.legend(fontsize=8, markerscale=4)
+    doc = report_json(result)
+    text = f"train aligned RMSE {doc['train']['rmse_aligned_mm']:.2f} mm"
+    if doc["validation"] is not None:
+        text += f", held-out {doc['validation']['rmse_aligned_mm']:.2f} mm"
+    fig.suptitle(title or f"{d.source}, {result.backend}: {text}")
+
+
 def write_outputs(result: CalibrationResult, out: str | Path, command: str = "") -> dict[str, Path]:
-    """Write ``params.yaml``, ``report.md`` and ``residuals.png`` into ``out``; their paths."""
+    """Write ``params.yaml``, ``report.md``, ``residuals.png`` and ``report.json`` into
+    ``out`` (atomically: all four are written into a temporary folder beside it, which is then
+    renamed to ``out``; into an existing ``out`` each is moved by an atomic rename, other files
+    there stay); their paths."""
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    paths = {
-        "params": out / "params.yaml",
-        "report": out / "report.md",
-        "figure": out / "residuals.png",
+    out.parent.mkdir(parents=True, exist_ok=True)
+    names = {
+        "params": "params.yaml",
+        "report": "report.md",
+        "figure": "residuals.png",
+        "json": "report.json",
     }
-    write_params_yaml(result, paths["params"], command)
-    plot_residuals(result, paths["figure"])
-    paths["report"].write_text(report_markdown(result, command, "residuals.png"))
-    return paths
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    try:
+        write_params_yaml(result, tmp / names["params"], command)
+        plot_residuals(result, tmp / names["figure"])
+        (tmp / names["report"]).write_text(report_markdown(result, command, "residuals.png"))
+        doc = report_json(result)
+        (tmp / names["json"]).write_text(json.dumps(doc, indent=1, allow_nan=False) + "\n")
+        if out.exists():
+            # every file complete before any is moved in; other files in ``out`` stay
+            for name in names.values():
+                os.replace(tmp / name, out / name)
+            tmp.rmdir()
+        else:
+            os.rename(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return {k: out / v for k, v in names.items()}

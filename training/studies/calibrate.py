@@ -1,11 +1,13 @@
 """``cdcr-gym calibrate``: fit robot parameters to measured tip positions.
 
     cdcr-gym calibrate DATA.csv --robot paper --backend bullet --fit E,mu,payload --out DIR
+    cdcr-gym calibrate train.csv --robot ftdcr_v4 --backend ccka --validate val.csv \
+        --fit base_frame,marker,k_tendons,T0_tendons,cable_angles --out DIR
 
 writes ``DIR/params.yaml`` (the fitted robot, which every env reads:
 ``gym.make(id, params="DIR/params.yaml")``, and the fitted backend arguments), ``DIR/report.md``
 (parameters with 95 % confidence intervals, residuals per point before/after) and
-``DIR/residuals.png``. The CSV format and the fit are documented in
+``DIR/residuals.png`` and ``DIR/report.json`` (train/held-out error numbers). The CSV format and the fit are documented in
 :mod:`cdcr_gym.calibration` and ``docs/calibration.md``.
 
 ``cdcr-gym calibrate --synthetic-study --out docs/figures/calibration`` runs the
@@ -30,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["main", "build_parser", "synthetic_study", "DEFAULT_BACKEND_ARGS"]
+__all__ = ["main", "build_parser", "synthetic_study", "ablation_table", "DEFAULT_BACKEND_ARGS"]
 
 #: Backend arguments a calibration uses unless overridden with ``--backend-arg``.
 #: ``friction_slip_length`` 2 mm: with the backends' default 0.1 mm the unloading branch of a
@@ -99,25 +101,67 @@ def build_parser() -> argparse.ArgumentParser:
         description="Fit robot parameters (stiffness, friction, cable offsets, payload, base "
         "tilt) to measured tip positions; writes params.yaml, report.md and residuals.png.",
     )
-    p.add_argument("data", nargs="?", type=Path, help="measurement CSV (docs/calibration.md)")
+    p.add_argument(
+        "data",
+        nargs="?",
+        type=Path,
+        help="measurement file: this package's CSV (T/m/d columns) or the published format "
+        "(timestamp, pattern_label, servo_<id>_mm..., tip_x, tip_y, tip_z; mm) "
+        "(docs/calibration.md)",
+    )
+    p.add_argument(
+        "--format",
+        default="auto",
+        choices=("auto", "cdcr", "published"),
+        help="measurement file format (default: auto, from the header)",
+    )
+    p.add_argument(
+        "--validate",
+        type=Path,
+        metavar="VAL.csv",
+        help="held-out measurements (same format rules): replayed with the fitted model after "
+        "the fit, never fitted; their errors go into report.json/report.md",
+    )
+    p.add_argument(
+        "--linear-law",
+        action="store_true",
+        help="ablation: the drive law without slack (T = T0 + k(d - s), may go negative)",
+    )
+    p.add_argument(
+        "--stiffness-scale",
+        type=float,
+        default=1.0,
+        help="ablation: multiply every tendon stiffness (e.g. 1000: the rigid-tendon limit)",
+    )
     p.add_argument(
         "--robot",
         default="paper",
-        help="preset name (paper, tdcr2) or a params YAML file to start from (default: paper)",
+        help="preset name (paper, tdcr2, ftdcr_v4, ...) or a params YAML file to start from "
+        "(default: paper); --params is the same",
     )
+    p.add_argument("--params", dest="robot", help=argparse.SUPPRESS)
     p.add_argument(
         "--backend",
         default="analytic",
-        choices=("analytic", "bullet", "mujoco"),
-        help="model to fit: analytic (CCKA/PCC, fast, no gravity/friction) or a physics "
-        "backend replayed through the rows in order (default: analytic)",
+        choices=("analytic", "ccka", "bullet", "mujoco"),
+        help="model to fit: ccka (= analytic: CCKA/PCC, fast, no gravity/friction; tension or "
+        "displacement data) or a physics backend replayed through the rows in order "
+        "(tension data only) (default: analytic)",
     )
     p.add_argument(
         "--fit",
         default="E",
-        help="comma-separated parameters: youngs_modulus (E), cable_radius (r), cable_angle_i, "
-        "cable_angles, friction_coefficient (mu), tip_payload (payload), base_tilt_x, "
-        "base_tilt_y, tilt (default: E)",
+        help="comma-separated parameters (SI units; i = tendon 1..C, j = section 1..S): "
+        "youngs_modulus (E); cable_radius (r, all sections), cable_radius_s<j> (cable_radii); "
+        "cable_angle_<i> (cable_angles), section_angle_s<j> (section_angles); length_s<j> "
+        "(lengths); base_x, base_y, base_z (base_translation), base_tilt_x, base_tilt_y "
+        "(tilt), base_yaw (base_rotation = tilt + yaw; base_frame = translation + rotation); "
+        "marker_offset (marker, along the tip tangent); tendon_stiffness (k), "
+        "tendon_stiffness_s<j> (k_sections), tendon_stiffness_<i> (k_tendons); "
+        "tendon_pretension (T0), tendon_pretension_s<j> (T0_sections), tendon_pretension_<i> "
+        "(T0_tendons); physics only: friction_coefficient (mu), tip_payload (payload). "
+        "Ill-posed pairs are pinned and reported: base_yaw with every tendon angle free pins "
+        "the first angle; E with every k and T0 free pins E (default: E)",
     )
     p.add_argument("--out", type=Path, help="output directory (created; must be writable)")
     p.add_argument(
@@ -133,7 +177,8 @@ def build_parser() -> argparse.ArgumentParser:
         action="append",
         default=[],
         metavar="NAME=VALUE",
-        help="start value of a fitted parameter in SI units, repeatable",
+        help="start value of a fitted parameter in SI units (the names and aliases of --fit; "
+        "an alias sets every parameter it covers), repeatable",
     )
     p.add_argument("--ramp-steps", type=int, default=25, help="physics replay: ramp steps per row")
     p.add_argument(
@@ -143,6 +188,13 @@ def build_parser() -> argparse.ArgumentParser:
         "--max-evals", type=int, default=None, help="limit on least_squares steps (nfev)"
     )
     p.add_argument("--quiet", action="store_true", help="no per-evaluation progress")
+    p.add_argument(
+        "--ablation-table",
+        type=Path,
+        metavar="DIR",
+        help="collect DIR/params.yaml and DIR/ablation/*/params.yaml into DIR/ablation.md and "
+        "DIR/ablation.json (held-out errors of each variant) instead of fitting",
+    )
     p.add_argument(
         "--synthetic-study",
         action="store_true",
@@ -185,6 +237,12 @@ def main(argv: list[str] | None = None) -> int:
     command = "cdcr-gym calibrate " + " ".join(
         shlex.quote(a) for a in (sys.argv[1:] if argv is None else argv)
     )
+    if args.ablation_table is not None:
+        try:
+            ablation_table(args.ablation_table)
+        except ValueError as exc:
+            parser.error(str(exc))
+        return 0
     if args.out is None:
         parser.error("--out DIR is required")
     try:
@@ -197,12 +255,17 @@ def main(argv: list[str] | None = None) -> int:
     if args.data is None:
         parser.error("DATA.csv is required (or --synthetic-study)")
     from cdcr_gym.calibration import calibrate, read_csv, write_outputs
+    from cdcr_gym.calibration.drive import TendonDrive
 
     try:
-        data = read_csv(args.data)
         robot = _robot(args.robot)
+        drive = TendonDrive.of(robot)
+        data = read_csv(args.data, args.format, robot, drive)
+        validate = read_csv(args.validate, args.format, robot, drive) if args.validate else None
         kwargs = _backend_args(args.backend_arg, args.backend)
         start = _start(args.start)
+        if not (math.isfinite(args.stiffness_scale) and args.stiffness_scale > 0):
+            raise ValueError(f"--stiffness-scale must be > 0, got {args.stiffness_scale!r}")
         result = calibrate(
             data,
             robot,
@@ -214,6 +277,10 @@ def main(argv: list[str] | None = None) -> int:
             settle_steps=args.settle_steps,
             max_nfev=args.max_evals,
             progress=None if args.quiet else print,
+            drive=drive,
+            validate=validate,
+            slack=not args.linear_law,
+            stiffness_scale=args.stiffness_scale,
         )
     except ValueError as exc:
         parser.error(str(exc))
@@ -233,6 +300,72 @@ def _print_summary(result) -> None:
         print(f"{n:>22s} = {result.values[n] * f:.6g} {ci_text} {unit}")
     e0, e1 = result.errors_before * 1e3, result.errors_after * 1e3
     print(f"median tip error: {np.median(e0):.3f} mm -> {np.median(e1):.4f} mm")
+    from cdcr_gym.calibration.report import report_json
+
+    doc = report_json(result)
+    print(f"train: {doc['train']}")
+    if doc["validation"] is not None:
+        print(f"validation: {doc['validation']}")
+    for note in result.notes:
+        print(f"note: {note}")
+
+
+#: What each ablation variant changes (ablation_table).
+ABLATIONS = {
+    ".": "full model: compliant one-sided tendons, base frame fitted",
+    "rigid_tendons": "rigid tendons (k x 1000 of nominal, not fitted)",
+    "no_slack": "no slack: the linear law T = T0 + k(d - s)",
+    "no_base_frame": "no base-frame fit (robot base = measurement frame)",
+}
+
+
+def ablation_table(folder: Path) -> dict[str, Any]:
+    """Collect the held-out errors of ``folder/params.yaml`` and ``folder/ablation/<name>/``
+    into ``ablation.json`` and ``ablation.md`` in ``folder``; returns the rows."""
+    from cdcr_gym.model.params_yaml import load_yaml
+
+    folder = Path(folder)
+    rows: dict[str, Any] = {}
+    for name in ABLATIONS:
+        path = folder / ("" if name == "." else f"ablation/{name}") / "params.yaml"
+        if not path.is_file():
+            continue
+        cal = load_yaml(path)["calibration"]
+        val = cal.get("validation")
+        if val is None:
+            raise ValueError(f"{path} has no validation record (run with --validate)")
+        length = sum(s["length"] for s in load_yaml(path)["robot"]["sections"])
+        rows["full" if name == "." else name] = {
+            "what": ABLATIONS[name],
+            "fitted": len(cal["fitted"]),
+            "rmse_aligned_mm": val["rmse_aligned_mm"],
+            "rmse_aligned_xyz_mm": val["rmse_aligned_xyz_mm"],
+            "mean_mm": val["mean_mm"],
+            "percent_of_length": 100.0 * val["mean_mm"] * 1e-3 / length,
+            "command": cal.get("command", ""),
+        }
+    if not rows:
+        raise ValueError(f"--ablation-table: no params.yaml under {str(folder)!r}")
+    (folder / "ablation.json").write_text(json.dumps(rows, indent=1) + "\n")
+    lines = [
+        "# CCKA ablation on the held-out rows",
+        "",
+        "Aligned RMSE: Euclidean tip RMSE after removing the mean offset over the held-out set "
+        "(mm); X / Y / Z its components; % of length: the plain mean error over the robot's "
+        "length.",
+        "",
+        "| variant | fitted parameters | aligned RMSE | X / Y / Z | mean | % of length |",
+        "|---|---|---|---|---|---|",
+    ]
+    for r in rows.values():
+        xyz = " / ".join(f"{v:.2f}" for v in r["rmse_aligned_xyz_mm"])
+        lines.append(
+            f"| {r['what']} | {r['fitted']} | {r['rmse_aligned_mm']:.2f} | {xyz} | "
+            f"{r['mean_mm']:.2f} | {r['percent_of_length']:.2f} |"
+        )
+    lines += ["", "Commands:", ""] + [f"- `{r['command']}`" for r in rows.values()]
+    (folder / "ablation.md").write_text("\n".join(lines) + "\n")
+    return rows
 
 
 # -- the validation study ---------------------------------------------------------------------------
