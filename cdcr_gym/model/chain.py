@@ -338,18 +338,27 @@ class PCCModel:
 
 def _arc_profile(wx, wy):
     """(f, g, h) = ((1 − cos θ)/θ², sin θ/θ, cos θ) of the bending components (wx, wy) (arrays),
-    θ = |w|: exact and finite at θ = 0, from q = sin(θ/2)/(θ/2) (no cancellation:
-    f = q²/2, g = q·cos(θ/2); sin(1e-300)/1e-300 == 1.0). Ten ufunc calls, whatever the batch."""
-    theta = np.hypot(wx, wy)
-    x = theta * 0.5
+    θ = |w|: exact and finite at θ = 0, from tan(θ/4) (no cancellation; tan(1e-300)/1e-300 ==
+    1.0). Two transcendental functions (sqrt, tan); in place where the value is fresh."""
+    th2 = wx * wx
+    th2 += wy * wy
+    x = np.sqrt(th2)
+    x *= 0.25  # θ/4
     safe = x + 1e-300  # == x unless x < 1e-284
-    q = np.sin(safe)
-    q /= safe
-    g = np.cos(x)
-    g *= q
-    f = q * q
-    f *= 0.5
-    return f, g, np.cos(theta)
+    p = np.tan(safe)
+    p /= safe  # tan(θ/4)/(θ/4)
+    t = p * x
+    t *= t  # tan²(θ/4)
+    den = t + 1.0
+    p /= den  # sin(θ/2)/(θ/2)
+    g = 1.0 - t
+    g *= p
+    g /= den  # sin θ/θ = q·cos(θ/2)
+    f = p * p
+    f *= 0.5  # (1 − cos θ)/θ² = q²/2
+    h = f * th2
+    np.subtract(1.0, h, out=h)
+    return f, g, h
 
 
 def _rotate(wx, wy, f, g, h, v0, v1, v2):
