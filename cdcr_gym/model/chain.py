@@ -106,7 +106,8 @@ class PCCModel:
         self._lengths_map = self.bending_to_lengths.T  # (C, 2S) of forward_rows
         self._bending_rows = self.tension_to_bending.T  # (2S, C) of bending_rows_from_tensions
         self._straight_column = self.straight_lengths[:, None]
-        self._section_length_list = self.section_lengths.tolist()
+        #: Section lengths (m) as 0-d arrays (the kernel's operands, see ``_ONE``).
+        self._section_length_list = [np.array(x) for x in self.section_lengths.tolist()]
         self._tiled: dict[int, np.ndarray] = {}
         self.disk_fractions = tuple(
             np.arange(1, s.n_disks + 1, dtype=np.float64) / s.n_disks for s in params.sections
@@ -336,29 +337,26 @@ class PCCModel:
         return self._stations(w, self.disk_fractions)
 
 
+# Constants of the kernels as 0-d float64 arrays: the same values and bits as Python floats,
+# and cheaper operands for numpy on small arrays (no Python-scalar conversion per operation).
+_ONE, _HALF, _QUARTER, _TINY = (np.array(c) for c in (1.0, 0.5, 0.25, 1e-300))
+
+
 def _arc_profile(wx, wy):
-    """(f, g, h) = ((1 − cos θ)/θ², sin θ/θ, cos θ) of the bending components (wx, wy) (arrays),
-    θ = |w|: exact and finite at θ = 0, from tan(θ/4) (no cancellation; tan(1e-300)/1e-300 ==
-    1.0). Two transcendental functions (sqrt, tan); in place where the value is fresh."""
-    th2 = wx * wx
-    th2 += wy * wy
-    x = np.sqrt(th2)
-    x *= 0.25  # θ/4
-    safe = x + 1e-300  # == x unless x < 1e-284
-    p = np.tan(safe)
-    p /= safe  # tan(θ/4)/(θ/4)
+    """(f, g, h) = ((1 − cos θ)/θ², sin θ/θ, cos θ) of the bending components (wx, wy) (float64
+    arrays), θ = |w|: exact and finite at θ = 0, from tan(θ/4) (no cancellation;
+    tan(1e-300)/1e-300 == 1.0). Two transcendental functions (sqrt, tan)."""
+    th2 = wx * wx + wy * wy
+    x = np.sqrt(th2) * _QUARTER  # θ/4
+    safe = x + _TINY  # == x unless x < 1e-284
+    p = np.tan(safe) / safe  # tan(θ/4)/(θ/4)
     t = p * x
-    t *= t  # tan²(θ/4)
-    den = t + 1.0
-    p /= den  # sin(θ/2)/(θ/2)
-    g = 1.0 - t
-    g *= p
-    g /= den  # sin θ/θ = q·cos(θ/2)
-    f = p * p
-    f *= 0.5  # (1 − cos θ)/θ² = q²/2
-    h = f * th2
-    np.subtract(1.0, h, out=h)
-    return f, g, h
+    t = t * t  # tan²(θ/4)
+    den = t + _ONE
+    p = p / den  # sin(θ/2)/(θ/2)
+    g = (_ONE - t) * p / den  # sin θ/θ = q·cos(θ/2)
+    f = p * p * _HALF  # (1 − cos θ)/θ² = q²/2
+    return f, g, _ONE - f * th2
 
 
 def _rotate(wx, wy, f, g, h, v0, v1, v2):
@@ -369,7 +367,7 @@ def _rotate(wx, wy, f, g, h, v0, v1, v2):
     return v0 * h + wx * gv3 - wy * fd, v1 * h + wy * gv3 + wx * fd, v2 * h - g * c
 
 
-def _tip_and_direction(w: np.ndarray, ell: list[float], out: np.ndarray) -> np.ndarray:
+def _tip_and_direction(w: np.ndarray, ell: list[np.ndarray], out: np.ndarray) -> np.ndarray:
     """Tip (m) and unit tip tangent of the bending components ``w`` (S, 2, *batch) (rad) of S
     sections of lengths ``ell`` (m), composed from the distal section to the base, written into
     ``out`` (6, *batch): rows tip x, y, z, then tangent x, y, z. Returns ``out``."""
