@@ -25,6 +25,10 @@ __all__ = [
 ]
 
 
+# 0-d float64 arrays: cheaper numpy operands than Python floats on small arrays (same bits)
+_MINUS_ONE, _PLUS_ONE = np.array(-1.0), np.array(1.0)
+
+
 def real_array(
     value: Any, name: str, shape: tuple[int, ...] | None = None, *, allow_bool: bool = True
 ) -> np.ndarray:
@@ -98,10 +102,7 @@ def clipped_action(action: Any, shape: tuple[int, ...]) -> np.ndarray:
     Raises:
         ValueError: naming ``action``.
     """
-    arr = action_array(action, shape)
-    np.maximum(arr, -1.0, out=arr)
-    np.minimum(arr, 1.0, out=arr)
-    return arr
+    return np.minimum(np.maximum(action_array(action, shape), _MINUS_ONE), _PLUS_ONE)
 
 
 def positive(

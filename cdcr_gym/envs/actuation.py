@@ -52,23 +52,24 @@ class Actuation:
         self.length_step = validation.positive(length_step, "length_step", upper=params.length)
         self.params = params
         self.max_tension = float(params.max_tension)
-        self._tension_increment = self.tension_step * self.max_tension
+        # 0-d float64 arrays: the same bits as Python floats, cheaper numpy operands
+        self._tension_increment = np.array(self.tension_step * self.max_tension)
+        self._half_max = np.array(self.max_tension * 0.5)
+        self._zero, self._one, self._max = np.array(0.0), np.array(1.0), np.array(self.max_tension)
         self._model = PCCModel(params)
         #: Whether the commands are cable lengths (else tensions).
         self.commands_lengths = self.mode == "length_delta"
 
     def tensions(self, action: np.ndarray, held: np.ndarray) -> np.ndarray:
         """Tensions (N, C) N commanded by clipped ``action`` (N, C) given the ``held`` ones."""
-        t_max = self.max_tension
         if self.mode == "tension":
-            return t_max * 0.5 * (action + 1.0)
+            return self._half_max * (action + self._one)
         t = held + action * self._tension_increment
         if t.size > 64:
-            np.clip(t, 0.0, t_max, out=t)  # one pass instead of two
-        else:  # np.clip's Python wrapper costs more than two ufunc calls on a few numbers
-            np.maximum(t, 0.0, out=t)
-            np.minimum(t, t_max, out=t)
-        return t
+            np.clip(t, 0.0, self.max_tension, out=t)  # one pass instead of two
+            return t
+        # np.clip's Python wrapper costs more than two ufunc calls on a few numbers
+        return np.minimum(np.maximum(t, self._zero), self._max)
 
     def lengths(self, action: np.ndarray, held: np.ndarray) -> np.ndarray:
         """Cable lengths (N, C) m after clipped ``action`` (N, C) from the ``held`` lengths."""

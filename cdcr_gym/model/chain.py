@@ -106,7 +106,8 @@ class PCCModel:
         self._lengths_map = self.bending_to_lengths.T  # (C, 2S) of forward_rows
         self._bending_rows = self.tension_to_bending.T  # (2S, C) of bending_rows_from_tensions
         self._straight_column = self.straight_lengths[:, None]
-        self._section_length_list = self.section_lengths.tolist()
+        #: Section lengths (m) as 0-d arrays (the kernel's operands, see ``_ONE``).
+        self._section_length_list = [np.array(x) for x in self.section_lengths.tolist()]
         self._tiled: dict[int, np.ndarray] = {}
         self.disk_fractions = tuple(
             np.arange(1, s.n_disks + 1, dtype=np.float64) / s.n_disks for s in params.sections
@@ -204,44 +205,33 @@ class PCCModel:
         return bending_from_arc(as_finite("theta", theta), as_finite("phi", phi))
 
     # -- forward kinematics ----------------------------------------------------------------------
-    # One kernel (:func:`_tip_and_direction`) serves every caller: plain arithmetic on numpy
-    # arrays of the batch shape (one per bending component).
-    def _components(self, w) -> tuple[list[np.ndarray], tuple[int, ...]]:
-        """The bending components (wx_0, wy_0, wx_1, …) of w (..., S, 2) as 2S arrays of the
-        batch shape (views), and the batch shape."""
+    # One kernel (:func:`_tip_and_direction`) serves every caller: numpy arithmetic on the
+    # bending components stacked section-major, (S, 2, *batch), written into one (6, *batch)
+    # array (tip, then direction).
+    def _kinematics(self, w) -> tuple[np.ndarray, np.ndarray]:
+        """Tip (..., 3) m and unit tip tangent (..., 3) of w (..., S, 2) (rad)."""
         w = _finite("w", w)
         S = self.n_sections
         if w.shape[-2:] != (S, 2):
             raise ValueError(f"w must have shape (..., {S}, 2), got {w.shape}")
-        return [w[..., j, k] for j in range(S) for k in (0, 1)], w.shape[:-2]
-
-    def _kinematics(self, comp) -> tuple[tuple, tuple]:
-        """(tip (x, y, z) m, unit tip tangent (x, y, z)) of the bending components ``comp``
-        (2S arrays of one shape), each a 3-tuple of arrays."""
-        return _tip_and_direction(comp, self._section_length_list, np.sqrt, np.tan)
+        batch = w.shape[:-2]
+        out = _tip_and_direction(
+            np.moveaxis(w, (-2, -1), (0, 1)), self._section_length_list, np.empty((6,) + batch)
+        )
+        both = np.moveaxis(out, 0, -1)
+        return both[..., :3], both[..., 3:]
 
     def tip_from_bending(self, w) -> np.ndarray:
         """Tip position (..., 3) (m) in R0 of the shape w (..., S, 2) (rad)."""
-        comp, batch = self._components(w)
-        return np.stack(np.broadcast_arrays(*self._kinematics(comp)[0]), axis=-1).reshape(
-            batch + (3,)
-        )
+        return self._kinematics(w)[0]
 
     def tip_direction_from_bending(self, w) -> np.ndarray:
         """Unit backbone tangent at the tip, (..., 3), in R0 (the tip frame's z axis)."""
-        comp, batch = self._components(w)
-        return np.stack(np.broadcast_arrays(*self._kinematics(comp)[1]), axis=-1).reshape(
-            batch + (3,)
-        )
+        return self._kinematics(w)[1]
 
     def tip_and_direction_from_bending(self, w) -> tuple[np.ndarray, np.ndarray]:
         """``(tip_from_bending(w), tip_direction_from_bending(w))``, computed together."""
-        comp, batch = self._components(w)
-        tip, direction = self._kinematics(comp)
-        return (
-            np.stack(np.broadcast_arrays(*tip), axis=-1).reshape(batch + (3,)),
-            np.stack(np.broadcast_arrays(*direction), axis=-1).reshape(batch + (3,)),
-        )
+        return self._kinematics(w)
 
     # -- the same, field-major: the backend's hot path -------------------------------------------
     def bending_rows_from_tensions(self, tensions: np.ndarray) -> np.ndarray:
@@ -258,10 +248,12 @@ class PCCModel:
         arrays (Fortran-ordered views).
         """
         m = comp.shape[1]
-        tip, direction = self._kinematics(comp)
+        both = _tip_and_direction(
+            comp.reshape(self.n_sections, 2, m), self._section_length_list, np.empty((6, m))
+        )
         lengths = self._lengths_map @ comp
         lengths += self._straight_column
-        return np.array(tip).reshape(3, m), np.array(direction).reshape(3, m), lengths
+        return both[:3], both[3:], lengths
 
     def section_frames(self, w) -> np.ndarray:
         """Homogeneous frames (..., S+1, 4, 4) in R0: the base frame, then every section's end.
@@ -345,20 +337,26 @@ class PCCModel:
         return self._stations(w, self.disk_fractions)
 
 
-def _arc_profile(wx, wy, sqrt, tan):
-    """(f, g, h) = ((1 − cos θ)/θ², sin θ/θ, cos θ) of the bending components (wx, wy), θ = |w|:
-    exact and finite at θ = 0, from tan(θ/4) (no cancellation; tan(1e-300)/1e-300 == 1.0)."""
+# Constants of the kernels as 0-d float64 arrays: the same values and bits as Python floats,
+# and cheaper operands for numpy on small arrays (no Python-scalar conversion per operation).
+_ONE, _HALF, _QUARTER, _TINY = (np.array(c) for c in (1.0, 0.5, 0.25, 1e-300))
+
+
+def _arc_profile(wx, wy):
+    """(f, g, h) = ((1 − cos θ)/θ², sin θ/θ, cos θ) of the bending components (wx, wy) (float64
+    arrays), θ = |w|: exact and finite at θ = 0, from tan(θ/4) (no cancellation;
+    tan(1e-300)/1e-300 == 1.0). Two transcendental functions (sqrt, tan)."""
     th2 = wx * wx + wy * wy
-    x = sqrt(th2) * 0.25  # θ/4
-    safe = x + 1e-300  # == x unless x < 1e-284
-    p = tan(safe) / safe  # tan(θ/4)/(θ/4)
+    x = np.sqrt(th2) * _QUARTER  # θ/4
+    safe = x + _TINY  # == x unless x < 1e-284
+    p = np.tan(safe) / safe  # tan(θ/4)/(θ/4)
     t = p * x
     t = t * t  # tan²(θ/4)
-    den = t + 1.0
+    den = t + _ONE
     p = p / den  # sin(θ/2)/(θ/2)
-    g = (1.0 - t) * p / den  # sin θ/θ = q·cos(θ/2)
-    f = p * p * 0.5  # (1 − cos θ)/θ² = q²/2
-    return f, g, 1.0 - f * th2
+    g = (_ONE - t) * p / den  # sin θ/θ = q·cos(θ/2)
+    f = p * p * _HALF  # (1 − cos θ)/θ² = q²/2
+    return f, g, _ONE - f * th2
 
 
 def _rotate(wx, wy, f, g, h, v0, v1, v2):
@@ -369,23 +367,26 @@ def _rotate(wx, wy, f, g, h, v0, v1, v2):
     return v0 * h + wx * gv3 - wy * fd, v1 * h + wy * gv3 + wx * fd, v2 * h - g * c
 
 
-def _tip_and_direction(comp, ell, sqrt, tan):
-    """Tip (m) and unit tip tangent of the components ``comp`` = (wx_0, wy_0, wx_1, …) of S
-    sections of lengths ``ell`` (m), composed from the distal section to the base; numbers or
-    arrays alike (``sqrt``/``tan`` of their kind)."""
-    sections = []
-    for j in range(len(ell)):
-        wx, wy = comp[2 * j], comp[2 * j + 1]
-        sections.append((wx, wy) + _arc_profile(wx, wy, sqrt, tan))
+def _tip_and_direction(w: np.ndarray, ell: list[np.ndarray], out: np.ndarray) -> np.ndarray:
+    """Tip (m) and unit tip tangent of the bending components ``w`` (S, 2, *batch) (rad) of S
+    sections of lengths ``ell`` (m), composed from the distal section to the base, written into
+    ``out`` (6, *batch): rows tip x, y, z, then tangent x, y, z. Returns ``out``."""
+    f, g, h = _arc_profile(w[:, 0], w[:, 1])  # each (S, *batch)
     last = len(ell) - 1
-    wx, wy, f, g, h = sections[last]
-    p0, p1, p2 = f * wx * ell[last], f * wy * ell[last], g * ell[last]
-    d0, d1, d2 = g * wx, g * wy, h
+    wl = w[last]
+    np.multiply(wl, f[last] * ell[last], out=out[0:2])
+    np.multiply(g[last], ell[last], out=out[2:3])  # (slices: also for a 0-d batch)
+    np.multiply(wl, g[last], out=out[3:5])
+    out[5:6] = h[last]
+    if last == 0:
+        return out
+    p0, p1, p2, d0, d1, d2 = out
     for j in range(last - 1, -1, -1):
-        wx, wy, f, g, h = sections[j]
-        p0, p1, p2 = _rotate(wx, wy, f, g, h, p0, p1, p2)
-        p0 = p0 + f * wx * ell[j]
-        p1 = p1 + f * wy * ell[j]
-        p2 = p2 + g * ell[j]
-        d0, d1, d2 = _rotate(wx, wy, f, g, h, d0, d1, d2)
-    return (p0, p1, p2), (d0, d1, d2)
+        wx, wy, fj, gj, hj = w[j, 0], w[j, 1], f[j], g[j], h[j]
+        p0, p1, p2 = _rotate(wx, wy, fj, gj, hj, p0, p1, p2)
+        p0 = p0 + fj * wx * ell[j]
+        p1 = p1 + fj * wy * ell[j]
+        p2 = p2 + gj * ell[j]
+        d0, d1, d2 = _rotate(wx, wy, fj, gj, hj, d0, d1, d2)
+    out[0], out[1], out[2], out[3], out[4], out[5] = p0, p1, p2, d0, d1, d2
+    return out

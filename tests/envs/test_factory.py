@@ -67,3 +67,41 @@ def test_the_robot_is_a_preset_or_params_never_both():
 def test_make_env_closes_the_backend_when_the_env_refuses_its_arguments():
     with pytest.raises(ValueError, match="initial_state"):
         factory.make_env("CCKA", "Reach", initial_state="bent")
+
+
+def test_the_env_arguments_are_the_core_options_and_the_rendering_ones():
+    """One signature: CDCREnv shows EnvCore's options (and its rendering arguments); the
+    factory routes exactly those to the env."""
+    import inspect
+
+    from cdcr_gym.envs.core import EnvCore
+    from cdcr_gym.envs.env import RENDER_KEYS, CDCREnv
+
+    core = inspect.signature(EnvCore.__init__).parameters
+    options = {n for n, p in core.items() if p.kind is p.KEYWORD_ONLY} - {"goal_conditioned"}
+    shown = inspect.signature(CDCREnv.__init__).parameters
+    assert set(shown) == {"self", "backend", "task"} | options | set(RENDER_KEYS)
+    assert set(factory.env_keywords()) == options | set(RENDER_KEYS)
+    for name in options:
+        assert shown[name].default == core[name].default, name
+
+
+def test_make_and_make_vec_assemble_the_same_env():
+    import gymnasium as gym
+
+    kwargs = dict(robot="tdcr2", action_mode="tension", distance_threshold=0.01)
+    single = gym.make("cdcr_gym/CCKAReach-v0", **kwargs).unwrapped
+    batched = gym.make_vec(
+        "cdcr_gym/CCKAReach-v0", num_envs=2, vectorization_mode="vector_entry_point", **kwargs
+    )
+    for env in (single, batched):
+        assert env.params == RobotParams.preset("tdcr2")
+        assert env.action_mode == "tension" and env.task.distance_threshold == 0.01
+        assert env.initial_state == "straight" and env.tension_step == 0.05
+    assert batched.core.num_envs == 2 and single.core.num_envs == 1
+    with pytest.raises(ValueError, match="accepted"):
+        gym.make_vec(
+            "cdcr_gym/CCKAReach-v0", num_envs=2, vectorization_mode="vector_entry_point", gravty=1
+        )
+    with pytest.raises(ValueError, match="holds one robot"):
+        factory.assemble("Bullet", "Reach", {}, num_robots=2)

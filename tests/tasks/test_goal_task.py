@@ -96,3 +96,16 @@ def test_a_pickled_env_keeps_its_goal_and_goal_rows_linked(env_id):
     a = env.action_space.sample()
     np.testing.assert_array_equal(env.step(a)[0], copy.step(a)[0])
     np.testing.assert_array_equal(copy.task.goal, copy.task.goal_rows.T)
+
+
+@pytest.mark.parametrize("task", [Reach, Pose, Track, Obstacle])
+def test_every_goal_task_takes_its_defaults_from_one_place(task):
+    import inspect
+
+    from cdcr_gym import defaults
+
+    params = inspect.signature(task.__init__).parameters
+    assert params["distance_threshold"].default == defaults.DISTANCE_THRESHOLD
+    if "reward_type" in params:
+        assert params["reward_type"].default == defaults.REWARD_TYPE
+    assert task().distance_threshold == defaults.DISTANCE_THRESHOLD
