@@ -43,6 +43,10 @@ __all__ = ["MuJoCoBackend", "SimulationDivergedError", "INTEGRATORS"]
 
 #: MuJoCo's warning of a non-finite acceleration (it then resets the data silently).
 _BADQACC = 5  # mujoco.mjtWarning.mjWARN_BADQACC (a test checks the value)
+#: Impedance (dmin, dmax, width m, midpoint, power) of the robot–sphere contacts (solid
+#: spheres): MuJoCo's default (0.9, 0.95, …) lets 5–10 % of the robot's drive through a contact
+#: (a cable at max_tension rests ~2 cm inside a sphere); 0.99–0.999 keeps it under ~1 mm.
+CONTACT_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
 #: MuJoCo integrators accepted by ``integrator``.
 INTEGRATORS = ("Euler", "implicitfast", "implicit", "RK4")
 
@@ -98,6 +102,11 @@ class MuJoCoBackend(ObstacleScene, Backend):
         solid_obstacles: (default ``False``) whether the spheres placed by
             :meth:`set_obstacles` push the robot back (MuJoCo contacts as constraints); with
             ``False`` they are detected (:attr:`obstacle_clearance`) but exert no force.
+            Needs ``integrator="Euler"``. A contact acts from the step after the robot touches
+            a sphere: a robot moving fast (up to ~0.1 m per 0.02 s step under bang-bang
+            tensions) can sink a few centimetres into it within one step, and is then pushed
+            out over the next steps (time constant 2h); a robot held against a sphere rests
+            within ~1 mm of its surface (``CONTACT_SOLIMP``).
 
     Raises:
         ValueError: naming the argument and the value, for any invalid argument.
@@ -166,6 +175,13 @@ class MuJoCoBackend(ObstacleScene, Backend):
             threads = validation.integer(threads, "threads", 1)
         self.threads = threads
         self.solid_obstacles = validation.flag(solid_obstacles, "solid_obstacles")
+        if self.solid_obstacles and self.integrator != "Euler":
+            # the contacts' inertia is set for Euler's step (_set_contact_inertia); with the
+            # implicit integrators a fast robot sinks into a sphere and is thrown out of it
+            raise ValueError(
+                f"solid_obstacles=True needs integrator='Euler', got integrator="
+                f"{self.integrator!r} (its contacts are not stable with this robot's damping)"
+            )
         self.n_obstacles = 0
         check_span_buckling(params, self.links_per_span)
         self._base_rot = quat_to_matrix(np.asarray(self.base_orientation))
@@ -226,6 +242,10 @@ class MuJoCoBackend(ObstacleScene, Backend):
         )
         self.damping_time = 2.0 * self.damping_ratio / self.first_mode_frequency
         model.dof_damping[:] = self.damping_time * self._stiffness
+        self._contacts_active = obstacles > 0 and self.solid_obstacles
+        if self._contacts_active:
+            model.geom_solimp[:] = CONTACT_SOLIMP
+        self._set_contact_inertia(model)
         self.model = model
         bare = DiscreteBackbone(p, self.links_per_span)
         self._bare_tip = (
@@ -250,6 +270,11 @@ class MuJoCoBackend(ObstacleScene, Backend):
             [[name(model, site, s) for s in row] for row in self.mjcf.pinhole_sites]
         )
         c = p.n_cables
+        #: L_i (C,) m and π r_i m_i (C,) m: no shape changes cable i's length by more.
+        self._run_lengths = np.asarray(p.cable_run_lengths, dtype=float)
+        self._length_reach = (
+            math.pi * np.asarray(p.cable_radii) * (np.asarray(p.cable_section) + 1) * (1 + 1e-9)
+        )
         self._cable_ids = np.array([name(model, tendon, f"cable{i}") for i in range(c)])
         self._n_pull = c
         chain = self.mjcf.chain
@@ -577,13 +602,17 @@ class MuJoCoBackend(ObstacleScene, Backend):
     def _check_state(self, i: int) -> None:
         """Raise :class:`SimulationDivergedError` if robot i's state is non-finite, a joint is
         bent beyond ``MAX_JOINT_ANGLE``, the joint-rate vector is longer than
-        ``MAX_JOINT_RATE``, or MuJoCo reported a bad acceleration (it then resets the data)."""
+        ``MAX_JOINT_RATE``, a cable's length is beyond every shape's (a section bent past 180°:
+        |l_i − L_i| > π r_i m_i, the observation's bound), or MuJoCo reported a bad
+        acceleration (it then resets the data)."""
         qpos, qvel, warning = self._views[i][:3]
         rate2 = qvel.dot(qvel)  # NaN fails the comparisons below
+        lengths = self._views[i][5][self._cable_ids]
         if (
             warning.number > 0
             or not rate2 <= MAX_JOINT_RATE * MAX_JOINT_RATE
             or not self._max_joint_angle(qpos) <= MAX_JOINT_ANGLE
+            or not np.all(np.abs(lengths - self._run_lengths) <= self._length_reach)
         ):
             data = self._datas[i]
             raise self._diverged(
@@ -711,9 +740,25 @@ class MuJoCoBackend(ObstacleScene, Backend):
         mj.mj_forward(model, data)
         mass = np.zeros((model.nv, model.nv))
         mj.mj_fullM(model, data, mass)
+        mass[np.diag_indices(model.nv)] -= model.dof_armature  # the links' own inertia
         k = model.jnt_stiffness[model.dof_jntid]
         first, _ = bending_modes(mass, k)
         model.dof_damping[:] = 2.0 * self.damping_ratio / first * k
+        self._set_contact_inertia(model)
+
+    def _set_contact_inertia(self, model: Any) -> None:
+        """With solid spheres (contacts in MuJoCo's constraint solver) and the Euler integrator:
+        the damping's implicit term h·D moved from Euler's damping step into the mass matrix
+        (``dof_armature`` = h·D, Euler's implicit damping off). The step is the same,
+        (M + h·D)·Δq̇ = h·f, but the constraint solver then sees the inertia the step has: the
+        joints' damping is ~10³ times M/h, and a solver working with M alone computes contact
+        forces for a robot 10³ times lighter than the step moves, which let a fast robot sink
+        centimetres into a sphere and then threw it out at tens of rad/s. No change without
+        solid spheres or with another integrator."""
+        if not (self._contacts_active and self.integrator == "Euler"):
+            return
+        model.dof_armature[:] = model.opt.timestep * model.dof_damping
+        model.opt.disableflags |= self._mj.mjtDisableBit.mjDSBL_EULERDAMP
 
     def _set_payload(self, model: Any, payload: float) -> None:
         """The tip link's mass, COM and inertia with ``payload`` kg at the tip disk centre."""
@@ -746,6 +791,7 @@ class MuJoCoBackend(ObstacleScene, Backend):
                 model = self._own_model(i)
                 model.jnt_stiffness[:] = old_model.jnt_stiffness
                 model.dof_damping[:] = old_model.dof_damping
+                self._set_contact_inertia(model)
                 model.opt.gravity[:] = old_model.opt.gravity
                 for field in ("body_mass", "body_ipos", "body_inertia"):
                     getattr(model, field)[tip] = getattr(old_model, field)[tip]
