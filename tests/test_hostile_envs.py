@@ -110,3 +110,202 @@ def test_a_section_bent_past_180_degrees_is_a_divergence():
     with pytest.raises(SimulationDivergedError):
         b._check_state(0)
     b.close()
+
+
+# -- 2. a refused reset changes nothing ---------------------------------------------------------
+def _record(env, actions):
+    """Observation, reward and every info entry over ``actions``, then a reset without a seed
+    (which draws from the generator): all bit for bit comparable."""
+    out = []
+    for a in actions:
+        obs, reward, terminated, truncated, info = env.step(a)
+        out.append((obs, reward, terminated, info))
+    out.append(env.reset())
+    return out
+
+
+def _assert_identical(a, b):
+    if isinstance(a, dict):
+        assert sorted(a) == sorted(b)
+        for k in a:
+            _assert_identical(a[k], b[k])
+    elif isinstance(a, (tuple, list)):
+        assert len(a) == len(b)
+        for x, y in zip(a, b):
+            _assert_identical(x, y)
+    else:
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b), strict=True)
+
+
+_REACH_BAD = [
+    {"initial_tensions": [-1.0, 0.0, 0.0]},
+    {"initial_tensions": [0.0, 0.0]},
+    {"initial_tensions": [np.nan, 0.0, 0.0]},
+    {"goal": [0.1, 0.0]},
+    {"goal": [np.inf, 0.0, 0.5]},
+    {"goal": [1e10, 0.0, 0.0]},
+    {"goal": [0.1, 0.0, 0.5], "initial_tensions": [0.0, 0.0, 999.0]},
+    {"initial_tensions": [1.0, 0.0, 0.0], "goal": "far"},
+    {"goal": [0.1, 0.0, 0.5], "unknown": 1},
+    "not a dict",
+]
+
+
+@pytest.mark.parametrize("backend", ["CCKA", "MuJoCo"])
+@pytest.mark.parametrize(
+    ("task", "bad"),
+    [("Reach", b) for b in _REACH_BAD]
+    + [
+        ("Pose", {"goal": [0.1, 0.0, 0.5, 0.0, 0.0, 1.0, 0.0]}),
+        ("Pose", {"goal": [0.1, 0.0, 0.5, 0.0, 0.0, 0.0]}),
+        ("Obstacle", {"goal": [0.1, 0.0, 0.5]}),
+        ("Obstacle", {"initial_tensions": [0.0, -1.0, 0.0]}),
+        ("Track", {"goal": [0.1, 0.0, 0.5]}),
+    ],
+)
+def test_a_refused_reset_leaves_the_env_as_it_was(backend, task, bad):
+    """Two envs seeded and stepped alike; one is given a reset that raises (with and without
+    a seed). Afterwards both step and reset (drawing from their generators) bit for bit alike:
+    the refused reset drew no randomised parameter, moved no generator, changed no state."""
+    env_id = f"cdcr_gym/{backend}{task}-v0"
+    e0 = gym.make(env_id).unwrapped.params.youngs_modulus
+    kw = dict(
+        randomize={"youngs_modulus": [e0, 1.5 * e0]},
+        imperfections={"tip_bias": 0.001, "tip_noise": 0.001},
+    )
+    envs = [gym.make(env_id, **kw) for _ in range(2)]
+    rng = np.random.default_rng(0)
+    actions = rng.uniform(-1, 1, (4, envs[0].action_space.shape[0]))
+    for env in envs:
+        env.reset(seed=3)
+        for a in actions[:2]:
+            env.step(a)
+    for seed in (None, 11):
+        with pytest.raises(ValueError):
+            envs[0].reset(seed=seed, options=bad)
+    _assert_identical(_record(envs[0], actions), _record(envs[1], actions))
+    for env in envs:
+        env.close()
+
+
+def test_a_refused_vector_reset_leaves_every_generator_as_it_was():
+    """A bad seed list or bad options in the vector env: no env is re-seeded."""
+    venvs = [gym.make_vec("cdcr_gym/CCKAReach-v0", num_envs=3) for _ in range(2)]
+    for v in venvs:
+        v.reset(seed=1)
+    with pytest.raises(gym.error.Error, match="Seed must be greater or equal to zero"):
+        venvs[0].reset(seed=[5, 6, -1])
+    with pytest.raises(ValueError):
+        venvs[0].reset(seed=9, options={"goal": [0.0, 0.0, 1e9]})
+    a = np.zeros((3, 3))
+    _assert_identical(_record(venvs[0], [a]), _record(venvs[1], [a]))
+
+
+# -- 3. re-seeding is exact ----------------------------------------------------------------------
+_GRID = {
+    "CCKAReach": [
+        {},
+        {"randomize": {"youngs_modulus": [20e9, 50e9]}},
+        {"randomize": {"cable_radius": [0.02, 0.03], "gravity": 0.5}},
+        {"randomize": {"tip_payload": [0.0, 0.05], "friction_coefficient": [0.0, 0.3]}},
+        {"imperfections": {"tip_bias": 0.001, "action_delay": 2, "tension_lag": 2.0}},
+        {"initial_state": "random", "imperfections": {"actuator_noise": 0.5}},
+    ],
+    "CCKAObstacle": [{}, {"randomize": {"youngs_modulus": [20e9, 50e9]}}],
+    "MuJoCoReach": [
+        {},
+        {"randomize": {"tip_payload": [0.0, 0.05]}},
+        {"randomize": {"youngs_modulus": [30e9, 40e9], "gravity": 0.5}},
+        {"randomize": {"friction_coefficient": [0.0, 0.3]}},
+        {"friction_coefficient": 0.2},
+        {"imperfections": {"tension_bias": 0.5, "action_delay": 1}},
+    ],
+    "MuJoCoObstacle": [
+        {},
+        {"randomize": {"tip_payload": [0.0, 0.05]}},
+        {"randomize": {"tip_payload": [0.0, 0.05], "youngs_modulus": [30e9, 40e9]}},
+        {"solid_obstacles": True, "randomize": {"tip_payload": [0.0, 0.05]}},
+        {"randomize": {"friction_coefficient": [0.1, 0.3]}},
+        {"imperfections": {"tip_noise": 0.001}},
+    ],
+}
+
+
+@pytest.mark.parametrize(
+    ("name", "kw"), [(name, kw) for name, grid in _GRID.items() for kw in grid]
+)
+def test_reseeding_a_used_env_is_bit_identical_to_a_fresh_one(name, kw):
+    """``reset(seed=5)`` on an env that ran an episode (other seed, other parameters drawn)
+    gives, bit for bit, what a fresh env gives: observations, rewards and every info entry."""
+    env_id = f"cdcr_gym/{name}-v0"
+    used, fresh = gym.make(env_id, **kw), gym.make(env_id, **kw)
+    c = used.action_space.shape[0]
+    actions = np.random.default_rng(1).uniform(-1, 1, (4, c))
+    used.reset(seed=1)
+    for a in actions[::-1]:
+        used.step(a)
+    _assert_identical(used.reset(seed=5), fresh.reset(seed=5))
+    _assert_identical(_record(used, actions[:3]), _record(fresh, actions[:3]))
+    used.close()
+    fresh.close()
+
+
+# -- 4. goals: shapes, finiteness, absurd distances ----------------------------------------------
+@pytest.mark.parametrize("backend", ["CCKA", "MuJoCo"])
+def test_absurd_goals_are_refused_not_projected(backend):
+    env = gym.make(f"cdcr_gym/{backend}Reach-v0")
+    env.reset(seed=0)
+    for goal in ([1e100, 0, 0], [1e10, 0, 0], [0.0, 0.0, 7.0]):
+        with pytest.raises(ValueError, match=r"options\['goal'\].*within 10 robot lengths"):
+            env.reset(options={"goal": goal})
+    for goal in ([np.nan, 0, 0.5], [0, np.inf, 0.5]):
+        with pytest.raises(ValueError, match=r"options\['goal'\] must be finite"):
+            env.reset(options={"goal": goal})
+    with pytest.raises(ValueError, match=r"options\['goal'\] must have shape \(3,\)"):
+        env.reset(options={"goal": [0.1, 0.0, 0.5, 0.0]})
+    # a far but sane goal (outside the workspace, within 10 lengths) is still projected
+    _, info = env.reset(options={"goal": [2.0, 0.0, 0.0]})
+    assert np.linalg.norm(info["goal"]) <= env.unwrapped.params.length + 1e-9
+    env.close()
+
+
+@pytest.mark.parametrize("backend", ["CCKA", "MuJoCo"])
+def test_pose_goal_must_have_six_entries(backend):
+    env = gym.make(f"cdcr_gym/{backend}Pose-v0")
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match=r"options\['goal'\] must have shape \(6,\)"):
+        env.reset(options={"goal": [0.1, 0.0, 0.5, 0.0, 0.0, 1.0, 0.0]})
+    with pytest.raises(ValueError, match=r"options\['goal'\].*within 10 robot lengths"):
+        env.reset(options={"goal": [1e10, 0.0, 0.5, 0.0, 0.0, 1.0]})
+    env.close()
+
+
+@pytest.mark.parametrize(
+    ("env_id", "size"),
+    [("cdcr_gym/CCKAReach-v0", 3), ("cdcr_gym/CCKAPose-v0", 6), ("cdcr_gym/MuJoCoReach-v0", 3)],
+)
+def test_compute_reward_checks_goal_shapes_and_values(env_id, size):
+    env = gym.make(env_id, goal_conditioned=True)
+    obs, info = env.reset(seed=0)
+    u = env.unwrapped
+    ok = u.compute_reward(obs["achieved_goal"], obs["desired_goal"], info)
+    assert np.isfinite(ok)
+    batch = np.tile(obs["achieved_goal"], (5, 1))
+    assert u.compute_reward(batch, batch, None).shape == (5,)
+    wrong = np.zeros(size + 1)
+    with pytest.raises(ValueError, match=rf"achieved_goal must have shape \(\.\.\., {size}\)"):
+        u.compute_reward(wrong, obs["desired_goal"], info)
+    with pytest.raises(ValueError, match=rf"desired_goal must have shape \(\.\.\., {size}\)"):
+        u.compute_reward(obs["achieved_goal"], list(wrong), info)
+    with pytest.raises(ValueError, match="desired_goal must be finite"):
+        u.compute_reward(obs["achieved_goal"], np.full(size, np.nan), info)
+    with pytest.raises(ValueError, match="broadcastable"):
+        u.compute_reward(np.zeros((4, size)), np.zeros((3, size)), info)
+    env.close()
+
+
+def test_obstacle_compute_reward_checks_goal_shapes():
+    env = gym.make("cdcr_gym/CCKAObstacle-v0")
+    _, info = env.reset(seed=0)
+    with pytest.raises(ValueError, match=r"desired_goal must have shape \(\.\.\., 3\)"):
+        env.unwrapped.task.compute_reward(np.zeros(3), [0, 0, 0, 5], info)

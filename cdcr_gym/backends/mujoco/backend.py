@@ -795,6 +795,9 @@ class MuJoCoBackend(ObstacleScene, Backend):
                 model.opt.gravity[:] = old_model.opt.gravity
                 for field in ("body_mass", "body_ipos", "body_inertia"):
                     getattr(model, field)[tip] = getattr(old_model, field)[tip]
+                # the constants derived from the masses (subtree masses, the inverse weights
+                # that scale the contacts' regularisation), as _set_payload computes them
+                mj.mj_setConst(model, self._scratch)
                 for old_g, new_g in zip(old_spheres, self._sphere_geoms):
                     for field in ("geom_size", "geom_rbound", "geom_aabb"):
                         getattr(model, field)[new_g] = getattr(old_model, field)[old_g]
