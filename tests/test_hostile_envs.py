@@ -309,3 +309,71 @@ def test_obstacle_compute_reward_checks_goal_shapes():
     _, info = env.reset(seed=0)
     with pytest.raises(ValueError, match=r"desired_goal must have shape \(\.\.\., 3\)"):
         env.unwrapped.task.compute_reward(np.zeros(3), [0, 0, 0, 5], info)
+
+
+# -- 5. arguments that are accepted run --------------------------------------------------------
+@pytest.mark.parametrize(
+    ("kw", "match"),
+    [
+        ({"links_per_span": 60}, r"links_per_span must be in \[1, 55\].*got 60"),
+        ({"links_per_span": 10**9}, r"links_per_span must be in \[1, 55\]"),
+        ({"damping_ratio": 0.05}, r"physics_timestep=0.02 s is too long for damping_ratio=0.05"),
+        (
+            {"physics_timestep": 0.2, "control_timestep": 0.2},
+            r"physics_timestep=0.2 s is too long.*stable up to 0.0724 s",
+        ),
+        ({"integrator": "RK4"}, r"physics_timestep=0.02 s is too long.*integrator='RK4'"),
+    ],
+)
+def test_mujoco_refuses_arguments_it_cannot_run(kw, match):
+    with pytest.raises(ValueError, match=match):
+        MuJoCoBackend(**kw)
+
+
+def test_mujoco_accepts_the_limits_and_they_run():
+    """The largest accepted links_per_span builds; a low damping ratio at its stable timestep
+    survives random tensions (bang-bang ones at its resonance swing it past 180°, a
+    divergence by name)."""
+    b = MuJoCoBackend(links_per_span=55, gravity=False)
+    b.apply_tensions(np.array([[80.0, 0.0, 0.0]]))
+    b.close()
+    probe = MuJoCoBackend(damping_ratio=0.7)
+    assert probe.stable_timestep() == pytest.approx(2 * 0.7 / probe.first_mode_frequency)
+    zeta = 0.05
+    h = MuJoCoBackend(damping_ratio=zeta, physics_timestep=0.002).stable_timestep()
+    n = int(0.02 / h) + 1
+    b = MuJoCoBackend(damping_ratio=zeta, physics_timestep=0.02 / n)
+    rng = np.random.default_rng(0)
+    for t in range(150):
+        if t % 10 == 0:
+            tensions = rng.uniform(0.0, 80.0, size=(1, 3))
+        b.apply_tensions(tensions)
+    b.close()
+
+
+@pytest.mark.parametrize(
+    ("randomize", "match"),
+    [
+        ({"tip_payload": [20.0, 50.0]}, r"randomize\['tip_payload'\]=\[20.0, 50.0\].*50.0 kg"),
+        ({"youngs_modulus": [30e9, 1e13]}, r"too long.*randomize\['youngs_modulus'\]"),
+    ],
+)
+def test_mujoco_refuses_randomisation_ranges_it_cannot_simulate(randomize, match):
+    """Refused when the env is made (before: a payload of 20–50 kg diverged after 9–498
+    steps), naming the range."""
+    with pytest.raises(ValueError, match=match):
+        gym.make("cdcr_gym/MuJoCoReach-v0", randomize=randomize)
+    gym.make("cdcr_gym/CCKAReach-v0", randomize=randomize).close()  # CCKA: reported only
+
+
+@pytest.mark.parametrize("backend", ["CCKA", "MuJoCo", "Bullet"])
+def test_action_delay_is_bounded(backend):
+    """A delay of 10⁹ steps allocated a 22 GiB queue; now refused naming its range."""
+    if backend == "Bullet":
+        pytest.importorskip("pybullet")
+    with pytest.raises(ValueError, match=r"action_delay'\] must be an integer in \[0, 10000\]"):
+        gym.make(f"cdcr_gym/{backend}Reach-v0", imperfections={"action_delay": 10**9})
+    env = gym.make(f"cdcr_gym/{backend}Reach-v0", imperfections={"action_delay": 10_000})
+    env.reset(seed=0)
+    env.step(np.zeros(3))
+    env.close()

@@ -194,7 +194,7 @@ class EnvCore:
     ) -> None:
         """Domain randomisation and imperfections: None each when off (the plain path)."""
         n, act = self.num_envs, self.actuation
-        dr = DomainRandomization(randomize, self.params)
+        dr = DomainRandomization(randomize, self.params, self.backend)
         imp = Imperfections(
             imperfections,
             self.params,
