@@ -13,6 +13,7 @@ goals are (N, ·) arrays, readings (N, ·) arrays, observations written into a f
 from __future__ import annotations
 
 import abc
+import math
 from typing import Any
 
 import numpy as np
@@ -131,6 +132,20 @@ def check_goal_pair(achieved: Any, desired: Any, size: int) -> tuple[np.ndarray,
     Raises:
         ValueError: naming ``achieved_goal`` or ``desired_goal`` and the shape or value.
     """
+    if (  # the env's own call every step: two float arrays of one shape, cheap to check
+        type(achieved) is np.ndarray
+        and type(desired) is np.ndarray
+        and achieved.dtype.kind == "f"
+        and desired.dtype.kind == "f"
+        and achieved.shape == desired.shape
+        and achieved.shape[-1:] == (size,)
+    ):
+        if achieved.size <= 8:
+            finite = all(map(math.isfinite, achieved.ravel().tolist() + desired.ravel().tolist()))
+        else:
+            finite = bool(np.isfinite(achieved).all() and np.isfinite(desired).all())
+        if finite:
+            return achieved, desired
     out = []
     for value, name in ((achieved, "achieved_goal"), (desired, "desired_goal")):
         if type(value) is np.ndarray and value.dtype.kind == "f":
