@@ -43,7 +43,7 @@ goal), so a robot drawn less compliant than nominal may not reach the rim of it.
 | ``tip_bias``           | m      | σ of a per-episode constant offset of each tip coordinate     |
 | ``cable_length_bias``  | m      | σ of a per-episode offset of each observed cable length        |
 | ``tension_bias``       | N      | σ of a per-episode offset of each observed tension             |
-| ``action_delay``       | steps  | integer k >= 0: the action of step t is applied at step t + k |
+| ``action_delay``       | steps  | integer 0 <= k <= 10 000: the action of step t is applied at step t + k |
 | ``tension_lag``        | steps  | time constant τ > 0 of a first-order settling of the robot:   |
 |                        |        | the shape follows the static shape of the actuator tensions   |
 |                        |        | with a lag (per step the gap closes by 1 − e^(−1/τ))          |
@@ -114,6 +114,8 @@ RANDOMIZABLE: dict[str, tuple[str, float, float]] = {
 }
 _STRICTLY_POSITIVE = ("youngs_modulus", "cable_radius")
 
+#: Longest ``action_delay`` (control steps; the queue holds one action per step and env).
+MAX_ACTION_DELAY = 10_000
 #: Imperfection → unit (all >= 0; ``action_delay`` an integer).
 IMPERFECTIONS: dict[str, str] = {
     "tip_noise": "m",
@@ -157,13 +159,17 @@ class DomainRandomization:
         spec: parameter → ``[low, high]`` (uniform) or a number (fixed); ``gravity`` → a
             probability. None or ``{}``: off.
         params: the nominal robot (``cable_radius`` needs one radius for every cable).
+        backend: the backend, or None; one with a ``check_randomization(ranges)`` method
+            (MuJoCo) refuses the ranges of the parameters it applies that it cannot simulate.
 
     Raises:
         ValueError: naming ``randomize[<name>]`` for an unknown name, a malformed or reversed
             range, or a value outside the parameter's bounds (table in the module docstring).
     """
 
-    def __init__(self, spec: Mapping[str, Any] | None, params: RobotParams) -> None:
+    def __init__(
+        self, spec: Mapping[str, Any] | None, params: RobotParams, backend: Any = None
+    ) -> None:
         raw = _mapping(spec, "randomize")
         ranges: dict[str, tuple[float, float]] = {}
         for key in raw:
@@ -199,6 +205,10 @@ class DomainRandomization:
         self.ranges = ranges
         self.params = params
         self._check_extreme_robot()
+        check = getattr(backend, "check_randomization", None)
+        applied = {k: v for k, v in ranges.items() if k in getattr(backend, "randomizable", ())}
+        if check is not None and applied:
+            check(applied)  # the backend's own limits (e.g. MuJoCo: payload, stability)
 
     def _check_extreme_robot(self) -> None:
         """The robot at the ranges' extreme corner must be one ``RobotParams`` accepts, and its
@@ -313,6 +323,11 @@ class Imperfections:
             name = f"imperfections[{key!r}]"
             if key == "action_delay":
                 values[key] = validation.integer(value, name, 0)
+                if values[key] > MAX_ACTION_DELAY:
+                    raise ValueError(
+                        f"{name} must be an integer in [0, {MAX_ACTION_DELAY}] (control "
+                        f"steps), got {value!r}"
+                    )
             elif key in ("tension_rate_limit", "tension_lag", "tension_response"):
                 values[key] = validation.positive(value, name)
             else:

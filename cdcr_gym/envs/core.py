@@ -194,7 +194,7 @@ class EnvCore:
     ) -> None:
         """Domain randomisation and imperfections: None each when off (the plain path)."""
         n, act = self.num_envs, self.actuation
-        dr = DomainRandomization(randomize, self.params)
+        dr = DomainRandomization(randomize, self.params, self.backend)
         imp = Imperfections(
             imperfections,
             self.params,
@@ -233,10 +233,14 @@ class EnvCore:
         """``reset(options=...)`` of either env, checked: (the envs to reset (sorted indices)
         from ``reset_mask`` or None for all, ``initial_tensions``, ``goal``).
 
+        Every option is validated here, before the caller seeds or draws anything.
+
         Raises:
             ValueError: naming ``options`` for anything but None or a mapping of
-                :data:`OPTION_KEYS` (and ``reset_mask`` with ``allow_mask``), and naming
-                ``options['reset_mask']`` for a mask that is not (N,) bool selecting an env.
+                :data:`OPTION_KEYS` (and ``reset_mask`` with ``allow_mask``), naming
+                ``options['reset_mask']`` for a mask that is not (N,) bool selecting an env,
+                ``options['initial_tensions']`` and ``options['goal']`` (``Task.check_goal``)
+                for a bad shape or value.
         """
         if options is None:
             return None, None, None
@@ -261,7 +265,29 @@ class EnvCore:
             if not mask.any():
                 raise ValueError("options['reset_mask'] must select at least one env")
             idx = np.flatnonzero(mask)
-        return idx, options.get("initial_tensions"), options.get("goal")
+        m = self.num_envs if idx is None else idx.size
+        tensions, goal = self._check_values(m, options.get("initial_tensions"), options.get("goal"))
+        return idx, tensions, goal
+
+    def _check_values(self, m: int, initial_tensions: Any, goal: Any) -> tuple[Any, Any]:
+        """``initial_tensions`` as (m, C) N and ``goal`` as the task's (m, ·) (or None each),
+        validated before a reset draws or changes anything: a refused reset leaves the env as
+        it was (state, parameters, generator)."""
+        c = self.n_cables
+        tensions = None
+        if initial_tensions is not None:
+            tensions = validation.per_cable(
+                initial_tensions, "options['initial_tensions']", c, 0.0, self.params.max_tension
+            )
+            if tensions.shape not in ((c,), (m, c)):
+                raise ValueError(
+                    f"options['initial_tensions'] must have shape ({c},) or "
+                    f"({m}, {c}), got shape {tensions.shape}"
+                )
+            tensions = np.broadcast_to(tensions, (m, c))
+        if goal is not None:
+            goal = self.task.check_goal(goal, m)
+        return tensions, goal
 
     def reset(
         self,
@@ -276,18 +302,11 @@ class EnvCore:
         env) override the draws.
         """
         m, c = idx.size, self.n_cables
+        given, goal = self._check_values(m, initial_tensions, goal)  # before any draw
         if self.randomization is not None or self.imperfections is not None:
             self._draw_episode(idx, rngs)
-        if initial_tensions is not None:
-            tensions = validation.per_cable(
-                initial_tensions, "options['initial_tensions']", c, 0.0, self.params.max_tension
-            )
-            if tensions.shape not in ((c,), (m, c)):
-                raise ValueError(
-                    f"options['initial_tensions'] must have shape ({c},) or "
-                    f"({m}, {c}), got shape {tensions.shape}"
-                )
-            tensions = np.broadcast_to(tensions, (m, c))
+        if given is not None:
+            tensions = given
         else:
             tensions = np.zeros((m, c))
             random = self._random_start[idx]

@@ -178,8 +178,8 @@ class CDCREnv(CoreAttributes, gym.Env):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[Any, dict[str, Any]]:
+        _, initial_tensions, goal = self.core.reset_options(options)  # before the seeding
         super().reset(seed=seed)
-        _, initial_tensions, goal = self.core.reset_options(options)
         self.core.reset(_ONE, [self.np_random], initial_tensions, goal)
         obs, _, _, info = self._observe()
         if self.render_mode == "human":

@@ -29,6 +29,15 @@ the robot never touches a sphere that the held shape is clear of. On a physics b
 (gravity, dynamics) or with friction it is a corrected model prediction — a margin > 0 absorbs
 part of what remains (overshoot); collisions stay possible and are measured as usual.
 
+What it guarantees on MuJoCo: every command it passes has a *static* shape (the CCKA shape,
+shifted by the measured offset) no closer than ``min(margin, clearance now)`` to a sphere; it
+never commands the robot further into a sphere than the static prediction allows. It does not
+bound the dynamics: a robot still moving from the last command (bang-bang tensions swing the
+tip ~0.1 m per 0.02 s step) can overshoot into a sphere within one step. With
+``solid_obstacles=True`` the contact then stops it and pushes it out over the next steps (a
+robot held against a sphere rests within ~1 mm of its surface); the backend raises
+``SimulationDivergedError`` rather than report a state no shape has (a section bent past 180°).
+
 This is a deployment layer, not a learned behaviour: a policy under the filter is a different
 agent from the policy alone (docs/tasks.md reports both, and the greedy reach IK under the
 same filter).

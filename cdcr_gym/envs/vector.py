@@ -173,9 +173,9 @@ class CDCRVectorEnv(CoreAttributes, VectorEnv):
         mask = None if idx is None else options["reset_mask"]  # type: ignore[index]
         if idx is None:
             idx = self._all
-        for i in idx.tolist():
-            if seeds[i] is not None:
-                self._rngs[i], self._rng_seeds[i] = seeding.np_random(seeds[i])
+        fresh = {i: seeding.np_random(seeds[i]) for i in idx.tolist() if seeds[i] is not None}
+        for i, (rng, used_seed) in fresh.items():  # every seed checked before any is set
+            self._rngs[i], self._rng_seeds[i] = rng, used_seed
         self._reset_envs(idx, initial_tensions, goal)
         self._autoreset[idx] = False
         self._needs_reset = False

@@ -13,12 +13,13 @@ goals are (N, ·) arrays, readings (N, ·) arrays, observations written into a f
 from __future__ import annotations
 
 import abc
+import math
 from typing import Any
 
 import numpy as np
 from gymnasium import spaces
 
-from cdcr_gym import defaults
+from cdcr_gym import defaults, validation
 from cdcr_gym.backends.base import Backend, Readings
 from cdcr_gym.model.params import RobotParams
 from cdcr_gym.tasks.observation import Field, ObservationSpec
@@ -29,6 +30,9 @@ __all__ = [
     "robot_state_fields",
     "fill_robot_state",
     "goal_distance",
+    "check_points",
+    "check_goal_pair",
+    "GOAL_REACH",
     "REWARD_TYPES",
     "ERROR_SCALE",
 ]
@@ -96,6 +100,75 @@ def fill_robot_state(
     )
 
 
+#: A given goal position may lie at most this many robot lengths from the base.
+GOAL_REACH = 10.0
+
+
+def check_points(value: Any, name: str, m: int, size: int, length: float) -> np.ndarray:
+    """Given goals ``value`` of shape (size,) or (m, size) (the first 3 entries a position m in
+    R0), finite, each position within :data:`GOAL_REACH` × ``length`` of the base, as an
+    (m, size) float64 array.
+
+    Raises:
+        ValueError: naming ``name``, the shape wanted or the offending value.
+    """
+    arr = validation.real_array(value, name, allow_bool=False)
+    if arr.shape not in ((size,), (m, size)):
+        raise ValueError(
+            f"{name} must have shape ({size},) or ({m}, {size}), got shape {arr.shape}"
+        )
+    arr = np.array(np.broadcast_to(arr, (m, size)))
+    far = np.linalg.norm(arr[:, :3], axis=1) > GOAL_REACH * length
+    if far.any():
+        raise ValueError(
+            f"{name}: a goal position must lie within {GOAL_REACH:g} robot lengths "
+            f"({GOAL_REACH * length:g} m) of the base, got {arr[np.flatnonzero(far)[0], :3]!r} "
+            f"(m, in R0)"
+        )
+    return arr
+
+
+def check_goal_pair(achieved: Any, desired: Any, size: int) -> tuple[np.ndarray, np.ndarray]:
+    """``compute_reward``'s goals: real, finite, last axis ``size``, shapes that broadcast.
+
+    Raises:
+        ValueError: naming ``achieved_goal`` or ``desired_goal`` and the shape or value.
+    """
+    if (  # the env's own call every step: two float arrays of one shape, cheap to check
+        type(achieved) is np.ndarray
+        and type(desired) is np.ndarray
+        and achieved.dtype.kind == "f"
+        and desired.dtype.kind == "f"
+        and achieved.shape == desired.shape
+        and achieved.shape[-1:] == (size,)
+    ):
+        if achieved.size <= 8:
+            finite = all(map(math.isfinite, achieved.ravel().tolist() + desired.ravel().tolist()))
+        else:
+            finite = bool(np.isfinite(achieved).all() and np.isfinite(desired).all())
+        if finite:
+            return achieved, desired
+    out = []
+    for value, name in ((achieved, "achieved_goal"), (desired, "desired_goal")):
+        if type(value) is np.ndarray and value.dtype.kind == "f":
+            arr = value
+            if not np.isfinite(arr).all():
+                raise ValueError(f"{name} must be finite, got {value!r}")
+        else:
+            arr = validation.real_array(value, name, allow_bool=False)
+        if arr.shape[-1:] != (size,):
+            raise ValueError(f"{name} must have shape (..., {size}), got shape {arr.shape}")
+        out.append(arr)
+    try:
+        np.broadcast_shapes(out[0].shape, out[1].shape)
+    except ValueError:
+        raise ValueError(
+            f"achieved_goal and desired_goal must have broadcastable shapes (..., {size}), got "
+            f"{out[0].shape} and {out[1].shape}"
+        ) from None
+    return out[0], out[1]
+
+
 def goal_distance(achieved_goal: np.ndarray, desired_goal: np.ndarray) -> np.ndarray:
     """Euclidean distance (m) between points (..., 3), over the last axis, in float64 (shape
     (...)): the one distance of every goal task (reward, success, ``info``, HER)."""
@@ -158,6 +231,16 @@ class Task(abc.ABC):
     @abc.abstractmethod
     def evaluate(self, readings: Readings) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
         """(reward (N,), success (N,) bool, task info entries of (N, ...) arrays)."""
+
+    def check_goal(self, goal: Any, m: int) -> np.ndarray:
+        """``reset(options={"goal": goal})`` for ``m`` envs, validated without changing
+        anything: the (m, goal_size) float64 goals. The env checks every reset option this way
+        before it draws or changes anything (a refused reset leaves the env as it was).
+
+        Raises:
+            ValueError: naming ``options['goal']``: this task takes no given goal (default).
+        """
+        raise ValueError(f"options['goal'] is not supported by the {type(self).__name__} task")
 
     def compute_reward(
         self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any = None
@@ -339,9 +422,20 @@ class GoalTask(Task):
             return -distance
         return -((distance > self.distance_threshold) * 1.0)
 
+    def check_goal(self, goal: Any, m: int) -> np.ndarray:
+        """A given goal point: shape (3,) or (m, 3) m in R0, finite, each within
+        :data:`GOAL_REACH` robot lengths of the base (a goal farther away is a mistake, e.g. mm
+        for m, not a point to project onto the workspace). Returns (m, 3).
+
+        Raises:
+            ValueError: naming ``options['goal']``, its shape or the offending value.
+        """
+        return check_points(goal, "options['goal']", m, self.goal_size, self.params.length)
+
     def compute_reward(
         self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any = None
     ) -> np.ndarray:
+        achieved_goal, desired_goal = check_goal_pair(achieved_goal, desired_goal, self.goal_size)
         return self.reward_from_distance(goal_distance(achieved_goal, desired_goal))
 
     def evaluate(self, readings: Readings) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:

@@ -14,6 +14,7 @@ from cdcr_gym.model.workspace import sample_tensions
 from cdcr_gym.tasks.base import (
     REWARD_TYPES,
     GoalTask,
+    check_goal_pair,
     goal_distance,
     robot_state_fields,
 )
@@ -378,6 +379,12 @@ class Obstacle(GoalTask):
             )
         return goal, spheres, ik
 
+    def check_goal(self, goal: Any, m: int) -> np.ndarray:
+        raise ValueError(
+            "options['goal'] is not supported by the Obstacle task (goal and spheres are "
+            "drawn together at reset)"
+        )
+
     def reset_goals(
         self,
         idx: np.ndarray,
@@ -386,10 +393,7 @@ class Obstacle(GoalTask):
         goal: np.ndarray | None = None,
     ) -> None:
         if goal is not None:
-            raise ValueError(
-                "options['goal'] is not supported by the Obstacle task (goal and spheres are "
-                "drawn together at reset)"
-            )
+            self.check_goal(goal, idx.size)
         start = backend.read().tensions
         for i, rng in zip(idx.tolist(), rngs):
             self.goal[i], self.obstacles[i], self.goal_tensions[i] = self.make_scene(
@@ -535,6 +539,7 @@ class Obstacle(GoalTask):
                 "the Obstacle reward needs info with 'collided', 'collision' and "
                 "'min_clearance' (its collision penalties)"
             )
+        achieved_goal, desired_goal = check_goal_pair(achieved_goal, desired_goal, 3)
         distance = goal_distance(achieved_goal, desired_goal)
         success = (distance <= self.distance_threshold) & ~np.asarray(info["collided"], bool)
         return self.penalised(self.reward_from_success(distance, success), info)

@@ -11,7 +11,13 @@ from cdcr_gym import defaults, validation
 from cdcr_gym.backends.base import Backend, Readings
 from cdcr_gym.model.ik import solve_pose_ik
 from cdcr_gym.model.workspace import sample_tensions_each
-from cdcr_gym.tasks.base import REWARD_TYPES, GoalTask, robot_state_fields
+from cdcr_gym.tasks.base import (
+    REWARD_TYPES,
+    GoalTask,
+    check_goal_pair,
+    check_points,
+    robot_state_fields,
+)
 from cdcr_gym.tasks.observation import Field
 
 __all__ = ["Pose", "pose_errors"]
@@ -149,15 +155,7 @@ class Pose(GoalTask):
             r = backend.equilibrium(sample_tensions_each(rngs, self.params))
             position, direction = r.tip, r.tip_direction
         else:
-            goal = validation.real_array(goal, "options['goal']")
-            if goal.shape not in ((6,), (idx.size, 6)):
-                raise ValueError(
-                    f"options['goal'] must have shape (6,) (position m, direction) or "
-                    f"({idx.size}, 6), got shape {goal.shape}"
-                )
-            goal = np.broadcast_to(goal, (idx.size, 6))
-            if np.any(np.linalg.norm(goal[:, 3:], axis=1) == 0.0):
-                raise ValueError("options['goal'] direction (entries 3-5) must be non-zero")
+            goal = self.check_goal(goal, idx.size)
             sol = solve_pose_ik(goal[:, :3], goal[:, 3:], self.params)
             model_dir = backend.equilibrium(sol.tensions)
             position, direction = model_dir.tip, model_dir.tip_direction
@@ -197,9 +195,24 @@ class Pose(GoalTask):
         }
         return self._reward(distance, angle), success, info
 
+    def check_goal(self, goal: Any, m: int) -> np.ndarray:
+        """A given pose: shape (6,) or (m, 6) (position m in R0, direction), finite, the
+        position within 10 robot lengths of the base, the direction non-zero. Returns (m, 6).
+
+        Raises:
+            ValueError: naming ``options['goal']``, its shape or the offending value.
+        """
+        goal = check_points(goal, "options['goal']", m, 6, self.params.length)
+        if np.any(np.linalg.norm(goal[:, 3:], axis=1) == 0.0):
+            raise ValueError(
+                f"options['goal'] direction (entries 3-5) must be non-zero, got {goal!r}"
+            )
+        return goal
+
     def compute_reward(
         self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any = None
     ) -> np.ndarray:
+        achieved_goal, desired_goal = check_goal_pair(achieved_goal, desired_goal, 6)
         return self._reward(*pose_errors(achieved_goal, desired_goal))
 
     def info_keys(self) -> tuple[str, ...]:

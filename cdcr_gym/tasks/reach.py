@@ -21,7 +21,8 @@ class Reach(GoalTask):
     tension-reachable surface; several: see that function) and the goal is the tip of the
     backend's static equilibrium under those tensions (``Backend.equilibrium``). A goal given
     in ``reset(options={"goal": ...})`` is projected onto the reachable set of the model (the
-    nearest tip within the tension limits, ``model.ik.solve_ik``).
+    nearest tip within the tension limits, ``model.ik.solve_ik``); it must be finite and within
+    10 robot lengths of the base (``ValueError`` otherwise: a goal that far is a mistake).
 
     **Observation fields** (flat): ``tip`` (3, m), ``goal`` (3, m), ``error`` = goal − tip
     (3, m), ``error_tanh`` = tanh(error / 1 cm) (3), then the robot state (normalised
@@ -58,11 +59,5 @@ class Reach(GoalTask):
         if goal is None:
             goals = backend.equilibrium(sample_tensions_each(rngs, self.params)).tip
         else:
-            goal = validation.real_array(goal, "options['goal']")
-            if goal.shape not in ((3,), (idx.size, 3)):
-                raise ValueError(
-                    f"options['goal'] must have shape (3,) or ({idx.size}, 3), "
-                    f"got shape {goal.shape}"
-                )
-            goals = solve_ik(np.broadcast_to(goal, (idx.size, 3)), self.params).tip
+            goals = solve_ik(self.check_goal(goal, idx.size), self.params).tip
         self.goal[idx] = goals

@@ -200,6 +200,12 @@ class Track(GoalTask):
         ]
 
     # -- paths ----------------------------------------------------------------------------------
+    def check_goal(self, goal: Any, m: int) -> np.ndarray:
+        raise ValueError(
+            "options['goal'] is not supported by the Track task (its target moves along "
+            "a path drawn at reset)"
+        )
+
     def reset_goals(
         self,
         idx: np.ndarray,
@@ -208,10 +214,7 @@ class Track(GoalTask):
         goal: np.ndarray | None = None,
     ) -> None:
         if goal is not None:
-            raise ValueError(
-                "options['goal'] is not supported by the Track task (its target moves along "
-                "a path drawn at reset)"
-            )
+            self.check_goal(goal, idx.size)
         self.dt = self.step_time(backend)
         for i, rng in zip(idx.tolist(), rngs):
             waypoints = sample_tensions(rng, self.params, self.n_waypoints)

@@ -448,7 +448,10 @@ def test_bad_tensions_and_buckling_robots_are_refused():
 def test_divergence_raises_the_named_error():
     assert SimulationDivergedError is BulletDiverged  # one error for every backend
     assert mj_backend._BADQACC == int(mujoco.mjtWarning.mjWARN_BADQACC)
-    b = MuJoCoBackend(physics_timestep=0.1, control_timestep=0.2, damping_ratio=0.01)
+    b = MuJoCoBackend(physics_timestep=0.05, control_timestep=0.2)
+    # made unstable behind the constructor's back (it refuses h = 0.1 s at ζ = 0.01)
+    b.model.opt.timestep = 0.1
+    b.model.dof_damping[:] *= 0.01 / 0.7
     with pytest.raises(SimulationDivergedError, match="diverged") as info:
         for _ in range(20):
             b.apply_tensions(np.array([[80.0, 0.0, 40.0]]))

@@ -72,7 +72,7 @@ def test_reset_options_are_parsed_in_one_place():
     core = _core(2)
     assert core.reset_options(None) == (None, None, None)
     idx, tensions, goal = core.reset_options({"goal": [0.1, 0.0, 0.6]})
-    assert idx is None and tensions is None and goal == [0.1, 0.0, 0.6]
+    assert idx is None and tensions is None and goal.tolist() == [[0.1, 0.0, 0.6]] * 2
     idx, _, _ = core.reset_options({"reset_mask": np.array([False, True])}, allow_mask=True)
     assert idx.tolist() == [1]
     with pytest.raises(ValueError, match="unknown keys"):

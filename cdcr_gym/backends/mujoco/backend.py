@@ -45,6 +45,13 @@ __all__ = ["MuJoCoBackend", "SimulationDivergedError", "INTEGRATORS"]
 
 #: MuJoCo's warning of a non-finite acceleration (it then resets the data silently).
 _BADQACC = 5  # mujoco.mjtWarning.mjWARN_BADQACC (a test checks the value)
+#: Impedance (dmin, dmax, width m, midpoint, power) of the robot–sphere contacts (solid
+#: spheres): MuJoCo's default (0.9, 0.95, …) lets 5–10 % of the robot's drive through a contact
+#: (a cable at max_tension rests ~2 cm inside a sphere); 0.99–0.999 keeps it under ~1 mm.
+CONTACT_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
+#: Most link bodies in one chain: MuJoCo's XML parser nests elements at most 500 deep (the
+#: chain's bodies are nested, 4 levels above them).
+MAX_LINKS = 495
 #: MuJoCo integrators accepted by ``integrator``.
 INTEGRATORS = ("Euler", "implicitfast", "implicit", "RK4")
 
@@ -64,7 +71,8 @@ class MuJoCoBackend(ObstacleScene, Backend):
             cable at ``max_tension`` (``cdcr_gym.model.discrete.check_span_buckling``).
         num_robots: robots N stepped together (default 1, >= 1); one ``MjModel``, N ``MjData``.
         gravity: ``True`` (default) applies −9.81 m/s² along −Z_world; ``False`` none.
-        links_per_span: rigid links per disk span, m >= 1 (default 1). No joint cap.
+        links_per_span: rigid links per disk span, m >= 1 (default 1), at most
+            ``MAX_LINKS // n_disks`` (MuJoCo's XML nesting limit: 55 for the paper robot).
         joint: (default ``"ball"``) a spherical joint, rotation-vector stiffness EI/Δ in every
             direction (also in twist, where the rod has GJ/Δ ≈ EI/(1.3Δ)), so that bending in
             any plane adds no spurious twist; or ``"cardan"``, bullet's two hinges Rx(a)·Ry(b)
@@ -79,6 +87,9 @@ class MuJoCoBackend(ObstacleScene, Backend):
             stiffness-proportional and MuJoCo's Euler integrator treats it implicitly: long
             random-tension runs stay stable up to h = 0.1 s at ζ = 0.7 and 0.04 s at ζ = 0.3
             (``docs/mujoco_backend.md``). h changes the transient, never the settled state.
+            Refused (``ValueError``) beyond :meth:`stable_timestep` (β·min(1, 1/2 + ζ),
+            β = 2ζ/ω₁: 0.072 s at the default ζ = 0.7; a low ``damping_ratio`` needs a short
+            step).
         base_orientation: unit quaternion (x, y, z, w) of R0 in the world (default
             ``(0.0, 0.0, 0.0, 1.0)``: upright).
         tip_payload: point mass (kg, >= 0) at the tip disk centre (default 0.0). Rejected
@@ -100,6 +111,11 @@ class MuJoCoBackend(ObstacleScene, Backend):
         solid_obstacles: (default ``False``) whether the spheres placed by
             :meth:`set_obstacles` push the robot back (MuJoCo contacts as constraints); with
             ``False`` they are detected (:attr:`obstacle_clearance`) but exert no force.
+            Needs ``integrator="Euler"``. A contact acts from the step after the robot touches
+            a sphere: a robot moving fast (up to ~0.1 m per 0.02 s step under bang-bang
+            tensions) can sink a few centimetres into it within one step, and is then pushed
+            out over the next steps (time constant 2h); a robot held against a sphere rests
+            within ~1 mm of its surface (``CONTACT_SOLIMP``).
 
     Raises:
         ValueError: naming the argument and the value, for any invalid argument.
@@ -168,7 +184,20 @@ class MuJoCoBackend(ObstacleScene, Backend):
             threads = validation.integer(threads, "threads", 1)
         self.threads = threads
         self.solid_obstacles = validation.flag(solid_obstacles, "solid_obstacles")
+        if self.solid_obstacles and self.integrator != "Euler":
+            # the contacts' inertia is set for Euler's step (_set_contact_inertia); with the
+            # implicit integrators a fast robot sinks into a sphere and is thrown out of it
+            raise ValueError(
+                f"solid_obstacles=True needs integrator='Euler', got integrator="
+                f"{self.integrator!r} (its contacts are not stable with this robot's damping)"
+            )
         self.n_obstacles = 0
+        most = MAX_LINKS // params.n_disks
+        if self.links_per_span > most:
+            raise ValueError(
+                f"links_per_span must be in [1, {most}] for this robot ({params.n_disks} disk "
+                f"spans; MuJoCo nests at most {MAX_LINKS} link bodies), got {links_per_span!r}"
+            )
         check_span_buckling(params, self.links_per_span)
         self._base_rot = quat_to_matrix(np.asarray(self.base_orientation))
         #: Gravity (m/s²) in R0, the model's world frame.
@@ -177,6 +206,7 @@ class MuJoCoBackend(ObstacleScene, Backend):
         self._closed = False
         self._rollout: Any = None
         self._build(segment_tendons=self.friction_coefficient > 0.0)
+        self._check_timestep(self.model, "")
         # refuse, by name, a payload the robot cannot hold at the extreme shapes (goals and
         # random starts are drawn from them), as bullet does, instead of failing every reset
         check_tip_payload(
@@ -228,6 +258,10 @@ class MuJoCoBackend(ObstacleScene, Backend):
         )
         self.damping_time = 2.0 * self.damping_ratio / self.first_mode_frequency
         model.dof_damping[:] = self.damping_time * self._stiffness
+        self._contacts_active = obstacles > 0 and self.solid_obstacles
+        if self._contacts_active:
+            model.geom_solimp[:] = CONTACT_SOLIMP
+        self._set_contact_inertia(model)
         self.model = model
         bare = DiscreteBackbone(p, self.links_per_span)
         self._bare_tip = (
@@ -252,6 +286,11 @@ class MuJoCoBackend(ObstacleScene, Backend):
             [[name(model, site, s) for s in row] for row in self.mjcf.pinhole_sites]
         )
         c = p.n_cables
+        #: L_i (C,) m and π r_i m_i (C,) m: no shape changes cable i's length by more.
+        self._run_lengths = np.asarray(p.cable_run_lengths, dtype=float)
+        self._length_reach = (
+            math.pi * np.asarray(p.cable_radii) * (np.asarray(p.cable_section) + 1) * (1 + 1e-9)
+        )
         self._cable_ids = np.array([name(model, tendon, f"cable{i}") for i in range(c)])
         self._n_pull = c
         chain = self.mjcf.chain
@@ -292,6 +331,96 @@ class MuJoCoBackend(ObstacleScene, Backend):
         return self._models[i]
 
     # -- validation -----------------------------------------------------------------------------
+    def stable_timestep(self, model: Any = None) -> float:
+        """The longest ``physics_timestep`` (s) accepted for ``model`` (default: the nominal
+        one): with D = β·K (β = 2ζ/ω₁) the Euler step is linearly stable for h < 2β in every
+        mode (damping implicit, stiffness explicit); the cables' load (a follower force) and
+        the joints' nonlinearity take part of that, most at low ζ, so h <= β·min(1, 1/2 + ζ)
+        is accepted (measured: bang-bang extreme tensions for 400 steps stay stable there on
+        the paper robot, ball and Cardan joints, ζ from 0.01 to 1.5; they diverge near 2β).
+        RK4 treats the damping explicitly: h <= 2.5/(β·ω_max²) and 2.5/ω_max."""
+        model = self.model if model is None else model
+        first, highest = self._modes(model)
+        beta = 2.0 * self.damping_ratio / first
+        if self.integrator == "RK4":
+            return min(2.5 / (beta * highest**2), 2.5 / highest)
+        return beta * min(1.0, 0.5 + self.damping_ratio)
+
+    def _modes(self, model: Any) -> tuple[float, float]:
+        """ω₁ and ω_max (rad/s) of ``model``'s straight chain (its stiffness and masses)."""
+        mj, data = self._mj, self._scratch
+        mj.mj_resetData(model, data)
+        mj.mj_forward(model, data)
+        mass = np.zeros((model.nv, model.nv))
+        mj.mj_fullM(model, data, mass)
+        mass[np.diag_indices(model.nv)] -= model.dof_armature  # the links' own inertia
+        return bending_modes(mass, model.jnt_stiffness[model.dof_jntid])
+
+    def _check_timestep(self, model: Any, context: str) -> None:
+        """Refuse a physics timestep beyond :meth:`stable_timestep` of ``model``, naming the
+        arguments (``context``: the randomised robot it is about, if any)."""
+        limit = self.stable_timestep(model)
+        if self.physics_timestep <= limit:
+            return
+        raise ValueError(
+            f"physics_timestep={self.physics_timestep!r} s is too long for "
+            f"damping_ratio={self.damping_ratio!r} with integrator={self.integrator!r}"
+            f"{context}: the step diverges; stable up to {limit:.3g} s (see "
+            f"MuJoCoBackend.stable_timestep): use a physics_timestep <= {limit:.3g} s that "
+            f"divides control_timestep={self.control_timestep!r} s, or "
+            + ("integrator='Euler'" if self.integrator == "RK4" else "a larger damping_ratio")
+        )
+
+    def check_randomization(self, ranges: dict[str, tuple[float, float]]) -> None:
+        """Refuse, when the env is made, ``randomize`` ranges (name → (low, high)) whose
+        extreme robots this backend cannot simulate: the heaviest ``tip_payload`` on the
+        softest robot must be held under gravity (``check_tip_payload``, as the constructor's
+        ``tip_payload``), and the stiffest, lightest robot (highest ``youngs_modulus``, lowest
+        payload) must be stable at ``physics_timestep`` (:meth:`stable_timestep`).
+
+        Raises:
+            ValueError: naming ``randomize[<name>]``, the range and the reason.
+        """
+        e0 = self.params.youngs_modulus
+        e_low, e_high = ranges.get("youngs_modulus", (e0, e0))
+        p_low, p_high = ranges.get("tip_payload", (self.tip_payload, self.tip_payload))
+        gravity = self.gravity or ranges.get("gravity", (0.0, 0.0))[1] > 0.0
+        named = " and ".join(
+            f"randomize[{k!r}]={list(ranges[k])}"
+            for k in ("youngs_modulus", "tip_payload")
+            if k in ranges
+        )
+        if not named:
+            return
+
+        def robot(youngs: float, payload: float) -> Any:
+            model = copy.copy(self.model)
+            model.jnt_stiffness[:] = self._nominal_stiffness * (youngs / e0)
+            self._set_payload(model, payload)
+            model.opt.gravity[:] = self.gravity_in_base if gravity else 0.0
+            return model
+
+        if "tip_payload" in ranges or "youngs_modulus" in ranges:
+            heavy = robot(e_low, p_high)
+            try:
+                check_tip_payload(
+                    p_high,
+                    self.params,
+                    gravity,
+                    lambda t: self._solve_static(heavy, self._scratch, t, relaxations=(1.0,)),
+                )
+            except ValueError as exc:
+                raise ValueError(
+                    f"{named}: at the range's extreme (youngs_modulus={e_low!r} Pa, "
+                    f"tip_payload={p_high!r} kg): {exc}; narrow the range"
+                ) from None
+        stiff = robot(e_high, p_low)
+        self._check_timestep(
+            stiff,
+            f" and {named} (the stiffest robot: youngs_modulus={e_high!r} Pa, "
+            f"tip_payload={p_low!r} kg)",
+        )
+
     def _check_open(self) -> None:
         if self._closed:
             raise RuntimeError("this MuJoCoBackend is closed")
@@ -579,17 +708,29 @@ class MuJoCoBackend(ObstacleScene, Backend):
     def _check_state(self, i: int) -> None:
         """Raise :class:`SimulationDivergedError` if robot i's state is non-finite, a joint is
         bent beyond ``MAX_JOINT_ANGLE``, the joint-rate vector is longer than
-        ``MAX_JOINT_RATE``, or MuJoCo reported a bad acceleration (it then resets the data)."""
+        ``MAX_JOINT_RATE``, a cable's length is beyond every shape's (a section bent past 180°:
+        |l_i − L_i| > π r_i m_i, the observation's bound), or MuJoCo reported a bad
+        acceleration (it then resets the data)."""
         qpos, qvel, warning = self._views[i][:3]
         rate2 = qvel.dot(qvel)  # NaN fails the comparisons below
+        lengths = self._views[i][5][self._cable_ids]
         if (
             warning.number > 0
             or not rate2 <= MAX_JOINT_RATE * MAX_JOINT_RATE
             or not self._max_joint_angle(qpos) <= MAX_JOINT_ANGLE
+            or not np.all(np.abs(lengths - self._run_lengths) <= self._length_reach)
         ):
             data = self._datas[i]
+            if warning.number > 0:
+                why = "MuJoCo reported a bad acceleration"
+            elif not rate2 <= MAX_JOINT_RATE * MAX_JOINT_RATE:
+                why = f"a joint turns faster than {MAX_JOINT_RATE:g} rad/s"
+            elif not self._max_joint_angle(qpos) <= MAX_JOINT_ANGLE:
+                why = f"a joint is bent beyond {math.degrees(MAX_JOINT_ANGLE):g}°"
+            else:
+                why = "a section is bent past 180° (a cable length beyond every shape's)"
             raise self._diverged(
-                "the simulation diverged", data, self._tensions[i], float(self.time[i])
+                f"the simulation diverged: {why}", data, self._tensions[i], float(self.time[i])
             )
 
     def _max_joint_angle(self, q: np.ndarray) -> float:
@@ -708,14 +849,24 @@ class MuJoCoBackend(ObstacleScene, Backend):
     def _tune_damping(self, model: Any) -> None:
         """D = β·K with β = 2ζ/ω₁ of ``model``'s own first bending mode (its stiffness and
         masses), so that every randomised robot keeps the damping ratio ζ."""
-        mj, data = self._mj, self._scratch
-        mj.mj_resetData(model, data)
-        mj.mj_forward(model, data)
-        mass = np.zeros((model.nv, model.nv))
-        mj.mj_fullM(model, data, mass)
+        first, _ = self._modes(model)
         k = model.jnt_stiffness[model.dof_jntid]
-        first, _ = bending_modes(mass, k)
         model.dof_damping[:] = 2.0 * self.damping_ratio / first * k
+        self._set_contact_inertia(model)
+
+    def _set_contact_inertia(self, model: Any) -> None:
+        """With solid spheres (contacts in MuJoCo's constraint solver) and the Euler integrator:
+        the damping's implicit term h·D moved from Euler's damping step into the mass matrix
+        (``dof_armature`` = h·D, Euler's implicit damping off). The step is the same,
+        (M + h·D)·Δq̇ = h·f, but the constraint solver then sees the inertia the step has: the
+        joints' damping is ~10³ times M/h, and a solver working with M alone computes contact
+        forces for a robot 10³ times lighter than the step moves, which let a fast robot sink
+        centimetres into a sphere and then threw it out at tens of rad/s. No change without
+        solid spheres or with another integrator."""
+        if not (self._contacts_active and self.integrator == "Euler"):
+            return
+        model.dof_armature[:] = model.opt.timestep * model.dof_damping
+        model.opt.disableflags |= self._mj.mjtDisableBit.mjDSBL_EULERDAMP
 
     def _set_payload(self, model: Any, payload: float) -> None:
         """The tip link's mass, COM and inertia with ``payload`` kg at the tip disk centre."""
@@ -748,9 +899,13 @@ class MuJoCoBackend(ObstacleScene, Backend):
                 model = self._own_model(i)
                 model.jnt_stiffness[:] = old_model.jnt_stiffness
                 model.dof_damping[:] = old_model.dof_damping
+                self._set_contact_inertia(model)
                 model.opt.gravity[:] = old_model.opt.gravity
                 for field in ("body_mass", "body_ipos", "body_inertia"):
                     getattr(model, field)[tip] = getattr(old_model, field)[tip]
+                # the constants derived from the masses (subtree masses, the inverse weights
+                # that scale the contacts' regularisation), as _set_payload computes them
+                mj.mj_setConst(model, self._scratch)
                 for old_g, new_g in zip(old_spheres, self._sphere_geoms):
                     for field in ("geom_size", "geom_rbound", "geom_aabb"):
                         getattr(model, field)[new_g] = getattr(old_model, field)[old_g]

@@ -105,7 +105,10 @@ def implicit_slip_step(
     mj.mj_fwdConstraint(model, data)
     mass = np.zeros((model.nv, model.nv))
     mj.mj_fullM(model, data, mass)
-    system = mass + np.diag(h * model.dof_damping)  # Euler: (M + hD)·Δv = h·M·qacc
+    if model.opt.disableflags & mj.mjtDisableBit.mjDSBL_EULERDAMP:
+        system = mass  # h·D is in the mass matrix (armature): Δv = h·qacc
+    else:
+        system = mass + np.diag(h * model.dof_damping)  # Euler: (M + hD)·Δv = h·M·qacc
     nv = model.nv
     j_l = dense_tendon_jacobian(data, cable_index, len(cable_ids), nv)  # (C, nv)
     free = -h * (j_l @ (data.qvel + h * np.linalg.solve(system, mass @ data.qacc)))
