@@ -181,3 +181,45 @@ def test_every_docs_page_is_reachable():
     for page in (DOCS / "experiments").glob("*.md"):
         if page.name != "index.md":
             assert f"]({page.name})" in index, f"experiments/{page.name} is not listed"
+
+
+def _architecture_tree_paths(text: str) -> list[str]:
+    """The paths of the tree in docs/architecture.md, rebuilt from its indentation: an entry is
+    the first word of a line ending in ``/`` (a folder) or ``.py`` (a module); deeper lines are
+    inside the last folder above them."""
+    block = re.search(r"```text\n(.*?)```", text, re.S)
+    assert block, "architecture.md has no tree"
+    paths: list[str] = []
+    stack: list[tuple[int, str]] = []  # (indent, folder path)
+    for line in block.group(1).splitlines():
+        match = re.match(r"( *)(\S+)", line)
+        if (
+            not match
+            or len(match.group(1)) > 12
+            or not re.fullmatch(r"[\w.]+(/|\.py)", match.group(2))
+        ):
+            continue  # a continuation line of a description (they start in column 21)
+        indent, name = len(match.group(1)), match.group(2)
+        while stack and stack[-1][0] >= indent:
+            stack.pop()
+        path = (stack[-1][1] if stack else "") + name
+        paths.append(path)
+        if name.endswith("/"):
+            stack.append((indent, path))
+    return paths
+
+
+def test_architecture_names_only_paths_that_exist():
+    """Every folder and module of the tree in docs/architecture.md, and every ``cdcr_gym/...``,
+    ``training/...`` or ``experiments/...`` path named on the page, exists in the checkout."""
+    text = (DOCS / "architecture.md").read_text(encoding="utf-8")
+    tree = _architecture_tree_paths(text)
+    assert "cdcr_gym/model/discrete.py" in tree and "training/studies/" in tree, tree
+    named = re.findall(r"\b((?:cdcr_gym|training|experiments)/[\w/]*\w(?:\.py|/)?)", text)
+    missing = [p for p in tree + named if not (ROOT / p).exists()]
+    assert not missing, missing
+    # the "Where a change goes" list names modules relative to cdcr_gym/
+    relative = re.findall(
+        r"`((?:model|backends|tasks|envs|controllers|calibration)/\w+\.py)`", text
+    )
+    assert relative and not [p for p in relative if not (ROOT / "cdcr_gym" / p).exists()]
