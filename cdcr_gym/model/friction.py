@@ -1,4 +1,4 @@
-"""Capstan friction between a cable and the disks it runs through (SPEC §7), pure numpy.
+"""Capstan friction between a cable and the disks it runs through, pure numpy.
 
 A cable runs straight from pinhole to pinhole. At a disk its incoming and outgoing segments meet
 at the *wrap angle* α (the angle between their directions); a cable sliding through that pinhole
