@@ -146,7 +146,9 @@ def test_the_readme_keeps_the_two_commands_and_stays_short():
 def test_user_pages_carry_no_development_history(page):
     """Issue numbers, commit hashes and talk about one machine belong in docs/experiments/."""
     pattern = re.compile(
-        r"issue [0-9]+|commit [0-9a-f]{7}|this VM|CI machine|SPEC §|shared/seed", re.I
+        r"issue [0-9]+|commit [0-9a-f]{7}|this VM|CI machine|SPEC §|shared/seed"
+        r"|`(?=[0-9a-f]*[a-f])[0-9a-f]{7,40}`",  # a bare commit hash in code quotes
+        re.I,
     )
     hits = [line for line in page.read_text(encoding="utf-8").splitlines() if pattern.search(line)]
     assert not hits, hits
