@@ -48,7 +48,7 @@ def batched_rate(num_envs: int = 16384, steps: int = 60, repeats: int = 5) -> fl
         for i in range(steps):
             # Each result is kept until the next step, as a training loop (and training.studies.bench)
             # keeps it: results dropped at once are freed and the next step's ~3 MB of outputs
-            # are page-faulted in again (docs/throughput.md, "Notes").
+            # are page-faulted in again (docs/experiments/throughput.md, "Notes").
             out = env.step(actions[i % 8])
         rates.append(num_envs * steps / (time.perf_counter() - start))
     del out

@@ -5,7 +5,7 @@ straight robot, cable 1 is commanded ``--tension`` N at step 0 (``action_mode="t
 held; printed is the remaining fraction of the tip's way to its final position,
 |tip_k − tip_final| / |tip_0 − tip_final|, after k control steps, for bullet (gravity on and off)
 and for CCKA with ``imperfections={"tension_response": omega}``. The fit of ``omega`` that
-``configs/ppo_ccka_dr_reach.yaml`` uses comes from this comparison (docs/sim2real.md).
+``configs/ppo_ccka_dr_reach.yaml`` uses comes from this comparison (docs/experiments/sim2real.md).
 """
 
 from __future__ import annotations

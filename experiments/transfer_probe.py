@@ -1,4 +1,5 @@
-"""Probes of the CCKA → bullet gap that a CCKA-trained closed-loop policy meets (docs/sim2real.md).
+"""Probes of the CCKA → bullet gap that a CCKA-trained closed-loop policy meets
+(docs/experiments/sim2real.md).
 
 Usage::
 

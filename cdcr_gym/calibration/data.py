@@ -12,7 +12,7 @@ column         unit     meaning
 ``m1`` … ``mn`` kg      hanging masses on the cables (the paper's protocol), converted to tensions
                         with g = 9.81 m/s² (``cdcr_gym.params.STANDARD_GRAVITY``) — **or**
 ``d1`` … ``dn`` m       commanded tendon displacements (positive = pulled in), for robots driven
-                        by position-controlled drives (SPEC §8). Give one kind.
+                        by position-controlled drives. Give one kind.
 ``timestamp``   s       optional: when the row was measured (kept; must not decrease).
 ``x, y, z``     m       measured tip (last disk centre) in the base frame R0: origin at the base
                         disk centre, backbone along +Z0 (up), cable 1 at +X0.

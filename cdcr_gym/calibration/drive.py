@@ -1,9 +1,9 @@
 """The CCKA (piecewise constant curvature) model of a robot driven by tendon **displacements**,
 batched over measurement rows and over parameter sets (for a one-call finite-difference Jacobian).
 
-Model (SPEC §6 and §8): section j bends with a constant curvature vector κ_j = (κx, κy)_j in its
-own frame (sections compose without torsion). Tendon i belongs to section m_i, sits at radius r_i
-and angle β_i and runs through sections 1…m_i; with g_i = r_i·(cos β_i, sin β_i) its geometric
+Model (docs/calibration.md, robots driven by tendon displacement): section j bends with a
+constant curvature vector κ_j = (κx, κy)_j in its own frame (sections compose without torsion).
+Tendon i belongs to section m_i, sits at radius r_i and angle β_i and runs through sections 1…m_i; with g_i = r_i·(cos β_i, sin β_i) its geometric
 shortening is ``s_i = Σ_{j ≤ m_i} ℓ_j·g_i·κ_j`` (linear in κ: ``s = G·Λ·u`` with u the stacked
 curvatures, G (C, 2S) holding g_i in the blocks of the sections the tendon runs through and
 Λ = diag(ℓ_j, ℓ_j)). The drive law is ``T_i = clip(T0_i + k_i·(d_i − s_i), 0, T_max)`` (slack: a
@@ -255,7 +255,7 @@ def rotation_zyx(yaw: np.ndarray, tilt_y: np.ndarray, tilt_x: np.ndarray) -> np.
 
 @dataclass(frozen=True)
 class TendonDrive:
-    """The nominal tendon drive of a robot (SPEC §8), SI units.
+    """The nominal tendon drive of a robot (docs/robots.md), SI units.
 
     Attributes:
         stiffness: (C,) tendon stiffness k, N/m.

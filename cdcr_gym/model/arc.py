@@ -1,4 +1,4 @@
-"""One constant-curvature section (CCKA, SPEC §2): arc ↔ cable lengths, tip pose, backbone points.
+"""One constant-curvature section (CCKA, docs/model.md): arc ↔ cable lengths, tip pose, backbone points.
 
 Pure numpy; imports no simulator and no Gymnasium. Every function broadcasts over leading batch
 dimensions: an argument of shape (..., 3) or (...) gives results with the same leading shape.

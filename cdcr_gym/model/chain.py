@@ -1,4 +1,4 @@
-"""Piecewise constant curvature (PCC) model of a robot of S sections and C cables (SPEC §6).
+"""Piecewise constant curvature (PCC) model of a robot of S sections and C cables (docs/model.md).
 
 Pure numpy (no simulator, no Gymnasium), float64, SI units. Every method broadcasts over leading
 batch dimensions.
@@ -137,7 +137,7 @@ class PCCModel:
         return np.ascontiguousarray(maps.transpose(2, 0, 1).reshape(C, 2 * S))
 
     def bending_from_tensions(self, tensions) -> np.ndarray:
-        """Bending vectors w (..., S, 2) (rad) under cable tensions (..., C) (N) (SPEC §6 statics).
+        """Bending vectors w (..., S, 2) (rad) under cable tensions (..., C) (N) (coupled statics).
 
         w_j = (ℓ_j/EI)·Σ_{cables i through section j} T_i r_i (cos β_i, sin β_i). Linear; negative
         tensions are computed as given (callers keep tensions in [0, max_tension]).
@@ -181,7 +181,7 @@ class PCCModel:
     def bending_from_lengths(self, lengths) -> np.ndarray:
         """Bending vectors w (..., S, 2) (rad) from cable lengths (..., C) (m).
 
-        Sequential least squares per section from the base (SPEC §6; see
+        Sequential least squares per section from the base (see
         :attr:`lengths_to_bending`): exact for consistent lengths; a common-mode length change of
         a section's cables does not bend it.
         """

@@ -97,7 +97,7 @@ Span buckling (the valid tension range)
     pose loses stability at the discrete column's load
     P_cr = (4·EI/Δ²)·sin²(π/(2m))  (m = 1: 4·EI/h²; m = 2: 8·EI/h²; → π²·EI/h² as m → ∞),
     the zero of the smallest eigenvalue of the tangent stiffness K − ∂τ_cable/∂q at q = 0
-    (``python -m training.verification --buckling`` compares the two). Beyond it the chain
+    (``python -m experiments.verification --buckling`` compares the two). Beyond it the chain
     buckles (the paper's robot with 3 disks and one link per span, P_cr = 3 × 44 N, diverged
     after ≈ 1.7 s holding 80/80/80 N). :func:`check_span_buckling` rejects robots whose cables,
     all at ``max_tension``, reach P_cr in some span; as P_cr ≤ π²·EI/h², every accepted robot

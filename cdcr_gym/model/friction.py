@@ -1,4 +1,4 @@
-"""Capstan friction between a cable and the disks it runs through (SPEC §7), pure numpy.
+"""Capstan friction between a cable and the disks it runs through, pure numpy.
 
 A cable runs straight from pinhole to pinhole. At a disk its incoming and outgoing segments meet
 at the *wrap angle* α (the angle between their directions); a cable sliding through that pinhole
@@ -12,7 +12,7 @@ equation), and in stick any ratio inside ``[e^(−μα), e^(μα)]``. The actuat
 **Regularised stick–slip.** The sign is replaced by a *slip state* s ∈ [−1, 1] (+1 pulling,
 −1 releasing) and the factor across a disk by ``e^(−s·μ·α_k)``, which stays inside the stick
 band for every |s| ≤ 1 (|s| < 1 is stick: the ratio is one of the admissible stick ratios). Two
-laws for s are provided, both documented in ``docs/sim2real.md``:
+laws for s are provided, both documented in ``docs/experiments/sim2real.md`` (capstan friction):
 
 * :func:`slip_from_speed` — ``s = tanh(v / v_s)`` of the cable's sliding speed v (m/s,
   positive towards the base) over a velocity scale v_s. Memoryless: at rest s = 0, so the

@@ -1,6 +1,6 @@
 """The robot description: sections of a cable-driven continuum robot, in SI units.
 
-A robot is a sequence of :class:`SectionParams` stacked from the base (SPEC §6). Section j has a
+A robot is a sequence of :class:`SectionParams` stacked from the base (docs/model.md). Section j has a
 length ℓ_j, ``n_disks`` spacer disks (evenly spaced, the last at the section's end) and its own
 cables, which terminate at that last disk. A cable sits at a fixed position (radius r, angle β
 from the disk's x axis) in every disk it passes: a cable of section j runs parallel to the
@@ -172,7 +172,7 @@ class SectionParams:
 
 
 _SINGLE_SECTION_KEYS = ("length", "n_disks", "cable_radius")
-#: The drive description (SPEC §8): scalars or per-cable tuples, and a pair.
+#: The drive description (docs/robots.md, tendon drives): scalars or per-cable tuples, and a pair.
 _DRIVE_KEYS = ("tendon_stiffness", "tendon_pretension", "displacement_range")
 
 
@@ -208,7 +208,7 @@ class RobotParams:
     Parameters that allow more (a soft backbone, a high tension limit) are rejected with a
     ``ValueError`` that gives the reachable bend; see :attr:`section_bend_limits`.
 
-    Tendon drive (SPEC §8; :mod:`cdcr_gym.model.tendons`): each tendon is wound on a
+    Tendon drive (:mod:`cdcr_gym.model.tendons`; docs/robots.md): each tendon is wound on a
     position-controlled drive; a commanded displacement d (m, positive = pulled in) gives the
     tension T = clip(T0 + k·(d − s), 0, max_tension), s the tendon's geometric shortening. The
     paper's robot gets k = 2·10⁴ N/m: a 0.5 mm stranded steel rope (effective E ≈ 100 GPa,

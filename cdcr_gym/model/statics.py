@@ -1,7 +1,7 @@
 """Cable tensions ↔ bending with coupled tendon moments; tension IK; the reachable bending set.
 
 Pure-moment statics (frictionless cables routed parallel to the backbone, no gravity, dense
-disks; SPEC §3 and §6): the curvature vector of section j in its own frame is
+disks; docs/model.md): the curvature vector of section j in its own frame is
 
     κ_j = w_j/ℓ_j = (1/EI) · Σ_{cables i through section j} T_i · v_i,   v_i = r_i (cos β_i, sin β_i),
 

@@ -1,4 +1,5 @@
-"""Tendons driven by displacement (SPEC §8): the compliant tendon law and the quasi-static shape.
+"""Tendons driven by displacement: the compliant tendon law and the quasi-static shape
+(docs/robots.md, tendon drives).
 
 Pure numpy (no simulator, no Gymnasium), float64, SI units; every function broadcasts over
 leading batch dimensions.
@@ -303,7 +304,7 @@ def solve_displacement_statics(
     bending_scale=None,
     length_scale=None,
 ) -> TendonState:
-    """The quasi-static PCC shape under tendon displacement commands (SPEC §8).
+    """The quasi-static PCC shape under tendon displacement commands.
 
     Solves T = clip(T0 + k·(d − s(w(T))), 0, max_tension) together with the frictionless
     pure-moment statics w = w(T) of ``model`` (see the module docstring), exactly: the result's

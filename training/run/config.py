@@ -14,7 +14,7 @@ valid name), wrong types and out-of-range values are errors that name the key an
     total_timesteps: 1000000      # environment steps (summed over all envs)
     env:
       id: cdcr_gym/CCKAReach-v0   # any registered id
-      kwargs: {}                  # passed to gymnasium.make (ReachEnv / backend arguments)
+      kwargs: {}                  # passed to gymnasium.make (env / task / backend arguments)
       per_env_kwargs: []          # cycled over the training envs, each updates kwargs, e.g.
                                   # [{initial_state: straight}, {initial_state: random}]
       max_episode_steps: null     # null: the registered value (100)

@@ -192,7 +192,7 @@ def _reference_tips(params: RobotParams, gravity: bool, cases: np.ndarray) -> np
         ref.close()
 
 
-#: The Cosserat reference of the repository (written by ``cdcr-gym cosserat-reference``);
+#: The Cosserat reference of the repository (written by ``python -m experiments.cosserat``);
 #: this file is ``training/studies/bench_physics.py``, so the repository root is ``parents[2]``.
 REFERENCE_PATH = (
     Path(__file__).resolve().parents[2] / "docs/figures/physics/cosserat_reference.json"

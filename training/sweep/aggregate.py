@@ -2,12 +2,15 @@
 
 Usage::
 
-    python -m training.sweep.aggregate SWEEP_OUT [--doc docs/benchmark.md] [--reps 50000]
+    cdcr-gym aggregate SWEEP_OUT [--doc docs/experiments/benchmark.md] [--reps 50000]
 
 ``SWEEP_OUT`` is a sweep's output directory (``runs/sweeps/<name>``, holding ``sweep.json``,
 see :mod:`training.sweep`). Prints markdown tables and writes ``SWEEP_OUT/aggregate.json``;
-``--doc PAGE`` also writes the benchmark page ``PAGE``, its figures in
-``<PAGE dir>/figures/<page name>/`` and its data ``<PAGE dir>/figures/<page name>/results.json``.
+``--doc PAGE`` also writes the benchmark page ``PAGE``, its figures in ``<figures>/<page name>/``
+and its data ``<figures>/<page name>/results.json``, where ``<figures>`` is the ``figures/``
+folder of the page's folder or, if it has none, of its parent folder (the docs' one for
+``docs/experiments/benchmark.md``: ``docs/figures/benchmark/``); the page links them relative
+to its own folder (``../figures/benchmark/iqm.png``) (:func:`figures_dir`).
 
 **Scores.** One scalar per run and evaluation condition (``eval.json``'s ``conditions``, e.g.
 ``straight_100steps``; ``straight_h100`` in older files): the median final tip error (mm), the fraction of goals within 5 mm
@@ -40,6 +43,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import shlex
 import sys
 from collections import defaultdict
@@ -295,6 +299,21 @@ def machine_sharing(summary: dict[str, Any], runs: list[RunResult], max_conc: in
     )
 
 
+def figures_dir(page: Path) -> tuple[Path, str]:
+    """Where the figures of the page ``page`` go, and the link prefix the page uses for them.
+
+    The folder is ``<D>/figures/<page stem>`` with ``D`` the page's folder if it holds a
+    ``figures/`` folder, else its parent folder if that holds one (a page of a subsection of the
+    docs, such as ``docs/experiments/``), else the page's folder; the prefix is that folder relative to the page's folder, with ``/`` separators
+    (``docs/experiments/benchmark.md`` -> ``docs/figures/benchmark``, ``../figures/benchmark``).
+    """
+    folder = page.resolve().parent
+    root = next((d for d in (folder, folder.parent) if (d / "figures").is_dir()), folder)
+    fig_dir = root / "figures" / page.stem
+    prefix = Path(os.path.relpath(fig_dir, folder)).as_posix()
+    return fig_dir, prefix
+
+
 def write_doc(
     page: Path,
     sweep_dir: Path,
@@ -307,9 +326,8 @@ def write_doc(
 ) -> None:
     """The benchmark page, its figures and its data (see the module docstring); ``note``: a
     paragraph placed under the page's introduction (e.g. why the budget is what it is)."""
-    fig_dir = page.parent / "figures" / page.stem
+    fig_dir, rel = figures_dir(page)
     fig_dir.mkdir(parents=True, exist_ok=True)
-    rel = f"figures/{page.stem}"
     plot_performance_profiles(runs, fig_dir / "performance_profiles.png")
     plot_iqm(result, fig_dir / "iqm.png")
     plot_curves(runs, fig_dir / "learning_curves.png")
@@ -532,7 +550,10 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("sweep_dir", type=Path, metavar="SWEEP_OUT", help="a sweep's out_dir")
     parser.add_argument(
-        "--doc", type=Path, default=None, help="write the benchmark page (e.g. docs/benchmark.md)"
+        "--doc",
+        type=Path,
+        default=None,
+        help="write the benchmark page (e.g. docs/experiments/benchmark.md)",
     )
     parser.add_argument("--reps", type=int, default=50_000, help="bootstrap resamples (50 000)")
     parser.add_argument("--seed", type=int, default=0, help="bootstrap RNG seed")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -405,3 +406,27 @@ def test_reference_rows_mark_the_performance_profiles(tmp_path: Path) -> None:
     assert reference_errors(runs) == {
         "MuJoCoReach-v0": {"analytic IK, closed loop": 0.2, "random policy": 150.0}
     }
+
+
+def test_a_page_below_the_docs_links_the_docs_figures_relative_to_its_folder(
+    sweep_dir: Path, tmp_path: Path
+) -> None:
+    """``--doc docs/experiments/benchmark.md`` writes its figures into ``docs/figures/benchmark/``
+    (the docs' figures folder) and links them as ``../figures/benchmark/...``; a page whose
+    folder has a figures folder uses it (``figures/top``)."""
+    from training.sweep.aggregate import figures_dir
+
+    docs = tmp_path / "docs"
+    (docs / "figures").mkdir(parents=True)
+    page = docs / "experiments" / "benchmark.md"
+    page.parent.mkdir()
+    assert figures_dir(page) == (docs.resolve() / "figures" / "benchmark", "../figures/benchmark")
+    assert figures_dir(docs / "top.md")[1] == "figures/top"
+    assert main([str(sweep_dir), "--doc", str(page), "--reps", "200"]) == 0
+    text = page.read_text()
+    links = re.findall(r"\]\(([^)\s]+)\)", text)
+    assert "../figures/benchmark/iqm.png" in links
+    for link in links:
+        if not re.match(r"[a-z]+:", link) and not link.startswith("#"):
+            assert (page.parent / link).resolve().is_file(), link
+    assert not (page.parent / "figures").exists()

@@ -30,7 +30,8 @@ from training.studies.reproduce.study import (
 #: (``--backend bullet``, 4 links per span by default) is the study's first backbone.
 DEFAULT_BACKEND = "mujoco"
 #: ``--links-per-span`` default per backend: each backend's converged-enough main sweeps
-#: (MuJoCo: its env default, 1 with the corrected routing; pybullet: 4, within 0.25 % of ℓ).
+#: (MuJoCo: its env default, 1 with the corrected routing; pybullet: 4, converged beyond its
+#: one-link default, which is within 0.44 % of ℓ; docs/bullet_backend.md).
 DEFAULT_LINKS_PER_SPAN = {"mujoco": 1, "bullet": 4}
 
 

@@ -227,7 +227,8 @@ class StudyConfig:
         resolution_forces: forces (N) of both studies; ``None``: ``forces``.
         horizontal: also run the sweep with a horizontal base (gravity across the backbone).
         links_per_span: links per disk span of the main sweeps (default 4: converged, see the
-            resolution study; 1 over-states the discrete-routing excess threefold).
+            resolution study; with ``routing="disk"`` 1 over-states the discrete-routing excess
+            threefold, the default corrected routing removes that excess at any m).
         threshold_pct: the error (% of ℓ) above which CCKA is said to stop holding.
         settle_tol, settle_window, settle_max_steps: see :func:`settle`.
         backend_kwargs: extra keyword arguments for the backend constructor.
