@@ -117,7 +117,7 @@ def trajectories(bullet: bool = True) -> dict[str, np.ndarray]:
         return out
 
     for gravity in (False, True):
-        env = gym.make("cdcr_gym/BulletReach-v0", gravity=gravity)
+        env = gym.make("cdcr_gym/BulletReach-v0", gravity=gravity, routing="disk")
         out[f"bullet/gravity{int(gravity)}"] = _rollout(
             env,
             0,
@@ -125,7 +125,7 @@ def trajectories(bullet: bool = True) -> dict[str, np.ndarray]:
             options={"goal": [0.15, 0.1, 0.55], "initial_tensions": [20.0, 5.0, 0.0]},
         )
         env.close()
-    env = gym.make("cdcr_gym/BulletReach-v0", action_mode="tension", gravity=True)
+    env = gym.make("cdcr_gym/BulletReach-v0", action_mode="tension", gravity=True, routing="disk")
     out["bullet/tension"] = _rollout(env, 0, _actions(22, 10), options={"goal": [0.0, 0.2, 0.5]})
     env.close()
     return out

@@ -225,7 +225,16 @@ def trajectories(bullet: bool = True) -> dict[str, np.ndarray]:
         for mode in ("tension", "tension_delta"):
             for gc in (False, True) if task in GOAL_TASKS else (False,):
                 name = f"Bullet{task}/{mode}/gc{int(gc)}"
-                _single(out, name, env_id, N_BULLET, 3, action_mode=mode, goal_conditioned=gc)
+                _single(
+                    out,
+                    name,
+                    env_id,
+                    N_BULLET,
+                    3,
+                    action_mode=mode,
+                    goal_conditioned=gc,
+                    routing="disk",  # the routing these rollouts were pinned with
+                )
     _single(
         out,
         "BulletReach/realism",
@@ -233,6 +242,7 @@ def trajectories(bullet: bool = True) -> dict[str, np.ndarray]:
         N_BULLET,
         6,
         gravity=False,
+        routing="disk",
         randomize={"youngs_modulus": [30e9, 40e9], "tip_payload": [0.0, 0.01]},
         imperfections={"tip_noise": 0.001, "actuator_noise": 0.2},
     )

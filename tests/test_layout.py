@@ -71,3 +71,34 @@ def test_dependencies_run_one_way(package):
             if any(name == f or name.startswith(f + ".") for f in FORBIDDEN[package]):
                 offenders.append(f"{path.relative_to(ROOT)} imports {name}")
     assert not offenders, offenders
+
+
+def _absolute_imports(path: Path) -> set[str]:
+    """Every module ``path`` imports, relative imports resolved against its package."""
+    package = ("cdcr_gym",) + path.relative_to(ROOT).parent.parts
+    names: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            names.update(a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            base = ".".join(package[: len(package) - node.level + 1]) if node.level else ""
+            module = ".".join(p for p in (base, node.module or "") if p)
+            names.add(module)
+            names.update(f"{module}.{a.name}" for a in node.names)  # from pkg import submodule
+    return names
+
+
+@pytest.mark.parametrize(("backend", "other"), [("mujoco", "bullet"), ("bullet", "mujoco")])
+def test_simulator_backends_stand_alone(backend, other):
+    """The pybullet and MuJoCo backends import nothing from each other (what they share lives in
+    ``cdcr_gym.model.discrete`` and ``cdcr_gym.backends.base``)."""
+    files = sorted((ROOT / "backends" / backend).rglob("*.py"))
+    assert files, backend
+    forbidden = f"cdcr_gym.backends.{other}"
+    offenders = [
+        f"{path.relative_to(ROOT)} imports {name}"
+        for path in files
+        for name in _absolute_imports(path)
+        if name == forbidden or name.startswith(forbidden + ".")
+    ]
+    assert not offenders, offenders

@@ -20,13 +20,57 @@ in the same order give bit-identical readings.
 from __future__ import annotations
 
 import abc
+import math
 from typing import NamedTuple
 
 import numpy as np
 
 from cdcr_gym.model.params import RobotParams
 
-__all__ = ["Backend", "Readings"]
+__all__ = [
+    "Backend",
+    "Readings",
+    "SimulationDivergedError",
+    "diverged",
+    "MAX_JOINT_ANGLE",
+    "MAX_JOINT_RATE",
+]
+
+
+#: A joint whose angle exceeds this (rad) or whose rate exceeds ``MAX_JOINT_RATE`` (rad/s) is
+#: taken as a diverged simulation (a real spacer-disk span never kinks by 90°).
+MAX_JOINT_ANGLE = 0.5 * math.pi
+MAX_JOINT_RATE = 1.0e3
+
+
+class SimulationDivergedError(RuntimeError):
+    """The simulation produced a non-finite or exploding state.
+
+    Attributes:
+        state: dict with the offending ``joint_positions`` (rad), ``joint_velocities`` (rad/s),
+            ``tensions`` (N) and simulated ``time`` (s), as numpy arrays / float.
+    """
+
+    def __init__(self, message: str, state: dict):
+        super().__init__(message)
+        self.state = state
+
+
+def diverged(
+    message: str, q: np.ndarray, qd: np.ndarray, tensions: np.ndarray, time: float
+) -> SimulationDivergedError:
+    """A :class:`SimulationDivergedError` describing the state (q, q̇, tensions, time)."""
+    state = {
+        "joint_positions": q.copy(),
+        "joint_velocities": qd.copy(),
+        "tensions": tensions.copy(),
+        "time": time,
+    }
+    return SimulationDivergedError(
+        f"{message} (t = {time:.4f} s, tensions {tensions.tolist()} N, "
+        f"max |q| = {np.max(np.abs(q))} rad, max |q̇| = {np.max(np.abs(qd))} rad/s)",
+        state,
+    )
 
 
 class Readings(NamedTuple):

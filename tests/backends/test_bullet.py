@@ -22,13 +22,9 @@ import pytest
 
 from cdcr_gym import kinematics
 from cdcr_gym.backends.base import Backend
-from cdcr_gym.backends.bullet import (
-    MAX_JOINTS,
-    BulletBackend,
-    DiscreteBackbone,
-    SimulationDivergedError,
-)
+from cdcr_gym.backends.bullet import MAX_JOINTS, BulletBackend, SimulationDivergedError
 from cdcr_gym.model import statics
+from cdcr_gym.model.discrete import DiscreteBackbone
 from cdcr_gym.params import RobotParams
 from training.studies.verification import (
     HORIZONTAL,
@@ -560,13 +556,14 @@ def test_links_per_span_refinement_converges_at_second_order():
         assert d[2] / 3 < 0.001 * ELL
 
 
-def test_pybullet_settles_where_the_numpy_statics_say():
+@pytest.mark.parametrize("routing", ["disk", "corrected"])
+def test_pybullet_settles_where_the_numpy_statics_say(routing):
     """settled_tip switches to DiscreteBackbone beyond pybullet's size: they must agree."""
     t = np.array([60.0, 0.0, 20.0])
-    chain = DiscreteBackbone(P, 4, gravity=False)
+    chain = DiscreteBackbone(P, 4, gravity=False, routing=routing)
     q, converged = chain.static_equilibrium(t)
     assert converged
-    b = BulletBackend(P, gravity=False, links_per_span=4)
+    b = BulletBackend(P, gravity=False, links_per_span=4, routing=routing)
     try:
         b.reset(np.zeros(3))
         for _ in range(100):
@@ -760,3 +757,27 @@ def test_make_close_cycles_leave_no_client_and_flat_memory():
     grown = _rss_bytes() - before
     assert all(pb.getConnectionInfo(physicsClientId=c)["isConnected"] == 0 for c in clients)
     assert grown < 4 * 2**20, f"RSS grew by {grown / 2**20:.1f} MiB over 200 make/close cycles"
+
+
+@pytest.mark.parametrize("gravity", [False, True])
+@pytest.mark.parametrize("robot", ["paper", "tdcr2"])
+def test_default_settles_within_half_a_percent_of_the_cosserat_rod(robot, gravity):
+    """The default (one link per span, ``routing="corrected"``) against the committed converged
+    Cosserat-rod tips (``cdcr-gym cosserat-reference``): within 0.5 % of ℓ on every case
+    (measured 0.37/0.44 % on the paper robot, gravity off/on; 0.19/0.20 % on tdcr2), where the
+    straight pinhole-to-pinhole routing is 4.7–5.1 % (paper) and 1.6–2.1 % (tdcr2) off."""
+    from training.studies.bench_physics import REFERENCE_PATH, load_reference
+
+    params, tensions, tips = load_reference(REFERENCE_PATH)[robot, gravity]
+    assert len(tips) >= 6
+    errors = {}
+    for routing in ("corrected", "disk"):
+        kwargs = {} if routing == "corrected" else {"routing": "disk"}
+        b = BulletBackend(params, gravity=gravity, **kwargs)
+        try:
+            assert b.routing == routing
+            errors[routing] = np.linalg.norm(b.equilibrium(tensions).tip - tips, axis=1).max()
+        finally:
+            b.close()
+    assert errors["corrected"] <= 0.005 * params.length, errors
+    assert errors["disk"] > 3.0 * errors["corrected"], errors  # the correction does the work

@@ -12,14 +12,22 @@ from cdcr_gym.params import RobotParams
 
 
 def _segment_lengths(chain, q):
+    """Per-span cable segment lengths (n_disks, C): from the pinholes (disk routing), else the
+    via-point segments (``span_cable_lengths``, itself checked against the pinholes when b = 0)."""
     _, pins = chain.stations_and_pinholes(q)
     seg = pins[1:] - pins[:-1]
-    return np.sqrt((seg * seg).sum(axis=-1)) * chain.routed  # (n_disks, C)
+    pinhole = np.sqrt((seg * seg).sum(axis=-1)) * chain.routed  # (n_disks, C)
+    via = chain.span_cable_lengths(q)
+    if chain.routing == "disk":
+        np.testing.assert_allclose(via, pinhole, rtol=1e-12, atol=1e-15)
+        return pinhole
+    return via
 
 
+@pytest.mark.parametrize("routing", ["corrected", "disk"])
 @pytest.mark.parametrize("links_per_span", [1, 2])
-def test_per_segment_loads_match_finite_differences(links_per_span):
-    b = BulletBackend(gravity=False, links_per_span=links_per_span)
+def test_per_segment_loads_match_finite_differences(links_per_span, routing):
+    b = BulletBackend(gravity=False, links_per_span=links_per_span, routing=routing)
     try:
         chain = b.chain
         rng = np.random.default_rng(0)
@@ -35,7 +43,10 @@ def test_per_segment_loads_match_finite_differences(links_per_span):
             down = (seg_t * _segment_lengths(chain, q - dq)).sum()
             fd[j] = -(up - down) / (2 * eps)
         np.testing.assert_allclose(tau, fd, rtol=1e-6, atol=1e-7)
-        np.testing.assert_allclose(lengths, _segment_lengths(chain, q).sum(axis=0), rtol=1e-12)
+        np.testing.assert_allclose(
+            lengths, _segment_lengths(chain, q).sum(axis=0) + chain.rigid_lengths, rtol=1e-12
+        )
+        np.testing.assert_allclose(lengths, chain.cable_lengths(q), rtol=1e-12)
         # uniform per-segment tensions are the per-cable call
         uniform = np.broadcast_to(seg_t[0], seg_t.shape)
         np.testing.assert_allclose(

@@ -12,12 +12,8 @@ import pytest
 from gymnasium.utils import seeding
 
 from cdcr_gym.backends.analytic import AnalyticBackend
-from cdcr_gym.backends.bullet import (
-    MAX_JOINTS,
-    BulletBackend,
-    DiscreteBackbone,
-    span_buckling_loads,
-)
+from cdcr_gym.backends.bullet import MAX_JOINTS, BulletBackend
+from cdcr_gym.model.discrete import DiscreteBackbone, span_buckling_loads
 from cdcr_gym.model.workspace import sample_tensions_each
 from cdcr_gym.params import RobotParams, SectionParams
 from training.studies.verification import linearised_critical_load

@@ -14,10 +14,10 @@ import pytest
 import cdcr_gym  # noqa: F401  (registers the ids)
 from cdcr_gym.backends.bullet import BulletBackend
 from cdcr_gym.backends.bullet import SimulationDivergedError as BulletDiverged
-from cdcr_gym.backends.bullet.chain import DiscreteBackbone
 from cdcr_gym.backends.mujoco import MuJoCoBackend, SimulationDivergedError, build_mjcf
 from cdcr_gym.backends.mujoco import backend as mj_backend
 from cdcr_gym.model import friction as F
+from cdcr_gym.model.discrete import DiscreteBackbone
 from cdcr_gym.params import RobotParams, SectionParams
 
 THREE_SECTIONS = RobotParams(
@@ -161,13 +161,15 @@ def test_dynamics_settle_at_the_static_equilibrium_and_a_reset_stays_put(robot):
         b.read()
 
 
+@pytest.mark.parametrize("routing", ["disk", "corrected"])
 @pytest.mark.parametrize("robot", ["paper", "tdcr2"])
-def test_same_discretisation_settles_where_bullet_settles(robot):
-    """``links_per_span=1, joint="cardan", routing="disk"`` is bullet's model: the settled tips
-    agree to 0.1 mm with gravity (measured ≈ 1e-9 m: the same equilibrium)."""
+def test_same_discretisation_settles_where_bullet_settles(robot, routing):
+    """``links_per_span=1, joint="cardan"`` is bullet's model, with either routing (one
+    implementation of the routing geometry, ``cdcr_gym.model.discrete``): the settled tips agree
+    to 0.1 mm with gravity (measured ≈ 1e-9 m: the same equilibrium), the cable lengths to 1 µm."""
     params = ROBOTS[robot]
-    mj = MuJoCoBackend(params, links_per_span=1, joint="cardan", routing="disk")
-    bullet = BulletBackend(params, links_per_span=1)
+    mj = MuJoCoBackend(params, links_per_span=1, joint="cardan", routing=routing)
+    bullet = BulletBackend(params, links_per_span=1, routing=routing)
     rng = np.random.default_rng(4)
     tensions = rng.uniform(0, params.max_tension, (3, params.n_cables))
     tensions[0] = 0.0
@@ -193,7 +195,7 @@ def test_turned_base_sags_like_bullet_and_readings_stay_in_the_base_frame():
     equilibria."""
     quat = (0.0, math.sin(math.pi / 4), 0.0, math.cos(math.pi / 4))
     mj = MuJoCoBackend(base_orientation=quat, joint="cardan", routing="disk")
-    bullet = BulletBackend(base_orientation=quat)
+    bullet = BulletBackend(base_orientation=quat, routing="disk")
     t = np.array([[0.0, 0.0, 0.0], [80.0, 0.0, 0.0]])
     try:
         ours, theirs = mj.equilibrium(t).tip, bullet.equilibrium(t).tip

@@ -23,8 +23,9 @@ its cases' ``robot``, ``gravity``, ``tensions`` and ``tip``; another file with
 discrete-disk chain (eight
 ball-jointed links per span, cable straight between pinholes, ≈ 0.5 mm from the rod on the
 paper robot) under held tensions — one cable at 25/50/75/100 % of ``max_tension``, and a pair
-(100 % and 50 %). Rows: MuJoCo discretisations (joint, routing, links per span) with their
-steps/s on the paper robot's Reach env.
+(100 % and 50 %). Rows: ``BulletReach-v0``'s backend as made by default (``routing="corrected"``)
+and with ``routing="disk"``, then MuJoCo discretisations (joint, routing, links per span), each
+with its steps/s on the paper robot's Reach env.
 """
 
 from __future__ import annotations
@@ -161,6 +162,10 @@ CONFIGS = [
 ]
 
 
+#: pybullet rows of the accuracy table: (routing, links_per_span); the default first.
+BULLET_CONFIGS = [("corrected", 1), ("disk", 1)]
+
+
 def tension_cases(params: RobotParams) -> np.ndarray:
     """Held tensions (M, C) N: :data:`CASES_DOC`, for the first cable of every section (a
     cable of the last section bends all sections) and a pair of neighbouring cables."""
@@ -240,10 +245,27 @@ def accuracy_table(
     else:
         refs = chain_reference()
         name = f"ball joints, 8 links per span, straight routing; tensions: {CASES_DOC}"
+    from cdcr_gym.backends.bullet import BulletBackend
+
     rows = []
     timers = {}
+    for routing, m in BULLET_CONFIGS:
+        row = {"backend": "pybullet", "joint": "cardan", "routing": routing, "links_per_span": m}
+        for (robot, gravity), (params, cases, ref) in refs.items():
+            bb = BulletBackend(params, gravity=gravity, links_per_span=m, routing=routing)
+            err = np.linalg.norm(bb.equilibrium(cases).tip - ref, axis=1).max()
+            bb.close()
+            row[f"{robot} g={'on' if gravity else 'off'}"] = (
+                float(err),
+                float(err / params.length),
+            )
+        rows.append(row)
+        timers["pybullet", routing, m] = _steps_per_second(
+            lambda r=routing, m=m: gym.make("cdcr_gym/BulletReach-v0", links_per_span=m, routing=r),
+            steps,
+        )
     for joint, routing, m in configs:
-        row: dict[str, Any] = {"joint": joint, "routing": routing, "links_per_span": m}
+        row = {"backend": "mujoco", "joint": joint, "routing": routing, "links_per_span": m}
         for (robot, gravity), (params, cases, ref) in refs.items():
             b = MuJoCoBackend(
                 params, gravity=gravity, links_per_span=m, joint=joint, routing=routing
@@ -271,9 +293,8 @@ def accuracy_table(
         else None
     )
     for row in rows:
-        row["steps/s"] = statistics.median(
-            samples[row["joint"], row["routing"], row["links_per_span"]]
-        )
+        joint = "pybullet" if row["backend"] == "pybullet" else row["joint"]
+        row["steps/s"] = statistics.median(samples[joint, row["routing"], row["links_per_span"]])
         row["speed"] = row["steps/s"] / default if default else float("nan")
     return name, rows
 
@@ -318,15 +339,16 @@ def main(argv: list[str] | None = None) -> None:
         keys = [k for k in rows[0] if " g=" in k]
         print(f"reference: {name}")
         print(
-            "| joint | routing | links/span | "
+            "| backend | joint | routing | links/span | "
             + " | ".join(keys)
             + " | steps/s (paper) | speed vs default |"
         )
-        print("|---|---|---|" + "---|" * len(keys) + "---|---|")
+        print("|---|---|---|---|" + "---|" * len(keys) + "---|---|")
         for row in rows:
             cells = [f"{row[k][0] * 1e3:.2f} mm ({row[k][1] * 100:.2f} %)" for k in keys]
             print(
-                f"| {row['joint']} | {row['routing']} | {row['links_per_span']} | "
+                f"| {row['backend']} | {row['joint']} | {row['routing']} | "
+                f"{row['links_per_span']} | "
                 + " | ".join(cells)
                 + f" | {row['steps/s']:.0f} | {row['speed']:.2f}× |"
             )

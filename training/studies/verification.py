@@ -13,7 +13,7 @@ seconds); ``python -m training.studies.verification --bench`` also measures the 
 "Settled" states are static equilibria: :meth:`BulletBackend.static_equilibrium`, which the
 simulated dynamics settle to exactly (tests check it). Chains longer than one pybullet
 multibody holds (n_disks × links_per_span > 60 joints) are evaluated with the same model's
-statics, :class:`~cdcr_gym.backends.bullet.chain.DiscreteBackbone`.
+statics, :class:`~cdcr_gym.model.discrete.DiscreteBackbone`.
 """
 
 from __future__ import annotations
@@ -29,13 +29,9 @@ import numpy as np
 import cdcr_gym  # noqa: F401
 from cdcr_gym import kinematics
 from cdcr_gym.backends.analytic import AnalyticBackend
-from cdcr_gym.backends.bullet import (
-    MAX_JOINTS,
-    BulletBackend,
-    DiscreteBackbone,
-    span_buckling_loads,
-)
+from cdcr_gym.backends.bullet import MAX_JOINTS, BulletBackend
 from cdcr_gym.model import statics
+from cdcr_gym.model.discrete import DiscreteBackbone, span_buckling_loads
 from cdcr_gym.model.params import STANDARD_GRAVITY as GRAVITY
 from cdcr_gym.params import RobotParams, SectionParams
 
@@ -76,7 +72,7 @@ def discrete_routing_theta(
     so Σ_i T_i·(h²κ/12) adds to the bending moment: θ = θ₀ + (ΣT)·h²·θ/(12·EI), i.e.
     θ = θ₀ / (1 − ΣT·h²/(12·EI)), θ₀ the elastica's angle. With ``links_per_span`` = m the
     estimate is for the rigid-link model instead, whose span-mean excess is (1 + 2/m²) times
-    larger (see ``cdcr_gym.backends.bullet.chain``).
+    larger (see ``cdcr_gym.model.discrete``).
     """
     tensions = np.asarray(tensions, dtype=np.float64)
     theta0, _ = statics.arc_from_tensions(tensions, params)
@@ -106,6 +102,7 @@ def settled_tip(
             gravity=gravity,
             links_per_span=links_per_span,
             base_orientation=base_orientation,
+            routing="disk",
         )
         try:
             backend.reset(tensions)
@@ -269,7 +266,7 @@ def _report() -> None:  # pragma: no cover - prints the tables of docs/bullet_ba
     print("|---|---|---|---|---|---|")
     for gravity in (False, True):
         for m in (1, 4):
-            backend = BulletBackend(p, gravity=gravity, links_per_span=m)
+            backend = BulletBackend(p, gravity=gravity, links_per_span=m, routing="disk")
             errs = []
             for t1 in np.linspace(0.0, 80.0, 17):
                 backend.reset(np.array([t1, 0.0, 0.0]))
@@ -318,7 +315,7 @@ def _report() -> None:  # pragma: no cover - prints the tables of docs/bullet_ba
     print("|---|---|---|---|---|---|")
     for zeta in (0.5, 0.7, 1.0):
         for h in (0.005, 0.01, 0.02):
-            backend = BulletBackend(p, damping_ratio=zeta, physics_timestep=h)
+            backend = BulletBackend(p, damping_ratio=zeta, physics_timestep=h, routing="disk")
             res = [
                 settling_time(backend, np.array(a), np.array(b))
                 for a, b in (
@@ -333,7 +330,7 @@ def _report() -> None:  # pragma: no cover - prints the tables of docs/bullet_ba
                 + " | ".join(f"{r[0]:.2f} s" for r in res)
                 + f" | {1e3 * max(r[1] for r in res):.1f} |"
             )
-    backend = BulletBackend(p)
+    backend = BulletBackend(p, routing="disk")
     print(
         f"\nFirst bending mode ω₁ = {backend.first_mode_frequency:.2f} rad/s, highest mode "
         f"ω_max = {backend.highest_mode_frequency:.0f} rad/s, damping time β = {backend.damping_time:.4f} s"

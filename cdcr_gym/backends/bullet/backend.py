@@ -34,22 +34,24 @@ from collections.abc import Sequence
 import numpy as np
 
 from cdcr_gym import validation
-from cdcr_gym.backends.base import Backend, Readings
-from cdcr_gym.backends.bullet.chain import (
+from cdcr_gym.backends.base import (
+    MAX_JOINT_ANGLE,
+    Backend,
+    Readings,
+    SimulationDivergedError,
+    diverged,
+)
+from cdcr_gym.backends.bullet.client import Connection, copy_refused
+from cdcr_gym.backends.bullet.integrator import ImplicitIntegrator
+from cdcr_gym.backends.bullet.multibody import MAX_JOINTS, build_multibody
+from cdcr_gym.model.discrete import (
+    ROUTINGS,
     ChainPose,
     DiscreteBackbone,
+    bending_modes,
     check_span_buckling,
     quat_to_matrix,
 )
-from cdcr_gym.backends.bullet.client import Connection, copy_refused
-from cdcr_gym.backends.bullet.integrator import (
-    MAX_JOINT_ANGLE,
-    ImplicitIntegrator,
-    SimulationDivergedError,
-    bending_modes,
-    diverged,
-)
-from cdcr_gym.backends.bullet.multibody import MAX_JOINTS, build_multibody
 from cdcr_gym.model.params import STANDARD_GRAVITY, RobotParams
 from cdcr_gym.model.statics import check_tip_payload
 
@@ -63,16 +65,19 @@ class BulletBackend(Backend):
         params: the robot (:class:`~cdcr_gym.params.RobotParams`; default: the paper's Table 1),
             any number of sections and of cables per section. Rejected (``ValueError``) if its
             disk spans buckle with every cable at ``max_tension``
-            (:func:`~cdcr_gym.backends.bullet.chain.check_span_buckling`).
+            (:func:`~cdcr_gym.model.discrete.check_span_buckling`).
         gravity: ``True`` (default) applies −9.81 m/s² along −Z_world; ``False`` switches
             gravity off (the paper's simulation and the pure-moment statics have none).
         links_per_span: rigid links per disk span, m >= 1 (default 1): the chain has
             ``Σ n_disks·m`` links and twice as many revolute joints. Larger m converges to a
-            continuous rod between the disks (the span-mean cable moment-arm excess is
-            (1 + 2/m²) times the physical one, see ``chain``) at a cost in speed (m = 4:
-            ≈ 4.7× slower). Use m = 4 for quantitative studies of the 9-disk robot (tip within
-            0.5 mm of the m → ∞ limit at 40 N, 1.8 mm at 80 N), m = 3 for tdcr2.
+            continuous rod between the disks at a cost in speed (m = 4: ≈ 4.7× slower).
             Σ n_disks·m <= 60 (:data:`MAX_JOINTS`, one pybullet body).
+        routing: ``"corrected"`` (default) routes every cable through two via-points ∓Δ/(3m)
+            along each intermediate disk's link, which cancels the discretisation's excess
+            moment arm (the default is within 0.5 % of ℓ of the converged Cosserat rod at one
+            link per span, ``docs/bullet_backend.md``); ``"disk"`` runs it straight from
+            pinhole to pinhole (span-mean moment-arm excess (1 + 2/m²) times the physical one,
+            see ``cdcr_gym.model.discrete``; converges only with more ``links_per_span``).
         control_timestep: simulated time (s) that one :meth:`apply_tensions` advances
             (default 0.02 s, i.e. 50 Hz control).
         physics_timestep: pybullet step h (s), must divide ``control_timestep`` (default
@@ -119,6 +124,7 @@ class BulletBackend(Backend):
         damping_ratio: float = 0.7,
         friction_coefficient: float = 0.0,
         friction_slip_length: float = 1e-4,
+        routing: str = "corrected",
     ) -> None:
         if not isinstance(params, RobotParams):
             raise ValueError(f"params must be a cdcr_gym.params.RobotParams, got {params!r}")
@@ -126,6 +132,7 @@ class BulletBackend(Backend):
         self.gravity = validation.flag(gravity, "gravity")
         self.gui = validation.flag(gui, "gui")
         self.links_per_span = validation.integer(links_per_span, "links_per_span", 1)
+        self.routing = validation.choice(routing, "routing", ROUTINGS)
         self.control_timestep = validation.positive(control_timestep, "control_timestep", unit="s")
         self.physics_timestep = validation.positive(physics_timestep, "physics_timestep", unit="s")
         ratio = self.control_timestep / self.physics_timestep
@@ -171,13 +178,13 @@ class BulletBackend(Backend):
                 f"params: n_disks ({disks}) × links_per_span {self.links_per_span} = {n_links} "
                 f"joints, but a pybullet multibody holds at most {MAX_JOINTS} (its state holds "
                 "121 joint coordinates); use fewer disks or links per span "
-                "(cdcr_gym.backends.bullet.chain.DiscreteBackbone evaluates longer chains' statics)"
+                "(cdcr_gym.model.discrete.DiscreteBackbone evaluates longer chains' statics)"
             )
         check_span_buckling(p, self.links_per_span)
         self._base_rot = quat_to_matrix(np.asarray(self.base_orientation))
         #: The discretised backbone: geometry, masses, cable and gravity loads, statics.
         self.chain = DiscreteBackbone(
-            p, self.links_per_span, self.tip_payload, self._base_rot, self.gravity
+            p, self.links_per_span, self.tip_payload, self._base_rot, self.gravity, self.routing
         )
         self.n_links = self.chain.n_links  # links = 2-DOF joints
         self.n_dof = self.chain.n_dof  # revolute coordinates, 2 per joint
@@ -361,7 +368,7 @@ class BulletBackend(Backend):
             )
             raise self._diverged(
                 "no static equilibrium found: the cables' destabilising load stiffness (which grows "
-                "with the disk spacing, see backends.bullet.chain) exceeds the joint stiffness; "
+                "with the disk spacing, see cdcr_gym.model.discrete) exceeds the joint stiffness; "
                 "use more disks, more links_per_span or lower tensions" + payload,
                 q,
                 np.zeros(self.n_dof),
@@ -423,10 +430,14 @@ class BulletBackend(Backend):
 
     @property
     def cable_lengths(self) -> np.ndarray:
-        """Sensed cable lengths (C,), m: each cable's pinhole-to-pinhole segments, base disk to
-        its section's last disk (distal cables include their run through proximal sections)."""
+        """Sensed cable lengths (C,), m: each cable's path from the base disk to its section's
+        last disk (distal cables include their run through proximal sections): its straight
+        segments, pinhole to pinhole or between the via-points of ``"corrected"`` routing
+        (``DiscreteBackbone.cable_lengths``)."""
         self._check_open()
-        return self.chain.lengths_between_pinholes(self._read_points()[1])
+        if self.routing == "disk":
+            return self.chain.lengths_between_pinholes(self._read_points()[1])
+        return self.chain.lengths_of_pose(self._read())
 
     @property
     def tensions(self) -> np.ndarray:
@@ -630,7 +641,7 @@ class BulletBackend(Backend):
             pose = self.chain.pose(q)
             tips.append(self._to_base(pose.stations[-1]))
             dirs.append(self._direction(pose.link_rot))
-            lengths.append(self.chain.lengths_between_pinholes(pose.pinholes))
+            lengths.append(self.chain.lengths_of_pose(pose))
         return Readings(np.array(tips), np.array(dirs), np.array(lengths), t_all.copy())
 
     def disk_frames(self, index: int = 0) -> tuple[np.ndarray, np.ndarray]:

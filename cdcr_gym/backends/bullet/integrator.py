@@ -52,73 +52,17 @@ Damping
 from __future__ import annotations
 
 import itertools
-import math
 from collections.abc import Callable
 from types import ModuleType
 
 import numpy as np
 
-from cdcr_gym.backends.bullet.chain import DiscreteBackbone
+from cdcr_gym.backends.base import MAX_JOINT_ANGLE, MAX_JOINT_RATE
 from cdcr_gym.model import friction
+from cdcr_gym.model.discrete import DiscreteBackbone
 from cdcr_gym.model.params import STANDARD_GRAVITY
 
-__all__ = [
-    "ImplicitIntegrator",
-    "SimulationDivergedError",
-    "MAX_JOINT_ANGLE",
-    "MAX_JOINT_RATE",
-    "bending_modes",
-]
-
-#: A joint whose angle exceeds this (rad) or whose rate exceeds ``MAX_JOINT_RATE`` (rad/s) is
-#: taken as a diverged simulation (a real spacer-disk span never kinks by 90°).
-MAX_JOINT_ANGLE = 0.5 * math.pi
-MAX_JOINT_RATE = 1.0e3
-
-
-class SimulationDivergedError(RuntimeError):
-    """The simulation produced a non-finite or exploding state.
-
-    Attributes:
-        state: dict with the offending ``joint_positions`` (rad), ``joint_velocities`` (rad/s),
-            ``tensions`` (N) and simulated ``time`` (s), as numpy arrays / float.
-    """
-
-    def __init__(self, message: str, state: dict):
-        super().__init__(message)
-        self.state = state
-
-
-def diverged(
-    message: str, q: np.ndarray, qd: np.ndarray, tensions: np.ndarray, time: float
-) -> SimulationDivergedError:
-    """A :class:`SimulationDivergedError` describing the state (q, q̇, tensions, time)."""
-    state = {
-        "joint_positions": q.copy(),
-        "joint_velocities": qd.copy(),
-        "tensions": tensions.copy(),
-        "time": time,
-    }
-    return SimulationDivergedError(
-        f"{message} (t = {time:.4f} s, tensions {tensions.tolist()} N, "
-        f"max |q| = {np.max(np.abs(q))} rad, max |q̇| = {np.max(np.abs(qd))} rad/s)",
-        state,
-    )
-
-
-def bending_modes(mass: np.ndarray, stiffness: np.ndarray) -> tuple[float, float]:
-    """Lowest and highest angular frequency (rad/s) of K·v = ω²·M·v for a diagonal K.
-
-    ``mass`` (2n, 2n) kg·m², ``stiffness`` (2n,) N·m/rad. With K = k·I (one section) the
-    frequencies are √(k / eig(M)); otherwise those of the symmetric K^{-1/2}·M·K^{-1/2}.
-    """
-    if np.all(stiffness == stiffness[0]):
-        eig = np.linalg.eigvalsh(mass)  # ascending
-        k = float(stiffness[0])
-        return float(math.sqrt(k / eig[-1])), float(math.sqrt(k / eig[0]))
-    scale = 1.0 / np.sqrt(stiffness)
-    eig = np.linalg.eigvalsh(mass * scale[:, None] * scale[None, :])
-    return float(math.sqrt(1.0 / eig[-1])), float(math.sqrt(1.0 / eig[0]))
+__all__ = ["ImplicitIntegrator"]
 
 
 class ImplicitIntegrator:

@@ -1,7 +1,7 @@
 """The pybullet multibody of the discretised backbone (construction only; no dynamics here).
 
 The base (base disk, first half link) is fixed at the world origin with orientation
-``base_orientation``; each Cardan joint of :class:`~cdcr_gym.backends.bullet.chain.DiscreteBackbone`
+``base_orientation``; each Cardan joint of :class:`~cdcr_gym.model.discrete.DiscreteBackbone`
 is a revolute about X into a massless intermediate link at the joint, then a revolute about Y
 into the real link (mass, COM and principal inertia from the chain model; no collision shapes,
 so no contacts). pybullet's API caps a multibody at 128 coordinates including the base's 7,
@@ -16,8 +16,8 @@ from types import ModuleType
 
 import numpy as np
 
-from cdcr_gym.backends.bullet.chain import DiscreteBackbone
-from cdcr_gym.backends.bullet.integrator import MAX_JOINT_RATE
+from cdcr_gym.backends.base import MAX_JOINT_RATE
+from cdcr_gym.model.discrete import DiscreteBackbone
 from cdcr_gym.model.params import STANDARD_GRAVITY
 
 __all__ = ["MAX_JOINTS", "Multibody", "build_multibody"]

@@ -5,8 +5,9 @@ spatial tendon per cable.
 Importing this package imports ``mujoco`` only when a backend is built.
 """
 
-from cdcr_gym.backends.bullet.integrator import SimulationDivergedError
+from cdcr_gym.backends.base import SimulationDivergedError
 from cdcr_gym.backends.mujoco.backend import MuJoCoBackend
-from cdcr_gym.backends.mujoco.mjcf import JOINTS, ROUTINGS, build_mjcf
+from cdcr_gym.backends.mujoco.mjcf import JOINTS, build_mjcf
+from cdcr_gym.model.discrete import ROUTINGS
 
 __all__ = ["MuJoCoBackend", "SimulationDivergedError", "build_mjcf", "JOINTS", "ROUTINGS"]

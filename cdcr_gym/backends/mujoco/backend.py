@@ -20,22 +20,24 @@ from typing import Any
 import numpy as np
 
 from cdcr_gym import validation
-from cdcr_gym.backends.base import Backend, Readings
-from cdcr_gym.backends.bullet.chain import (
+from cdcr_gym.backends.base import (
+    MAX_JOINT_ANGLE,
+    MAX_JOINT_RATE,
+    Backend,
+    Readings,
+    SimulationDivergedError,
+)
+from cdcr_gym.backends.mujoco import friction as mj_friction
+from cdcr_gym.backends.mujoco.mjcf import JOINTS, MJCFModel, build_mjcf
+from cdcr_gym.backends.mujoco.obstacles import ObstacleScene
+from cdcr_gym.model import friction
+from cdcr_gym.model.discrete import (
+    ROUTINGS,
     DiscreteBackbone,
+    bending_modes,
     check_span_buckling,
     quat_to_matrix,
 )
-from cdcr_gym.backends.bullet.integrator import (
-    MAX_JOINT_ANGLE,
-    MAX_JOINT_RATE,
-    SimulationDivergedError,
-    bending_modes,
-)
-from cdcr_gym.backends.mujoco import friction as mj_friction
-from cdcr_gym.backends.mujoco.mjcf import JOINTS, ROUTINGS, MJCFModel, build_mjcf
-from cdcr_gym.backends.mujoco.obstacles import ObstacleScene
-from cdcr_gym.model import friction
 from cdcr_gym.model.params import STANDARD_GRAVITY, RobotParams
 from cdcr_gym.model.statics import check_tip_payload
 
@@ -59,7 +61,7 @@ class MuJoCoBackend(ObstacleScene, Backend):
     Args:
         params: the robot (:class:`~cdcr_gym.params.RobotParams`; default: the paper's), any
             number of sections. Rejected (``ValueError``) if its disk spans buckle with every
-            cable at ``max_tension`` (``cdcr_gym.backends.bullet.chain.check_span_buckling``).
+            cable at ``max_tension`` (``cdcr_gym.model.discrete.check_span_buckling``).
         num_robots: robots N stepped together (default 1, >= 1); one ``MjModel``, N ``MjData``.
         gravity: ``True`` (default) applies −9.81 m/s² along −Z_world; ``False`` none.
         links_per_span: rigid links per disk span, m >= 1 (default 1). No joint cap.

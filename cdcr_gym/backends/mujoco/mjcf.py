@@ -1,7 +1,7 @@
 """The MJCF model of the discretised backbone, built from :class:`~cdcr_gym.params.RobotParams`.
 
-The robot is the rigid-link, elastic-joint chain of ``cdcr_gym.backends.bullet.chain``
-(:class:`~cdcr_gym.backends.bullet.chain.DiscreteBackbone`: the same links, joint placement
+The robot is the rigid-link, elastic-joint chain of ``cdcr_gym.model.discrete``
+(:class:`~cdcr_gym.model.discrete.DiscreteBackbone`: the same links, joint placement
 half-way between the rod stations, masses and inertias), written as MuJoCo data:
 
 Bodies and joints
@@ -64,26 +64,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cdcr_gym.backends.bullet.chain import DiscreteBackbone
+from cdcr_gym.model.discrete import DiscreteBackbone
 from cdcr_gym.model.params import RobotParams
 
-__all__ = ["JOINTS", "ROUTINGS", "PARKED", "MJCFModel", "build_mjcf", "via_offset"]
+__all__ = ["JOINTS", "PARKED", "MJCFModel", "build_mjcf"]
 
 #: Joint types: a ball joint (rotation-vector stiffness), or bullet's two hinges.
 JOINTS = ("ball", "cardan")
-#: Cable routings (module docstring).
-ROUTINGS = ("corrected", "disk")
 #: Where obstacles wait until they are placed (m, far outside any robot).
 PARKED = 1.0e3
-
-
-def via_offset(spacing: float, links_per_span: int, routing: str) -> float:
-    """Offset b (m) of the via-sites from a disk centre along its link: Δ/(3m) with Δ =
-    ``spacing``/m for ``"corrected"`` routing, 0 for ``"disk"``."""
-    if routing == "disk":
-        return 0.0
-    m = links_per_span
-    return spacing / m / (3.0 * m)
 
 
 @dataclass(frozen=True)
@@ -155,7 +144,9 @@ def build_mjcf(
 
     The caller (``MuJoCoBackend``) validates the arguments.
     """
-    chain = DiscreteBackbone(params, links_per_span, tip_payload, None, gravity=False)
+    chain = DiscreteBackbone(
+        params, links_per_span, tip_payload, None, gravity=False, routing=routing
+    )
     m = chain.links_per_span
     n = chain.n_links
     dof = 2 if joint == "cardan" else 3
@@ -173,7 +164,6 @@ def build_mjcf(
     n_cables = params.n_cables
     disks = [s.n_disks for s in params.sections]
     n_disks = sum(disks)
-    span_section = chain.span_section  # (n_disks,)
     # the last disk (1-based) each cable reaches
     ends = np.cumsum(disks)
     anchor_disk = ends[owner]
@@ -199,8 +189,8 @@ def build_mjcf(
     paths: list[list[str]] = [[] for _ in range(n_cables)]
     span_start: list[dict[int, int]] = [{} for _ in range(n_cables)]  # span -> index in path
 
-    def add_pinholes(body: ET.Element, disk: int, z: float, spacing: float) -> None:
-        b = via_offset(spacing, m, routing)
+    def add_pinholes(body: ET.Element, disk: int, z: float) -> None:
+        b = float(chain.via_offsets[disk])  # the routing geometry: DiscreteBackbone's
         for i in range(n_cables):
             x, y = pin_local[i, 0], pin_local[i, 1]
             name = f"pin{disk}_{i}"
@@ -225,7 +215,7 @@ def build_mjcf(
             if not last:
                 span_start[i][disk] = len(paths[i]) - 1
 
-    add_pinholes(base, 0, 0.0, params.sections[0].disk_spacing)
+    add_pinholes(base, 0, 0.0)
     # the base's half link is clamped; the obstacles' capsules start at the base disk
     if obstacles:
         ET.SubElement(
@@ -291,8 +281,7 @@ def build_mjcf(
         if j % m == 0:
             disk = j // m
             disk_links.append(j)
-            spacing = params.sections[int(span_section[disk - 1])].disk_spacing
-            add_pinholes(body, disk, z, spacing)
+            add_pinholes(body, disk, z)
             if obstacles:
                 ET.SubElement(
                     body,

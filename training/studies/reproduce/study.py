@@ -222,7 +222,7 @@ class StudyConfig:
             ``disk_study_links`` links (links per span = max(1, disk_study_links // n_disks)).
             At least 4 for the paper's robot: with 3 disks a span (213.7 mm) buckles under the
             three cables at max_tension (240 N > π²·EI/h² = 232 N), which the pybullet backend
-            rejects (``cdcr_gym.backends.bullet.chain.check_span_buckling``).
+            rejects (``cdcr_gym.model.discrete.check_span_buckling``).
         disk_study_links: target number of links of the disk-count study.
         resolution_forces: forces (N) of both studies; ``None``: ``forces``.
         horizontal: also run the sweep with a horizontal base (gravity across the backbone).

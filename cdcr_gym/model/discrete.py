@@ -1,10 +1,11 @@
-"""The discretised backbone of the pybullet backend, as pure numpy (no simulator).
+"""The discretised backbone shared by the physics backends, as pure numpy (no simulator).
 
-``cdcr_gym.backends.bullet.BulletBackend`` simulates this model's dynamics in pybullet; this
-module holds its geometry, mass properties, cable and gravity loads and statics, so that they
-are written once, can be
-checked against pybullet (tests), and can be evaluated for chains longer than one pybullet
-multibody can hold (pybullet's API keeps 121 joint coordinates per body: 60 Cardan joints).
+``cdcr_gym.backends.bullet.BulletBackend`` simulates this model's dynamics in pybullet and
+``cdcr_gym.backends.mujoco.MuJoCoBackend`` builds its MJCF from it; this module holds its
+geometry, mass properties, cable routing, cable and gravity loads, statics and the span-buckling
+bound, so that they are written once, can be checked against both simulators (tests), and can be
+evaluated for chains longer than one pybullet multibody can hold (pybullet's API keeps 121 joint
+coordinates per body: 60 Cardan joints).
 
 Discretisation and joint placement
     The backbone carries a fixed base disk at s = 0 and, section after section, each section's
@@ -49,10 +50,29 @@ Cable routing (n sections)
     pinhole across every disk span of sections 1..j and crosses no span beyond. The spans it
     crosses are :attr:`DiscreteBackbone.routed` ((n_disks, C) bool).
 
+    Two routings (``routing``), one geometry for both backends (the MuJoCo backend's MJCF takes
+    its via-sites from :attr:`DiscreteBackbone.via_offsets`):
+
+    * ``"disk"``: the cable runs straight from pinhole to pinhole. With m links per span the
+      span-mean moment arm is r + (h²κ/12)·(1 + 2/m²) (above, "Discretisation"): at m = 1 the
+      discrete-routing effect is 3× the physical one, and the chain bends too far (5 % of ℓ on
+      the paper robot against the converged Cosserat rod).
+    * ``"corrected"``: every pinhole of an intermediate disk is replaced by two via-points on the
+      disk's link, at ∓b along the link from the disk centre (the base disk's at +b, the anchor
+      disk's at −b, the cable anchored at the disk itself), **b = Δ/(3m)** (:func:`via_offset`;
+      a disk takes the Δ of the span arriving at it, the base disk the first span's). The
+      straight cable between the via-points of neighbouring disks then passes every joint of
+      the span at the rod's mean arm to first order in the joint angle, which cancels the
+      polygon's excess h²κ/(6m²); the pieces between a disk's via-points are rigid
+      (:attr:`DiscreteBackbone.rigid_lengths`). A straight robot's cable lengths are exact
+      either way. With ``"disk"`` every b is 0 and the code paths are the plain pinhole ones
+      (bit-identical to the model without via-points).
+
 Cable loads
     Cable i is frictionless and anchored at its section's last disk: its tension T_i is uniform
-    and its potential is T_i·l_i(q), l_i the sum of its straight pinhole-to-pinhole segment
-    lengths over the spans it crosses.
+    and its potential is T_i·l_i(q), l_i the sum of its straight segment lengths over the spans
+    it crosses (pinhole to pinhole, or via-point to via-point; below, p_k and p_{k+1} are the
+    segment's ends).
     The generalized forces are τ = −Σ_i T_i ∂l_i/∂q. For joint j (point o, axis a) inside disk
     span k, only the segment p_k → p_{k+1} of cable i (if it crosses span k) depends on q_j (the joints proximal to
     both pinholes move them rigidly together); with u its unit vector,
@@ -102,11 +122,28 @@ __all__ = [
     "quat_to_matrix",
     "span_buckling_loads",
     "check_span_buckling",
+    "bending_modes",
+    "ROUTINGS",
+    "via_offset",
 ]
 
 _LEVI_CIVITA = np.zeros((3, 3, 3))
 _LEVI_CIVITA[0, 1, 2] = _LEVI_CIVITA[1, 2, 0] = _LEVI_CIVITA[2, 0, 1] = 1.0
 _LEVI_CIVITA[0, 2, 1] = _LEVI_CIVITA[2, 1, 0] = _LEVI_CIVITA[1, 0, 2] = -1.0
+
+
+#: Cable routings (module docstring, "Cable routing").
+ROUTINGS = ("corrected", "disk")
+
+
+def via_offset(spacing: float, links_per_span: int, routing: str) -> float:
+    """Offset b (m) of a disk's via-points from its centre along its link: Δ/(3m) with Δ =
+    ``spacing``/m (``spacing`` the disk span h, m; m = ``links_per_span``) for
+    ``"corrected"`` routing, 0 for ``"disk"`` (module docstring, "Cable routing")."""
+    if routing == "disk":
+        return 0.0
+    m = links_per_span
+    return spacing / m / (3.0 * m)
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -230,6 +267,8 @@ class DiscreteBackbone:
         base_rotation: (3, 3) rotation of R0 in the world (default identity: upright).
         gravity: whether :meth:`gravity_loads` returns the loads of −9.81 m/s² along −Z_world
             (``False``: zeros).
+        routing: ``"disk"`` (the cable straight from pinhole to pinhole) or ``"corrected"``
+            (via-points ∓Δ/(3m) along each disk's link; module docstring, "Cable routing").
 
     The caller (``BulletBackend``) validates the arguments; this class trusts them.
     """
@@ -241,8 +280,10 @@ class DiscreteBackbone:
         tip_payload: float = 0.0,
         base_rotation: np.ndarray | None = None,
         gravity: bool = True,
+        routing: str = "disk",
     ) -> None:
         self.params = params
+        self.routing = routing
         self.links_per_span = m = int(links_per_span)
         self.tip_payload = float(tip_payload)
         self.base_rotation = (
@@ -277,23 +318,46 @@ class DiscreteBackbone:
         #: Whether cable i crosses disk span k (is routed through its pinholes), (n_disks, C).
         self.routed = self.span_section[:, None] <= np.asarray(params.cable_section)[None, :]
         self._routed_f = self.routed.astype(np.float64)
+        #: Via-point offset b_k (m) of every disk k = 0..n_disks along its link (0 for
+        #: ``"disk"`` routing): the base disk's and disk k's use the spacing of the span that
+        #: arrives at it (the base: the first span's).
+        self.via_offsets = np.array(
+            [
+                via_offset(params.sections[int(j)].disk_spacing, m, routing)
+                for j in (self.span_section[0], *self.span_section)
+            ]
+        )
+        self._corrected = bool(np.any(self.via_offsets != 0.0))
+        b = self.via_offsets
+        #: Per cable (C,), m: the rigid pieces of its path on the disks (b on the base disk,
+        #: 2·b_k on every disk it passes, b on its anchor): the path length is its straight
+        #: segments across the spans plus this.
+        self.rigid_lengths = ((b[:-1] + b[1:])[:, None] * self._routed_f).sum(axis=0)
+        #: Proximal via-points (pinhole + b_k·z) of every span k in disk k's frame, and the
+        #: distal ones (pinhole − b_{k+1}·z) in disk k+1's frame, (n_disks, C, 3) m.
+        self._via_out = np.repeat(self.pinhole_local[None], self.n_disks, axis=0)
+        self._via_in = self._via_out.copy()
+        self._via_out[:, :, 2] += b[:-1, None]
+        self._via_in[:, :, 2] -= b[1:, None]
         self._all_routed = bool(self.routed.all())
         self._base_pinholes = self.pinhole_local @ self.base_rotation.T
         # per section: (its first span, its last span + 1, the cables crossing it, the map of
         # _cable_loads_one_link for those cables and its spacing)
         owner = np.asarray(params.cable_section)
         ends = np.cumsum([0, *disks])
-        self._sections = [
-            (
-                int(ends[j]),
-                int(ends[j + 1]),
-                slice(int(np.argmax(owner >= j)), params.n_cables),  # sections j.. (contiguous)
-                self._build_one_link_map(
-                    self.pinhole_local[owner >= j], 0.5 * params.sections[j].disk_spacing
-                ),
-            )
-            for j in range(params.n_sections)
-        ]
+        self._sections = []
+        for j in range(params.n_sections):
+            first, stop = int(ends[j]), int(ends[j + 1])
+            cables = slice(int(np.argmax(owner >= j)), params.n_cables)  # sections j.. (contiguous)
+            half_h = 0.5 * params.sections[j].disk_spacing
+            pins = self.pinhole_local[owner >= j]
+            # a section's spans share one map, but for the first when its proximal disk (the
+            # previous section's last) has another via offset
+            pieces = [first] if b[first] == b[first + 1] else [first, first + 1]
+            for a, z in zip(pieces, [*pieces[1:], stop]):
+                if a < z:
+                    link_map = self._build_one_link_map(pins, half_h, b[a], b[a + 1])
+                    self._sections.append((a, z, cables, link_map))
         props = [self._link_properties(j) for j in range(1, self.n_links + 1)]
         #: Link masses (n,) kg, COM offsets along the link from its joint (n,) m, and principal
         #: inertias about the COM (n, 3) kg·m² (Ixx = Iyy, Izz about the link axis).
@@ -401,6 +465,38 @@ class DiscreteBackbone:
         )
         return pins
 
+    def cable_lengths(self, q: np.ndarray) -> np.ndarray:
+        """Cable path lengths (C,) m at joint angles ``q`` (2n,) rad (:meth:`lengths_of_pose`)."""
+        return self.lengths_of_pose(self.pose(q))
+
+    def lengths_of_pose(self, pose: ChainPose) -> np.ndarray:
+        """Cable path lengths (C,) m of a :meth:`pose`: with ``"disk"`` routing
+        :meth:`lengths_between_pinholes`; with ``"corrected"`` the straight segments between the
+        via-points of neighbouring disks (:meth:`span_cable_lengths`) plus
+        :attr:`rigid_lengths` (a straight robot's lengths are the exact cable lengths either
+        way)."""
+        if not self._corrected:
+            return self.lengths_between_pinholes(pose.pinholes)
+        return self._span_lengths(pose).sum(axis=0) + self.rigid_lengths
+
+    def span_cable_lengths(self, q: np.ndarray) -> np.ndarray:
+        """Length (n_disks, C) m of every cable's straight segment across every disk span
+        [span, cable] at joint angles ``q`` (2n,) rad (0 where the cable does not cross the
+        span): pinhole to pinhole, or via-point to via-point with ``"corrected"`` routing."""
+        return self._span_lengths(self.pose(q))
+
+    def _span_lengths(self, pose: ChainPose) -> np.ndarray:
+        """:meth:`span_cable_lengths` of a pose: the via-points are the pinholes ± b_k along
+        the disks' axes, so segment k is p_{k+1} − p_k − (b_k·z_k + b_{k+1}·z_{k+1})."""
+        m = self.links_per_span
+        axis = np.empty((self.n_disks + 1, 3))  # base, then the disk links' z axes
+        axis[0] = self.base_rotation[:, 2]
+        axis[1:] = pose.link_rot[m - 1 :: m, :, 2]
+        shift = axis * self.via_offsets[:, None]
+        pins = pose.pinholes
+        seg = pins[1:] - pins[:-1] - (shift[:-1] + shift[1:])[:, None, :]
+        return np.sqrt((seg * seg).sum(axis=-1)) * self._routed_f
+
     def lengths_between_pinholes(self, pinholes: np.ndarray) -> np.ndarray:
         """Cable lengths (C,) m from pinholes (n_disks+1, C, 3): each cable's segment lengths
         summed over the spans it crosses (base disk to its section's last disk)."""
@@ -455,15 +551,20 @@ class DiscreteBackbone:
                 axes[:, i, 1] = rot[:, :, 1] * ca[:, None] + rot[:, :, 2] * sa[:, None]
                 rot = np.matmul(rot, local)
             pos = points[:, i] + half * rot[:, :, 2]  # the next station
-        p_b = pos[:, None, :] + np.matmul(self.pinhole_local, rot.transpose(0, 2, 1))
-        seg = p_b - self.pinhole_local  # (n_span, C cables, 3)
+        if self._corrected:  # via-points ∓b along the disks' links
+            p_b = pos[:, None, :] + np.matmul(self._via_in, rot.transpose(0, 2, 1))
+            seg = p_b - self._via_out  # (n_span, C cables, 3)
+        else:
+            p_b = pos[:, None, :] + np.matmul(self.pinhole_local, rot.transpose(0, 2, 1))
+            seg = p_b - self.pinhole_local  # (n_span, C cables, 3)
         seg_len = np.sqrt((seg * seg).sum(axis=-1))  # (n_span, C)
         tu = seg * (tensions * self._routed_f / seg_len)[..., None]  # T_i·u_i, 0 if not routed
         force = tu.sum(axis=1)  # F (n_span, 3)
         couple = _cross(p_b, tu).sum(axis=1)  # G (n_span, 3)
         moment = _cross(points, force[:, None, :]) - couple[:, None, :]  # (n_span, m, 3)
         tau = (axes * moment[:, :, None, :]).sum(axis=-1).reshape(-1)
-        return tau, (seg_len * self._routed_f).sum(axis=0)
+        lengths = (seg_len * self._routed_f).sum(axis=0)
+        return tau, (lengths + self.rigid_lengths if self._corrected else lengths)
 
     def _cable_loads_one_link(
         self, q: np.ndarray, tensions: np.ndarray
@@ -509,14 +610,20 @@ class DiscreteBackbone:
         tau = np.empty(self.n_dof)
         tau[0::2] = moment[0]
         tau[1::2] = moment[1] * u[1] + moment[2] * u[2]
+        if self._corrected:
+            lengths += self.rigid_lengths
         return tau, lengths
 
     @staticmethod
-    def _build_one_link_map(pinholes: np.ndarray, half: float) -> np.ndarray:
+    def _build_one_link_map(
+        pinholes: np.ndarray, half: float, b_out: float = 0.0, b_in: float = 0.0
+    ) -> np.ndarray:
         """The (6k, 9) map of :meth:`_cable_loads_one_link` for one section: from the products
         u_α·v_β (row 3α + β) of one of its spans to the segments d_i (rows 0..3k−1,
         [cable, xyz], m) and the levers (o − p_i) × d_i (rows 3k..6k−1, [xyz, cable], m²) of
-        the k cables crossing it, whose pinholes are ``pinholes`` (k, 3) m; ``half`` = h/2 (m)."""
+        the k cables crossing it, whose pinholes are ``pinholes`` (k, 3) m; ``half`` = h/2 (m).
+        With via-points (``"corrected"`` routing) the segment starts at p_i + b_out·z on the
+        proximal disk and ends at the distal pinhole − b_in·Z (m)."""
         one, cos, sin = 0, 1, 2  # indices into u = (1, cos a, sin a) and v = (1, cos b, sin b)
 
         def term(alpha: int, beta: int, vector) -> np.ndarray:
@@ -533,7 +640,11 @@ class DiscreteBackbone:
         joint = np.array([0.0, 0.0, half])
         seg, lever = [], []
         for p in pinholes:
-            d = centre + p[0] * col_x + p[1] * col_y - term(one, one, p)  # (3, 9)
+            d = centre + p[0] * col_x + p[1] * col_y
+            if b_in != 0.0 or b_out != 0.0:
+                p = p + np.array([0.0, 0.0, b_out])
+                d = d - b_in * col_z
+            d = d - term(one, one, p)  # (3, 9)
             seg.append(d)
             lever.append(np.cross(joint - p, d.T).T)
         return np.concatenate(
@@ -603,3 +714,18 @@ class DiscreteBackbone:
             if step < tol:
                 return q, True
         return q, False
+
+
+def bending_modes(mass: np.ndarray, stiffness: np.ndarray) -> tuple[float, float]:
+    """Lowest and highest angular frequency (rad/s) of K·v = ω²·M·v for a diagonal K.
+
+    ``mass`` (2n, 2n) kg·m², ``stiffness`` (2n,) N·m/rad. With K = k·I (one section) the
+    frequencies are √(k / eig(M)); otherwise those of the symmetric K^{-1/2}·M·K^{-1/2}.
+    """
+    if np.all(stiffness == stiffness[0]):
+        eig = np.linalg.eigvalsh(mass)  # ascending
+        k = float(stiffness[0])
+        return float(math.sqrt(k / eig[-1])), float(math.sqrt(k / eig[0]))
+    scale = 1.0 / np.sqrt(stiffness)
+    eig = np.linalg.eigvalsh(mass * scale[:, None] * scale[None, :])
+    return float(math.sqrt(1.0 / eig[-1])), float(math.sqrt(1.0 / eig[0]))
