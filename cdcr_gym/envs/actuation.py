@@ -3,21 +3,20 @@
 An action has one entry per cable in [−1, 1] (cable order of ``RobotParams``: section by section,
 proximal first). What it commands depends on the mode:
 
-| mode              | command                                                                |
-|-------------------|------------------------------------------------------------------------|
-| ``tension``       | T = max_tension·(a + 1)/2 (N), absolute                                |
-| ``tension_delta`` | T ← clip(T + a·tension_step·max_tension, 0, max_tension) (N)           |
-| ``length_delta``  | l ← l + a·length_step (m), made consistent with an inextensible        |
-|                   | backbone (least-squares projection onto the cable lengths of a PCC     |
-|                   | shape: for one section with symmetric cables, onto Σ Δl_i = 0), then   |
-|                   | the shape is scaled radially (every section's bending vector by the    |
-|                   | same factor) into the tension-reachable set. Quasi-static backends     |
-|                   | only (the analytic one).                                               |
-| ``displacement``  | d = d_min + (a + 1)/2·(d_max − d_min) (m), absolute: the robot's       |
-|                   | ``displacement_range``; tendon displacement at the drive (positive =   |
-|                   | pulled in), reaching the robot through its compliant drives (SPEC §8)  |
-| ``displacement_`` | d ← clip(d + a·displacement_step, d_min, d_max) (m)                    |
-| ``delta``         |                                                                        |
+| mode                   | command                                                           |
+|------------------------|-------------------------------------------------------------------|
+| ``tension``            | T = max_tension·(a + 1)/2 (N), absolute                           |
+| ``tension_delta``      | T ← clip(T + a·tension_step·max_tension, 0, max_tension) (N)      |
+| ``length_delta``       | l ← l + a·length_step (m), made consistent with an inextensible   |
+|                        | backbone (least-squares projection onto the cable lengths of a    |
+|                        | PCC shape: for one section with symmetric cables, onto            |
+|                        | Σ Δl_i = 0), then the shape is scaled radially (every section's   |
+|                        | bending vector by the same factor) into the tension-reachable     |
+|                        | set. Quasi-static backends only (the analytic one).               |
+| ``displacement``       | d = d_min + (a + 1)/2·(d_max − d_min) (m), absolute: the robot's  |
+|                        | ``displacement_range``; tendon displacement at the drive          |
+|                        | (positive = pulled in) through the compliant drives (SPEC §8)     |
+| ``displacement_delta`` | d ← clip(d + a·displacement_step, d_min, d_max) (m)               |
 
 In the displacement modes each tendon pulls with T = clip(T0 + k·(d − s(q)), 0, max_tension)
 (``params.cable_stiffness`` k, ``params.cable_pretension`` T0, s the tendon's geometric
