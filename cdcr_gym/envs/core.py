@@ -30,7 +30,13 @@ these modes: ``action_delay`` delays the action (a reset fills the queue with th
 holds the reset displacements); sensor noise and biases act as in every mode; the actuator
 imperfections of the tension modes (``actuator_noise``, ``tension_rate_limit``,
 ``tension_lag``, ``tension_response``) are refused (a position-controlled drive has none of
-them; a physics backend's own dynamics and the drives' compliance do the settling).
+them; a physics backend's own dynamics and the drives' compliance do the settling). Goals keep
+coming from the tension statics (``Backend.equilibrium``): a shape held by tensions T in
+[0, max_tension] is held by the displacements d = s + (T − T0)/k, so the reachable shapes are
+the same wherever ``displacement_range`` covers the tendons' shortenings s — on the paper and
+tdcr2 presets for every goal; on ``ftdcr_v4``, whose range is that of its recorded commands
+(−10 … +12.5 mm), about a fifth of the goals need a shortening beyond +12.5 mm (by up to 8 mm)
+and are approached, not reached.
 """
 
 from __future__ import annotations

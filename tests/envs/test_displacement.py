@@ -265,3 +265,24 @@ def test_ik_oracle_reaches_goals_on_ccka(mode, robot):
             if terminated or truncated:
                 break
         assert info["is_success"], (mode, robot, seed, info["distance"])
+
+
+@pytest.mark.parametrize(("robot", "most"), [("paper", 0), ("tdcr2", 0), ("ftdcr_v4", 0.3)])
+def test_goals_lie_within_the_drive_range(robot, most):
+    """Goals come from the tension statics; the displacements that hold them (d = s + (T − T0)/k
+    with the IK's tensions) are inside ``displacement_range`` for every goal on paper and
+    tdcr2, for most on ftdcr_v4 (documented in ``cdcr_gym.envs.core``)."""
+    env = _make("CCKA", action_mode="displacement", robot=robot)
+    controller = AnalyticIKController.from_env(env)
+    p = env.unwrapped.params
+    low, high = p.displacement_range
+    straight = env.unwrapped.backend.straight_cable_lengths
+    goals = np.array([env.reset(seed=s)[1]["goal"] for s in range(60)])
+    tensions, lengths = controller.targets(goals)
+    d = (
+        straight
+        - lengths
+        + (tensions - np.asarray(p.cable_pretension)) / np.asarray(p.cable_stiffness)
+    )
+    outside = np.mean(np.any((d < low - 1e-12) | (d > high + 1e-12), axis=-1))
+    assert outside <= most
