@@ -43,7 +43,6 @@ from cdcr_gym.backends.base import (
     DriveState,
     Readings,
     SimulationDivergedError,
-    drive_tensions,
 )
 from cdcr_gym.backends.mujoco import friction as mj_friction
 from cdcr_gym.backends.mujoco.mjcf import JOINTS, MJCFModel, build_mjcf
@@ -295,6 +294,12 @@ class MuJoCoBackend(ObstacleScene, Backend):
         mj.mj_tendon(model, scratch)
         #: L0 (C,) m, the cables' tendon lengths at the straight pose.
         self._straight = np.array(scratch.ten_length[self._cable_ids])
+        #: k (C,) N/m, T0 (C,) N and max_tension N of the drives.
+        self._drive_constants = (
+            np.asarray(p.cable_stiffness, dtype=np.float64),
+            np.asarray(p.cable_pretension, dtype=np.float64),
+            float(p.max_tension),
+        )
         if self._drives:
             k = np.asarray(p.cable_stiffness)
             model.actuator_biasprm[self._drive_slice, 0] = k * self._straight - np.asarray(
@@ -581,8 +586,11 @@ class MuJoCoBackend(ObstacleScene, Backend):
     def _drive_law(
         self, displacements: np.ndarray, lengths: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(tensions, slack, saturated) of the drives' law at tendon lengths ``lengths`` m."""
-        return drive_tensions(self.params, displacements, self._straight - lengths)
+        """(tensions, slack, saturated) of the drives' law at tendon lengths ``lengths`` m
+        (``backends.base.drive_tensions`` with finite k, inlined: it runs every step)."""
+        k, t0, t_max = self._drive_constants
+        raw = t0 + k * (displacements - (self._straight - lengths))
+        return np.clip(raw, 0.0, t_max), raw <= 0.0, raw > t_max
 
     def apply_displacements(self, displacements: np.ndarray) -> None:
         """Hold drive displacements ``displacements`` (N, C) m for one control step
@@ -598,7 +606,14 @@ class MuJoCoBackend(ObstacleScene, Backend):
         """
         self._check_open()
         n, c = self.num_robots, self.params.n_cables
-        d = validation.real_array(displacements, "displacements", (n, c)).copy()
+        if (
+            type(displacements) is np.ndarray
+            and displacements.shape == (n, c)
+            and np.isfinite(displacements).all()
+        ):
+            d = displacements.astype(np.float64)  # a copy
+        else:
+            d = validation.real_array(displacements, "displacements", (n, c)).copy()
         if not self._drives:
             self.enable_displacement_control()
         if not self._driving:
