@@ -1,10 +1,11 @@
 """The pybullet backend: the backbone as a chain of rigid links with elastic 2-DOF joints.
 
-The parts, one module each (derivations and measured numbers in ``docs/bullet_backend.md``):
+The parts (derivations and measured numbers in ``docs/bullet_backend.md``):
 
-``chain``
-    The discretised backbone as pure numpy: links, Cardan joints half-way between the rod
-    stations, masses, cable routing through the disks of n sections, the cable loads as
+``cdcr_gym.model.discrete``
+    The discretised backbone as pure numpy, shared with the MuJoCo backend: links, Cardan
+    joints half-way between the rod stations, masses, cable routing through the disks of n
+    sections (pinhole to pinhole, or the corrected via-points: ``routing``), the cable loads as
     generalized forces τ = −Σ_i T_i ∂l_i/∂q, gravity loads, statics, and the span-buckling
     limit of the tensions.
 ``multibody``

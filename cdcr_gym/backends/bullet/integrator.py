@@ -16,9 +16,9 @@ Implicit spring–damper integration
     damper. Cable and gravity loads stay explicit: their stiffness (the cables' ≈ ΣT·Δ/4 per
     joint, ≤ 4.3 N·m/rad at 3 × 80 N on the paper's robot; gravity's ≲ 0.4 N·m/rad) is a
     fraction of K = EI/Δ = 15.1 N·m/rad, which keeps the step stable (checked to h = 0.1 s)
-    as long as the disk spans do not buckle (``chain.check_span_buckling``). A state at rest
-    is a fixed point of the update iff K·q = τ_cable(q) − b(q, 0): the settled state is the
-    static solution, independent of h.
+    as long as the disk spans do not buckle (``cdcr_gym.model.discrete.check_span_buckling``).
+    A state at rest is a fixed point of the update iff K·q = τ_cable(q) − b(q, 0): the settled
+    state is the static solution, independent of h.
 
 Cable–disk friction
     With ``friction_coefficient`` μ > 0 each cable's segments carry the capstan profile of
