@@ -17,8 +17,10 @@ timestep h (its ``damping``), and the model the ``implicitfast`` integrator, whi
 1 − h/γ = 0 per step, whatever k (checked at the rebuild:
 :meth:`MuJoCoBackend.drive_stability`). The damping is a passive force of the tendon, not of the
 clamped actuator (gating it by the clamp makes the step chatter and diverge): a slack tendon is
-viscous while the robot moves (time constant ≈ γ·k·r²/(EI/Δ), ~0.2 s at k = 2·10⁴ N/m on the
-paper robot) and carries exactly 0 N at rest. Tension commands release the drives (``ctrl`` far
+viscous while the robot moves and carries exactly 0 N at rest. Measured on a step command that
+pulls one tendon and releases another (gravity off, settling to 0.1 mm): paper robot 0.72 s at
+its k = 2·10⁴ N/m, 2.8 s at k = 10⁵ N/m; ftdcr_v4 0.62 s at its k, 4.8 s at 10⁵ (pybullet,
+whose drives are implicit without damping: 0.3–0.5 s in every case). Tension commands release the drives (``ctrl`` far
 below the slack point, force exactly 0, damping off).
 
 Frames: MuJoCo's world frame is the base frame R0 (backbone along +z); a turned base
