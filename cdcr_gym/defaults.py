@@ -10,6 +10,7 @@ __all__ = [
     "ACTION_MODE",
     "TENSION_STEP",
     "LENGTH_STEP",
+    "DISPLACEMENT_STEP",
     "INITIAL_STATE",
     "INITIAL_STATES",
     "REWARD_TYPE",
@@ -25,6 +26,12 @@ ACTION_MODE = "tension_delta"
 TENSION_STEP = 0.05
 #: Largest cable displacement per step in ``length_delta`` mode (m).
 LENGTH_STEP = 0.002
+#: Largest tendon displacement change per step in ``displacement_delta`` mode (m): 1 mm, about
+#: 1/20 of the paper robot's range of tendon shortenings (±29 mm·θ) and 1/22 of the FTDCR v4
+#: drives' range (22.5 mm), so that a full swing takes a few tens of steps, like
+#: ``TENSION_STEP``; at the drives' stiffness (7–20 kN/m) it is a 7–20 N tension step on a
+#: taut tendon held straight.
+DISPLACEMENT_STEP = 0.001
 #: Start shapes: ``"straight"`` (zero tensions) or ``"random"`` (a shape drawn like the goals).
 INITIAL_STATES = ("straight", "random")
 #: Default start shape (one of :data:`INITIAL_STATES`).

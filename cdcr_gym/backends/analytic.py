@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from cdcr_gym import validation
-from cdcr_gym.backends.base import Backend, Readings
+from cdcr_gym.backends.base import Backend, DriveState, Readings
 from cdcr_gym.model.chain import PCCModel
 from cdcr_gym.model.params import RobotParams
 from cdcr_gym.model.statics import minimal_tensions
@@ -42,7 +42,6 @@ class AnalyticBackend(Backend):
 
     control_timestep = 0.0
     supports_length_control = True
-    #: :meth:`apply_displacements` is available (tendon displacement through compliant drives).
     supports_displacement_control = True
     randomizable = frozenset({"youngs_modulus", "cable_radius"})
 
@@ -59,6 +58,7 @@ class AnalyticBackend(Backend):
         self.bending_scale: np.ndarray | None = None
         self.length_scale: np.ndarray | None = None
         self._tendon_state: TendonState | None = None
+        self._displacements: np.ndarray | None = None
         self._set(np.zeros((self.num_robots, params.n_cables)))
 
     def _shape(
@@ -127,7 +127,7 @@ class AnalyticBackend(Backend):
         """Command tendon displacements ``displacements`` (N, C) m (positive = pulled in at the
         drive; 0 = the straight robot at its pretension) and move to the quasi-static shape.
 
-        Each tendon pulls with T = clip(T0 + k·(d − s), 0, max_tension) (SPEC §8), s its
+        Each tendon pulls with T = clip(T0 + k·(d − s), 0, params.max_tension) (SPEC §8), s its
         geometric shortening, solved exactly with the pure-moment statics
         (:func:`cdcr_gym.model.tendons.solve_displacement_statics`, warm-started from the
         current tensions; per-robot randomised E and r are honoured).
@@ -157,6 +157,7 @@ class AnalyticBackend(Backend):
             d,
             p.cable_stiffness if stiffness is None else stiffness,
             p.cable_pretension if pretension is None else pretension,
+            p.max_tension,
             initial_tensions=self._readings.tensions,
             bending_scale=self.bending_scale,
             length_scale=self.length_scale,
@@ -165,6 +166,7 @@ class AnalyticBackend(Backend):
         self._comp = np.ascontiguousarray(w.reshape(self.num_robots, -1).T)
         self._readings = self._shape(state.tensions, self._comp, self.length_scale)
         self._tendon_state = state
+        self._displacements = d.copy()
         return state
 
     @property
@@ -173,6 +175,13 @@ class AnalyticBackend(Backend):
         :meth:`apply_displacements` (slack (N, C), saturated (N, C), …); None after any other
         command."""
         return self._tendon_state
+
+    @property
+    def drive_state(self) -> DriveState | None:
+        state = self._tendon_state
+        if state is None or self._displacements is None:
+            return None
+        return DriveState(self._displacements, state.slack, state.saturated)
 
     def set_randomized(self, index: np.ndarray, values: dict[str, np.ndarray]) -> None:
         """Set ``youngs_modulus`` (Pa) and ``cable_radius`` (m) of robots ``index`` (others in

@@ -12,6 +12,11 @@ ordered section by section (proximal first), within a section in the order of it
 [0, params.max_tension] N. A cable's length is its length from the base disk to the last disk of
 its section (m).
 
+Tendon displacements (SPEC §8; :meth:`Backend.apply_displacements`) are in m at the drive,
+positive = pulled in; each tendon then pulls with T = clip(T0 + k·(d − s), 0, max_tension),
+s = L_straight − L its geometric shortening (``params.cable_stiffness`` k,
+``params.cable_pretension`` T0; :func:`drive_tensions`).
+
 Arrays are float64 with a leading robot axis of size ``N = num_robots`` (the analytic backend
 steps thousands of robots at once; a simulator backend has N = 1). Determinism: the same calls
 in the same order give bit-identical readings.
@@ -25,11 +30,15 @@ from typing import NamedTuple
 
 import numpy as np
 
+from cdcr_gym.model.chain import PCCModel
 from cdcr_gym.model.params import RobotParams
+from cdcr_gym.model.tendons import shortening_matrix, solve_displacement_statics, tendon_tensions
 
 __all__ = [
     "Backend",
     "Readings",
+    "DriveState",
+    "drive_tensions",
     "SimulationDivergedError",
     "diverged",
     "MAX_JOINT_ANGLE",
@@ -84,6 +93,30 @@ class Readings(NamedTuple):
     anchor_tensions: np.ndarray | None = None
 
 
+class DriveState(NamedTuple):
+    """The tendon drives after a displacement command (SPEC §8)."""
+
+    displacements: np.ndarray  #: (N, C) commanded displacements held, m
+    slack: np.ndarray  #: (N, C) bool: T0 + k(d − s) <= 0, the tendon carries exactly 0 N
+    saturated: np.ndarray  #: (N, C) bool: the law asks for more than max_tension (held there)
+
+
+def drive_tensions(
+    params: RobotParams, displacements: np.ndarray, shortening: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The drives' law T = clip(T0 + k·(d − s), 0, max_tension) of robot ``params``:
+    (tensions (..., C) N, slack (..., C) bool, saturated (..., C) bool) for displacements
+    ``displacements`` (..., C) m and geometric shortenings ``shortening`` (..., C) m
+    (:func:`cdcr_gym.model.tendons.tendon_tensions`)."""
+    return tendon_tensions(
+        displacements,
+        shortening,
+        params.cable_stiffness,
+        params.cable_pretension,
+        params.max_tension,
+    )
+
+
 class Backend(abc.ABC):
     """A batch of ``num_robots`` robots that the env core can drive.
 
@@ -100,6 +133,9 @@ class Backend(abc.ABC):
     control_timestep: float = 0.0
     #: Whether :meth:`apply_cable_lengths` is available (cable-displacement actions).
     supports_length_control: bool = False
+    #: Whether :meth:`apply_displacements` is available (tendon displacements through the
+    #: compliant drives, the ``displacement`` action modes).
+    supports_displacement_control: bool = False
     #: Names of the randomised parameters (``cdcr_gym.randomization.RANDOMIZABLE``) that
     #: :meth:`set_randomized` applies; the others are drawn and reported but not modelled.
     randomizable: frozenset[str] = frozenset()
@@ -136,6 +172,82 @@ class Backend(abc.ABC):
         :attr:`supports_length_control` implement it.
         """
         raise NotImplementedError(f"{type(self).__name__} does not support cable-length control")
+
+    def apply_displacements(self, displacements: np.ndarray) -> object:
+        """Hold tendon displacements ``displacements`` (N, C) m at the drives for one control
+        step (module docstring: T = clip(T0 + k·(d − s), 0, max_tension) per tendon).
+
+        The caller guarantees finite values. Afterwards :meth:`read` reports the tendons'
+        tensions under the law at the robots' current shapes (exactly 0 N for a slack tendon,
+        max_tension for a saturated one) and :attr:`drive_state` which tendons are slack or
+        saturated. Only backends with :attr:`supports_displacement_control` implement it
+        (the return value is the backend's own: None, or e.g. the analytic backend's
+        :class:`~cdcr_gym.model.tendons.TendonState`).
+        """
+        raise NotImplementedError(f"{type(self).__name__} does not support displacement control")
+
+    def enable_displacement_control(self) -> None:
+        """Prepare for :meth:`apply_displacements` now (the env calls it at construction in a
+        displacement action mode), so that drives this backend cannot run are refused at once
+        (``ValueError``); the default prepares nothing."""
+
+    @property
+    def drive_state(self) -> DriveState | None:
+        """The drives after the last :meth:`apply_displacements` (None after any other
+        command)."""
+        return None
+
+    @property
+    def straight_cable_lengths(self) -> np.ndarray:
+        """Cable lengths (C,) m of the straight robot (L_straight of the drives' law): this
+        backend's own (its sensed lengths at the straight pose)."""
+        return PCCModel(self.params).straight_lengths.copy()
+
+    def displacement_equilibrium(
+        self, displacements: np.ndarray, tol: float = 1e-9, max_iter: int = 50
+    ) -> Readings:
+        """Readings of the static equilibrium under drive displacements ``displacements``
+        (M, C) m of the nominal robot (like :meth:`equilibrium`), without changing the state.
+
+        The tensions T solving T = clip(T0 + k·(d − s(T)), 0, max_tension) with s(T) this
+        backend's own shortenings (:meth:`equilibrium`), by a Newton-like iteration whose
+        Jacobian is the CCKA model's: each step solves the CCKA displacement statics
+        (:func:`cdcr_gym.model.tendons.solve_displacement_statics`) for the commands corrected
+        by the gap between this backend's shortenings and the CCKA ones at the current
+        tensions. Exact in one step on the CCKA backend; on a physics backend the gap is a few
+        % of the shortening, and the iteration contracts by about that factor per step.
+
+        Raises:
+            ValueError: naming ``displacements`` for a wrong shape or non-finite values.
+            RuntimeError: if it has not converged to ``tol``·max_tension after ``max_iter``
+                steps.
+        """
+        p = self.params
+        d = np.asarray(displacements, dtype=np.float64)
+        if d.ndim != 2 or d.shape[1] != p.n_cables or not np.isfinite(d).all():
+            raise ValueError(
+                f"displacements must be finite with shape (M, {p.n_cables}), got {displacements!r}"
+            )
+        model = PCCModel(p)
+        m_s = shortening_matrix(model)
+        k, t0, t_max = p.cable_stiffness, p.cable_pretension, p.max_tension
+        straight = self.straight_cable_lengths
+        correction = np.zeros_like(d)
+        tensions = None
+        for _ in range(max_iter):
+            state = solve_displacement_statics(
+                model, d - correction, k, t0, t_max, initial_tensions=tensions
+            )
+            new = state.tensions
+            readings = self.equilibrium(new)
+            if tensions is not None and np.max(np.abs(new - tensions)) <= tol * t_max:
+                return readings
+            tensions = new
+            correction = (straight - readings.cable_lengths) - new @ m_s
+        raise RuntimeError(
+            f"the displacement equilibrium did not converge in {max_iter} steps (displacements "
+            f"{d.tolist()} m)"
+        )
 
     @abc.abstractmethod
     def read(self) -> Readings:

@@ -42,6 +42,12 @@ observation by field name through the env's ``ObservationSpec`` and runs in one 
   < 0.5 mm, 0.12 rings and 0.2 oscillates through much of an episode. On the quasi-static
   analytic backend the same law converges geometrically (1 − gain per step); there the
   open-loop mode is exact.
+
+In the displacement action modes (``displacement``, ``displacement_delta``) both loops turn
+their target (tensions T and the shape w they hold) into the drive displacements that produce
+it: d = s(w) + (T − T0)/k (s the model's shortening of w, k and T0 the robot's drives; for a
+cable with T = 0 that is its slack point), commanded absolutely (normalised to the range) or in
+increments from the held displacements (the observation's ``displacements`` field).
 """
 
 from __future__ import annotations
@@ -50,12 +56,13 @@ from typing import Any
 
 import numpy as np
 
-from cdcr_gym import validation
+from cdcr_gym import defaults, validation
 from cdcr_gym.envs.actuation import ACTION_MODES
 from cdcr_gym.model.chain import PCCModel
 from cdcr_gym.model.ik import solve_ik
 from cdcr_gym.model.params import RobotParams
 from cdcr_gym.model.statics import minimal_tensions, reachable_scale
+from cdcr_gym.model.tendons import solve_displacement_statics
 from cdcr_gym.tasks.observation import ObservationSpec
 
 __all__ = ["AnalyticIKController", "FEEDBACK_GAIN"]
@@ -77,12 +84,14 @@ class AnalyticIKController:
         spec: the env's observation layout (flat, or the ``observation`` part of the Dict); the
             controller reads ``goal`` (flat only), ``tip`` (closed loop), ``tensions`` and
             ``cable_lengths`` from it.
-        action_mode: the env's action mode (``tension``, ``tension_delta``, ``length_delta``).
+        action_mode: the env's action mode (``tension``, ``tension_delta``, ``length_delta``,
+            ``displacement``, ``displacement_delta``).
         tension_step: the env's ``tension_step`` (fraction of max_tension per step).
         length_step: the env's ``length_step`` (m per step).
         feedback: False: open loop (command the model's IK solution); True: closed loop on the
             measured tip (resolved-rate correction with the model Jacobian, module docstring).
         gain: integrator gain per control step of the closed loop, in (0, 1]; unused open loop.
+        displacement_step: the env's ``displacement_step`` (m per step, ``displacement_delta``).
 
     Use :meth:`from_env` to copy these from an env. :meth:`predict` follows stable-baselines3's
     signature, so the evaluation code can run this and a trained model the same way.
@@ -97,6 +106,7 @@ class AnalyticIKController:
         length_step: float = 0.002,
         feedback: bool = False,
         gain: float = FEEDBACK_GAIN,
+        displacement_step: float = defaults.DISPLACEMENT_STEP,
     ) -> None:
         self.params = params
         self.spec = spec
@@ -105,6 +115,7 @@ class AnalyticIKController:
         self.length_step = validation.positive(length_step, "length_step")
         self.feedback = validation.flag(feedback, "feedback")
         self.gain = validation.positive(gain, "gain", upper=1.0)
+        self.displacement_step = validation.positive(displacement_step, "displacement_step")
         self._model = PCCModel(params)
         self._run_lengths = np.asarray(params.cable_run_lengths)
         sections = np.asarray(params.cable_section)
@@ -125,6 +136,7 @@ class AnalyticIKController:
             env.length_step,
             feedback,
             gain,
+            env.displacement_step,
         )
 
     @property
@@ -195,6 +207,18 @@ class AnalyticIKController:
         s = model.n_sections
         if self.action_mode == "length_delta":
             held = model.bending_from_lengths(lengths.reshape(-1, lengths.shape[-1]))
+        elif self.action_mode in ("displacement", "displacement_delta"):
+            # the model's shape of the held command (the measured tensions of a dynamic robot
+            # swing with its motion: an integrator on them would not hold still)
+            d = self.held_displacements(state)
+            p = self.params
+            held = solve_displacement_statics(
+                model,
+                d.reshape(-1, d.shape[-1]),
+                p.cable_stiffness,
+                p.cable_pretension,
+                p.max_tension,
+            ).bending
         else:
             held = model.bending_from_tensions(tensions.reshape(-1, tensions.shape[-1]))
         jac = self._jacobian(held)
@@ -232,7 +256,38 @@ class AnalyticIKController:
         else:
             goal, tensions, lengths = self._unpack(obs)
             target_tensions, target_lengths = self.targets(goal)
+        if self.action_mode in ("displacement", "displacement_delta"):
+            state = obs["observation"] if isinstance(obs, dict) else obs
+            return self.displacement_command(
+                target_tensions, target_lengths, self.held_displacements(state)
+            )
         return self.command(target_tensions, target_lengths, tensions, lengths)
+
+    def held_displacements(self, state: Any) -> np.ndarray:
+        """The held displacements (..., C) m from the observation's ``displacements`` field."""
+        low, high = self.params.displacement_range
+        x = np.asarray(self.spec.decode(state, "displacements"), dtype=np.float64)
+        return low + 0.5 * (x + 1.0) * (high - low)
+
+    def displacement_command(
+        self, target_tensions: np.ndarray, target_lengths: np.ndarray, held: np.ndarray
+    ) -> np.ndarray:
+        """The action (..., C) float32 of a displacement mode towards the displacements
+        d = s + (T − T0)/k that produce ``target_tensions`` (N) at the shape of
+        ``target_lengths`` (m) on the model, from the ``held`` displacements (..., C) m
+        (increments scaled so the largest is one step)."""
+        p = self.params
+        k, t0 = np.asarray(p.cable_stiffness), np.asarray(p.cable_pretension)
+        give = np.where(np.isinf(k), 0.0, (target_tensions - t0) / np.where(np.isinf(k), 1.0, k))
+        target = self._model.straight_lengths - target_lengths + give
+        low, high = p.displacement_range
+        if self.action_mode == "displacement":
+            action = (2.0 * target - (low + high)) / (high - low)
+        else:
+            action = (target - held) / self.displacement_step
+            largest = np.max(np.abs(action), axis=-1, keepdims=True)
+            action = action / np.maximum(largest, 1.0)
+        return np.clip(action, -1.0, 1.0).astype(np.float32)
 
     def command(
         self,

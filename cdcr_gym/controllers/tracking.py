@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from cdcr_gym import validation
+from cdcr_gym import defaults, validation
 from cdcr_gym.controllers.ik import FEEDBACK_GAIN, AnalyticIKController
 from cdcr_gym.model.ik import solve_pose_ik
 from cdcr_gym.model.params import RobotParams
@@ -66,8 +66,18 @@ class TrackingIKController(AnalyticIKController):
         timestep: float = 0.02,
         feedback: bool = False,
         gain: float = FEEDBACK_GAIN,
+        displacement_step: float = defaults.DISPLACEMENT_STEP,
     ) -> None:
-        super().__init__(params, spec, action_mode, tension_step, length_step, feedback, gain)
+        super().__init__(
+            params,
+            spec,
+            action_mode,
+            tension_step,
+            length_step,
+            feedback,
+            gain,
+            displacement_step,
+        )
         self.timestep = validation.positive(timestep, "timestep")
 
     @classmethod
@@ -85,6 +95,7 @@ class TrackingIKController(AnalyticIKController):
             env.task.step_time(env.core.backend),
             feedback,
             gain,
+            env.displacement_step,
         )
 
     def _feedback_terms(self, obs: Any) -> tuple[np.ndarray, np.ndarray, Any, np.ndarray]:

@@ -5,7 +5,7 @@ batched vector env (``cdcr_gym.envs.vector``) with N = num_envs. Order of a step
 
 1. the clipped actions (N, C) become cable commands (``Actuation``);
 2. the backend holds them for one control step (``Backend.apply_tensions`` /
-   ``apply_cable_lengths``) and is read back (``Backend.read``);
+   ``apply_cable_lengths`` / ``apply_displacements``) and is read back (``Backend.read``);
 3. the task moves on by one step (``Task.advance``: a moving target, a collision check);
 4. the task fills the observation (``Task.observe``) and computes reward, success and its info
    entries (``Task.evaluate``); the core adds the robot's own entries (``tip``, ``tensions``,
@@ -15,6 +15,28 @@ Randomness: every env owns a generator (the single env's ``np_random``); at a re
 shape (``initial_state="random"``) and then the goal are drawn from it, in that order. Domain
 randomisation and imperfections (``cdcr_gym.randomization``, off by default) draw from the same
 generator: their episode draws come first at a reset, their per-step noise after the action.
+
+Displacement action modes (``displacement``, ``displacement_delta``; SPEC §8): the env holds the
+commanded tendon displacements d (N, C) m. A reset puts the robots at rest in the equilibrium
+under tensions as in the tension modes (zero: straight; ``initial_state="random"``;
+``initial_tensions``) and then sets the drives consistently: d = s + (T − T0)/k, the
+displacement whose law gives those tensions at that shape (s the backend's shortening; at zero
+tension every tendon sits exactly at its slack point), clipped to ``displacement_range``.
+``options["initial_displacements"]`` instead starts from the equilibrium under given
+displacements (``Backend.displacement_equilibrium``, the nominal robot). ``info`` gains
+``displacements`` (N, C) m, ``slack`` and ``saturated`` (N, C) bool; the observation gains the
+field ``displacements`` (the commanded d normalised to the range, [−1, 1]). Imperfections in
+these modes: ``action_delay`` delays the action (a reset fills the queue with the action that
+holds the reset displacements); sensor noise and biases act as in every mode; the actuator
+imperfections of the tension modes (``actuator_noise``, ``tension_rate_limit``,
+``tension_lag``, ``tension_response``) are refused (a position-controlled drive has none of
+them; a physics backend's own dynamics and the drives' compliance do the settling). Goals keep
+coming from the tension statics (``Backend.equilibrium``): a shape held by tensions T in
+[0, max_tension] is held by the displacements d = s + (T − T0)/k, so the reachable shapes are
+the same wherever ``displacement_range`` covers the tendons' shortenings s — on the paper and
+tdcr2 presets for every goal; on ``ftdcr_v4``, whose range is that of its recorded commands
+(−10 … +12.5 mm), about a fifth of the goals need a shortening beyond +12.5 mm (by up to 8 mm)
+and are approached, not reached.
 """
 
 from __future__ import annotations
@@ -30,6 +52,7 @@ from cdcr_gym.backends.base import Backend, Readings
 from cdcr_gym.envs.actuation import Actuation
 from cdcr_gym.envs.safety import SafetyFilter
 from cdcr_gym.model.params import RobotParams
+from cdcr_gym.model.tendons import tendon_tensions
 from cdcr_gym.model.workspace import sample_tensions_each
 from cdcr_gym.randomization import INFO_PREFIX, DomainRandomization, Imperfections
 from cdcr_gym.tasks.base import Task
@@ -40,7 +63,7 @@ __all__ = ["EnvCore", "CoreAttributes", "INITIAL_STATES", "OPTION_KEYS"]
 #: Start shapes: straight (zero tensions) or a shape drawn like the goals.
 INITIAL_STATES = defaults.INITIAL_STATES
 #: Keys of ``reset(options=...)`` (the vector env also takes Gymnasium's ``reset_mask``).
-OPTION_KEYS = ("goal", "initial_tensions")
+OPTION_KEYS = ("goal", "initial_tensions", "initial_displacements")
 
 
 class EnvCore:
@@ -50,7 +73,8 @@ class EnvCore:
     Args:
         backend: the robots (its ``num_robots`` sets N).
         task: the task (bound to the robot and N here).
-        action_mode, tension_step, length_step: see :class:`~cdcr_gym.envs.actuation.Actuation`.
+        action_mode, tension_step, length_step, displacement_step: see
+            :class:`~cdcr_gym.envs.actuation.Actuation` (displacement modes: module docstring).
         initial_state: ``"straight"`` or ``"random"``, or a sequence of N such values.
         goal_conditioned: Dict observations (``observation``, ``achieved_goal``,
             ``desired_goal``) instead of a flat vector.
@@ -83,6 +107,7 @@ class EnvCore:
         action_mode: str = defaults.ACTION_MODE,
         tension_step: float = defaults.TENSION_STEP,
         length_step: float = defaults.LENGTH_STEP,
+        displacement_step: float = defaults.DISPLACEMENT_STEP,
         initial_state: str | Sequence[str] = defaults.INITIAL_STATE,
         goal_conditioned: bool = False,
         terminate_on_success: bool = False,
@@ -97,12 +122,21 @@ class EnvCore:
             raise ValueError(f"backend must be a cdcr_gym.backends.Backend, got {backend!r}")
         if not isinstance(task, Task):
             raise ValueError(f"task must be a cdcr_gym.tasks.Task, got {task!r}")
-        actuation = Actuation(action_mode, backend.params, tension_step, length_step)
+        actuation = Actuation(
+            action_mode, backend.params, tension_step, length_step, displacement_step
+        )
         if actuation.commands_lengths and not backend.supports_length_control:
             raise ValueError(
                 f"action_mode='length_delta' needs a backend with cable-length control; "
                 f"{type(backend).__name__} has none (use 'tension' or 'tension_delta')"
             )
+        if actuation.commands_displacements:
+            if not backend.supports_displacement_control:
+                raise ValueError(
+                    f"action_mode={action_mode!r} needs a backend with displacement control; "
+                    f"{type(backend).__name__} has none"
+                )
+            backend.enable_displacement_control()
         self.goal_conditioned = validation.flag(goal_conditioned, "goal_conditioned")
         self.terminate_on_success = validation.flag(terminate_on_success, "terminate_on_success")
         if self.goal_conditioned and task.goal_size == 0:
@@ -124,8 +158,26 @@ class EnvCore:
         self.initial_states = tuple(states)
         self._random_start = np.array([s == "random" for s in states])
         self.spec = task.observation_spec(self.goal_conditioned)
-        #: Rows of the task's own fields in the observation (the velocity field follows them).
+        #: Rows of the task's own fields in the observation (the env's fields follow them).
         self._task_rows = self.spec.size
+        n_c = backend.n_cables
+        self._held_displacements = np.zeros((n, n_c))
+        self._drive_flags = (np.zeros((n, n_c), dtype=bool), np.zeros((n, n_c), dtype=bool))
+        if actuation.commands_displacements:
+            low, high = actuation.displacement_range
+            field = Field.uniform(
+                "displacements",
+                n_c,
+                -1.0,
+                1.0,
+                "1",
+                f"commanded tendon displacements, normalised: -1 = d_min ({low} m), "
+                f"+1 = d_max ({high} m)",
+                tuple(f"d{i + 1}" for i in range(n_c)),
+            )
+            self.spec = ObservationSpec([*self.spec.fields, field])
+        #: Rows of the task's fields and the displacement field (the velocity field follows).
+        self._env_rows = self.spec.size
         self.observe_tip_velocity = validation.flag(observe_tip_velocity, "observe_tip_velocity")
         dt = float(backend.control_timestep)
         self._inv_timestep = 1.0 / (dt if dt > 0.0 else defaults.NOMINAL_TIMESTEP)
@@ -155,6 +207,8 @@ class EnvCore:
             )
         else:
             self.observation_space = self.spec.box()
+        #: ``options["initial_displacements"]`` of the reset under way (:meth:`reset_options`).
+        self.pending_displacements: Any = None
         self._readings = backend.read()
         self._held_tensions = self._readings.tensions
         self._held_lengths = self._readings.cable_lengths
@@ -181,10 +235,10 @@ class EnvCore:
                 f"{type(self.task).__name__} has none"
             )
         act = self.actuation
-        if act.commands_lengths:
+        if act.commands_lengths or act.commands_displacements:
             raise ValueError(
                 "safety_filter=True needs a tension action mode ('tension' or "
-                "'tension_delta'), got action_mode='length_delta'"
+                f"'tension_delta'), got action_mode={act.mode!r}"
             )
         step = None if act.mode == "tension" else act.tension_step * act.max_tension
         self.safety = SafetyFilter(self.task.model_clearance, act.max_tension, step, margin)
@@ -199,7 +253,7 @@ class EnvCore:
             imperfections,
             self.params,
             n,
-            commands_tensions=not act.commands_lengths,
+            commands_tensions=not (act.commands_lengths or act.commands_displacements),
             absolute_tensions=act.mode == "tension",
         )
         self.randomization = dr if dr.enabled else None
@@ -231,7 +285,8 @@ class EnvCore:
         self, options: Any, allow_mask: bool = False
     ) -> tuple[np.ndarray | None, Any, Any]:
         """``reset(options=...)`` of either env, checked: (the envs to reset (sorted indices)
-        from ``reset_mask`` or None for all, ``initial_tensions``, ``goal``).
+        from ``reset_mask`` or None for all, ``initial_tensions``, ``goal``); an
+        ``initial_displacements`` option is kept for :meth:`reset` (:attr:`pending_displacements`).
 
         Every option is validated here, before the caller seeds or draws anything.
 
@@ -242,6 +297,7 @@ class EnvCore:
                 ``options['initial_tensions']`` and ``options['goal']`` (``Task.check_goal``)
                 for a bad shape or value.
         """
+        self.pending_displacements = None
         if options is None:
             return None, None, None
         allowed = OPTION_KEYS + (("reset_mask",) if allow_mask else ())
@@ -265,8 +321,22 @@ class EnvCore:
             if not mask.any():
                 raise ValueError("options['reset_mask'] must select at least one env")
             idx = np.flatnonzero(mask)
+        displacements = options.get("initial_displacements")
+        if displacements is not None:
+            if not self.actuation.commands_displacements:
+                raise ValueError(
+                    "options['initial_displacements'] needs a displacement action mode "
+                    f"('displacement' or 'displacement_delta'), got {self.actuation.mode!r}"
+                )
+            if options.get("initial_tensions") is not None:
+                raise ValueError(
+                    "give options['initial_tensions'] or options['initial_displacements'], not both"
+                )
         m = self.num_envs if idx is None else idx.size
         tensions, goal = self._check_values(m, options.get("initial_tensions"), options.get("goal"))
+        if displacements is not None:
+            displacements = self._check_displacements(m, displacements)
+        self.pending_displacements = displacements
         return idx, tensions, goal
 
     def _check_values(self, m: int, initial_tensions: Any, goal: Any) -> tuple[Any, Any]:
@@ -289,6 +359,18 @@ class EnvCore:
             goal = self.task.check_goal(goal, m)
         return tensions, goal
 
+    def _check_displacements(self, m: int, displacements: Any) -> np.ndarray:
+        """``initial_displacements`` as (m, C) m inside the robot's ``displacement_range``."""
+        c = self.n_cables
+        low, high = self.actuation.displacement_range
+        d = validation.per_cable(displacements, "options['initial_displacements']", c, low, high)
+        if d.shape not in ((c,), (m, c)):
+            raise ValueError(
+                f"options['initial_displacements'] must have shape ({c},) or ({m}, {c}), "
+                f"got shape {d.shape}"
+            )
+        return np.array(np.broadcast_to(d, (m, c)))
+
     def reset(
         self,
         idx: np.ndarray,
@@ -303,8 +385,14 @@ class EnvCore:
         """
         m, c = idx.size, self.n_cables
         given, goal = self._check_values(m, initial_tensions, goal)  # before any draw
+        displacements = getattr(self, "pending_displacements", None)
+        self.pending_displacements = None
+        if displacements is not None:
+            displacements = self._check_displacements(m, displacements)
         if self.randomization is not None or self.imperfections is not None:
             self._draw_episode(idx, rngs)
+        if displacements is not None:  # the drives' equilibrium on this episode's robot
+            given = self.backend.displacement_equilibrium(displacements).tensions
         if given is not None:
             tensions = given
         else:
@@ -332,11 +420,55 @@ class EnvCore:
             self._held_lengths = self._held_lengths.copy(order="K")
             self._held_tensions[idx] = r.tensions[idx]
             self._held_lengths[idx] = r.cable_lengths[idx]
+        if self.actuation.commands_displacements:
+            self._reset_drives(idx, displacements)
         if self.imperfections is not None:
             self.imperfections.reset(idx, r.tensions[idx])
+            if self.imperfections.delay and self.actuation.mode == "displacement":
+                hold = self.actuation.normalized(self._held_displacements[idx])
+                self.imperfections.queue[idx] = hold[:, None, :]
         self._tip_velocity[:, idx] = 0.0
         if self.safety is not None:
             self.safety_correction[idx] = 0.0
+
+    def _reset_drives(self, idx: np.ndarray, displacements: np.ndarray | None) -> None:
+        """The drives of envs ``idx`` after a reset (module docstring): ``displacements``
+        (len(idx), C) m, or the ones that hold the reset tensions at the reset shape."""
+        r = self._readings
+        p = self.params
+        shortening = self.backend.straight_cable_lengths - r.cable_lengths[idx]
+        k, t0 = np.asarray(p.cable_stiffness), np.asarray(p.cable_pretension)
+        if displacements is None:
+            low, high = self.actuation.displacement_range
+            with np.errstate(divide="ignore", invalid="ignore"):
+                give = np.where(np.isinf(k), 0.0, (r.tensions[idx] - t0) / k)
+            displacements = np.clip(shortening + give, low, high)
+        held = self._held_displacements.copy()
+        held[idx] = displacements
+        self._held_displacements = held
+        tensions = r.tensions[idx]
+        slack, saturated = (f.copy() for f in self._drive_flags)
+        slack[idx] = tensions <= 0.0
+        saturated[idx] = tensions >= p.max_tension
+        self._drive_flags = (slack, saturated)
+
+    def _step_displacements(self, action: np.ndarray) -> None:
+        """One control step of a displacement action mode."""
+        act = self.actuation
+        d = act.displacements(action, self._held_displacements)
+        self._held_displacements = d
+        self.backend.apply_displacements(d)
+        self._readings = self.backend.read()
+        state = self.backend.drive_state
+        if state is not None:
+            self._drive_flags = (state.slack, state.saturated)
+        else:  # a backend that reports none: from the law at the read shape
+            p = self.params
+            shortening = self.backend.straight_cable_lengths - self._readings.cable_lengths
+            _, slack, saturated = tendon_tensions(
+                d, shortening, p.cable_stiffness, p.cable_pretension, p.max_tension
+            )
+            self._drive_flags = (slack, saturated)
 
     # -- step -----------------------------------------------------------------------------------
     def step(self, action: np.ndarray, active: np.ndarray | None = None) -> None:
@@ -351,7 +483,9 @@ class EnvCore:
             self._previous_tip = self._readings.tip
         if imp is not None:
             action = imp.delayed(action)
-        if act.commands_lengths:
+        if act.commands_displacements:
+            self._step_displacements(action)
+        elif act.commands_lengths:
             self._held_lengths = act.lengths(action, self._held_lengths)
             self.backend.apply_cable_lengths(self._held_lengths)
             self._readings = self.backend.read()
@@ -401,14 +535,18 @@ class EnvCore:
         task = self.task
         buffer = np.empty(self._buffer_shape, dtype=np.float32)
         imp = self.imperfections
-        rows = buffer[: self._task_rows] if self.observe_tip_velocity else buffer
+        rows = buffer[: self._task_rows]
         if imp is None:
             task.observe(r, rows, self.goal_conditioned)
         else:  # noisy readings; a sensor saturates at the observation space's bounds
             task.observe(imp.sense(r, self._rngs), rows, self.goal_conditioned)
             np.clip(rows, self._obs_bounds[0], self._obs_bounds[1], out=rows)
+        if self.actuation.commands_displacements:
+            buffer[self._task_rows : self._env_rows] = self.actuation.normalized(
+                self._held_displacements
+            ).T
         if self.observe_tip_velocity:  # within its bounds: no step moves the tip by 2l
-            buffer[self._task_rows :] = self._tip_velocity
+            buffer[self._env_rows :] = self._tip_velocity
         flat = buffer.T  # (N, size), Fortran-ordered (like Gymnasium's CartPoleVectorEnv)
         obs: Any
         reward, success, info = task.evaluate(r)
@@ -427,6 +565,10 @@ class EnvCore:
         info["cable_lengths"] = r.cable_lengths
         if r.anchor_tensions is not None:  # a backend with cable friction
             info["anchor_tensions"] = r.anchor_tensions
+        if self.actuation.commands_displacements:
+            info["displacements"] = self._held_displacements.copy()
+            info["slack"] = self._drive_flags[0].copy()
+            info["saturated"] = self._drive_flags[1].copy()
         if self.randomized:
             for name, values in self.randomized.items():
                 info[INFO_PREFIX + name] = values.copy()
@@ -465,7 +607,8 @@ class CoreAttributes:
 
     @property
     def action_mode(self) -> str:
-        """``tension``, ``tension_delta`` or ``length_delta``."""
+        """``tension``, ``tension_delta``, ``length_delta``, ``displacement`` or
+        ``displacement_delta``."""
         return self.core.actuation.mode
 
     @property
@@ -477,6 +620,11 @@ class CoreAttributes:
     def length_step(self) -> float:
         """Largest cable displacement per step (m)."""
         return self.core.actuation.length_step
+
+    @property
+    def displacement_step(self) -> float:
+        """Largest tendon displacement change per step in ``displacement_delta`` mode (m)."""
+        return self.core.actuation.displacement_step
 
     @property
     def terminate_on_success(self) -> bool:

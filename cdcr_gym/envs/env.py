@@ -60,6 +60,14 @@ class CDCREnv(CoreAttributes, gym.Env):
     | ``tension``       | T_i = max_tension·(a_i + 1)/2 (N), absolute                          |
     | ``tension_delta`` | T_i ← clip(T_i + a_i·tension_step·max_tension, 0, max_tension) (N)   |
     | ``length_delta`` | l_i ← l_i + a_i·length_step (m), projected onto the lengths of an inextensible PCC shape, then scaled into the tension-reachable set. Backends with length control only (the analytic one). |
+    | ``displacement`` | d_i = d_min + (a_i + 1)/2·(d_max − d_min) (m), absolute tendon displacement at the drive (``params.displacement_range``; positive = pulled in); the tendon pulls with T_i = clip(T0_i + k_i·(d_i − s_i), 0, max_tension) (SPEC §8). Every backend. |
+    | ``displacement_delta`` | d_i ← clip(d_i + a_i·displacement_step, d_min, d_max) (m), then as ``displacement``. |
+
+    In the displacement modes ``info`` adds ``displacements`` (C,) m, ``slack`` and
+    ``saturated`` (C,) bool (T = 0, T = max_tension), and the observation appends the field
+    ``displacements`` (C entries, the held d normalised to the range: −1 = d_min, +1 = d_max);
+    CCKA solves the displacement statics, MuJoCo drives each tendon with a clamped spring
+    actuator, pybullet integrates the law implicitly (``Backend.apply_displacements``).
 
     ## Observation Space
     A flat ``Box(float32)`` whose fields the task declares (an ``ObservationSpec``:
@@ -90,7 +98,10 @@ class CDCREnv(CoreAttributes, gym.Env):
     backend with gravity, its rest shape). ``"random"``: a shape drawn like the goals and held
     by its minimal tensions. ``reset(options=...)`` accepts ``goal`` (the task's goal; reach:
     (3,) m, projected onto the reachable set) and ``initial_tensions`` ((C,) N in
-    [0, max_tension]).
+    [0, max_tension]). In the displacement modes the drives then hold d = s + (T − T0)/k, the
+    displacements whose law gives the reset tensions at the reset shape (straight: every
+    tendon at its slack point, d = −T0/k), clipped to the range; ``initial_displacements``
+    ((C,) m in the range) starts instead from the equilibrium under given displacements.
 
     ## Episode End
     No termination (reach: reach *and hold*) unless ``terminate_on_success=True``. Truncation
@@ -108,6 +119,7 @@ class CDCREnv(CoreAttributes, gym.Env):
     | ``action_mode``        | ``tension_delta`` | see Action Space                                 |
     | ``tension_step``       | 0.05              | max tension change per step, fraction of T_max   |
     | ``length_step``        | 0.002             | max cable displacement per step (m)              |
+    | ``displacement_step``  | 0.001             | max tendon displacement change per step (m), ``displacement_delta`` |
     | ``initial_state``      | ``straight``      | ``straight`` or ``random``                       |
     | ``terminate_on_success``| False            | end the episode once the task succeeds           |
     | ``render_mode``        | None              | ``rgb_array`` or ``human``                       |

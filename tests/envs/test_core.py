@@ -81,7 +81,7 @@ def test_reset_options_are_parsed_in_one_place():
         core.reset_options({"reset_mask": np.array([False, False])}, allow_mask=True)
     with pytest.raises(ValueError, match="options must be None or a dict"):
         core.reset_options("goal")
-    assert OPTION_KEYS == ("goal", "initial_tensions")
+    assert OPTION_KEYS == ("goal", "initial_tensions", "initial_displacements")
 
 
 def test_termination_in_one_place():

@@ -25,6 +25,14 @@ Frames
     ``base_orientation`` places R0 in the world (pybullet's frame, gravity −Z_world). Every
     position this backend returns (:attr:`tip`, :meth:`backbone_points`) is expressed in R0
     unless stated otherwise (:attr:`tip_world`, ``backbone_points(frame="world")``).
+
+Tendon displacements (:meth:`BulletBackend.apply_displacements`, SPEC §8)
+    The compliant drives' law T = clip(T0 + k·(d − (L0 − l(q))), 0, max_tension) is evaluated
+    from the tendons' current lengths in the integrator, every physics step, with the drives'
+    stiffness implicit (``ImplicitIntegrator.advance_displacements``): stable for stiff
+    tendons at any physics timestep; a tendon slack at the end of a step carries exactly 0 N,
+    a saturated one max_tension. Frictionless only (cable friction with displacement commands
+    is refused).
 """
 
 from __future__ import annotations
@@ -38,9 +46,11 @@ from cdcr_gym import validation
 from cdcr_gym.backends.base import (
     MAX_JOINT_ANGLE,
     Backend,
+    DriveState,
     Readings,
     SimulationDivergedError,
     diverged,
+    drive_tensions,
 )
 from cdcr_gym.backends.bullet.client import Connection, copy_refused
 from cdcr_gym.backends.bullet.integrator import ImplicitIntegrator
@@ -109,6 +119,7 @@ class BulletBackend(Backend):
     """
 
     supports_length_control = False
+    supports_displacement_control = True
     randomizable = frozenset({"youngs_modulus", "friction_coefficient", "gravity"})
 
     def __init__(
@@ -201,6 +212,8 @@ class BulletBackend(Backend):
         self._tilted_gravity = None if upright else tuple(g_base.tolist())
         self._nominal_stiffness = self.chain.stiffness.copy()
         self._report_anchors = self.friction_coefficient > 0.0
+        self._straight: np.ndarray | None = None  # L0 (C,) m of the drives, on first use
+        self._drive_state: DriveState | None = None
         self.time = 0.0
 
         self._connection: Connection | None = Connection(self, self.gui)
@@ -397,6 +410,7 @@ class BulletBackend(Backend):
         self._tensions = t
         self.time = 0.0
         self._integrator.reset_friction()
+        self._drive_state = None
 
     def _tick(self) -> None:
         self._pose = self._points = None
@@ -564,7 +578,64 @@ class BulletBackend(Backend):
 
     def apply_tensions(self, tensions: np.ndarray) -> None:
         """Hold ``tensions`` (1, C) N for one control step."""
+        self._drive_state = None
         self._hold_tensions(self._robot_row(tensions))
+
+    def enable_displacement_control(self) -> None:
+        """Refuse displacement commands on a robot with cable friction or with an infinite
+        ``tendon_stiffness`` (``ValueError``)."""
+        if not np.isfinite(self.params.cable_stiffness).all():
+            raise ValueError(
+                f"tendon_stiffness must be finite (N/m) for displacement commands on the "
+                f"pybullet backend, got {self.params.tendon_stiffness!r}"
+            )
+        if self.friction_coefficient > 0.0:
+            raise ValueError(
+                f"displacement commands on the pybullet backend need frictionless cables, "
+                f"got friction_coefficient={self.friction_coefficient!r} (use the MuJoCo "
+                f"backend for friction with displacement commands)"
+            )
+
+    @property
+    def straight_cable_lengths(self) -> np.ndarray:
+        """The cables' lengths (C,) m at the straight pose (L0 of the drives)."""
+        zeros = np.zeros(self.n_dof)
+        return self.chain.cable_loads(zeros, np.zeros(self.params.n_cables))[1].copy()
+
+    def apply_displacements(self, displacements: np.ndarray) -> None:
+        """Hold drive displacements ``displacements`` (1, C) m for one control step (the
+        module docstring); :meth:`read` then reports the law's tensions at the final shape.
+
+        Raises:
+            ValueError: naming ``displacements`` for a wrong shape or non-finite values, or
+                with cable friction (:meth:`enable_displacement_control`).
+            SimulationDivergedError: as :meth:`apply_tensions`.
+        """
+        self._check_open()
+        c = self.params.n_cables
+        d = validation.real_array(displacements, "displacements", (1, c))[0].copy()
+        self.enable_displacement_control()
+        p = self.params
+        if self._straight is None:
+            self._straight = self.straight_cable_lengths
+        straight = self._straight
+        drive = (
+            np.asarray(p.cable_stiffness, dtype=np.float64),
+            np.asarray(p.cable_pretension, dtype=np.float64),
+            float(p.max_tension),
+            straight,
+        )
+        q, qd = self._integrator.advance_displacements(d, drive, self.n_substeps, self._tick)
+        lengths = self.chain.cable_loads(q, np.zeros(c))[1]
+        tensions, slack, saturated = drive_tensions(p, d, straight - lengths)
+        self._tensions = tensions
+        self._drive_state = DriveState(d[None].copy(), slack[None], saturated[None])
+        if not self._integrator.finite_and_bounded(q, qd):
+            raise self._diverged("the simulation diverged", q, qd, tensions)
+
+    @property
+    def drive_state(self) -> DriveState | None:
+        return self._drive_state
 
     def _direction(self, pose_rot: np.ndarray) -> np.ndarray:
         return self._to_base(pose_rot[-1][:, 2])

@@ -330,6 +330,86 @@ class ImplicitIntegrator:
             on_step()
         return self.state()
 
+    def cable_jacobian(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """J = ∂l/∂q (C, 2n) m/rad of the cable lengths at joint angles ``q`` (the loads of a
+        unit tension are −J_iᵀ, ``DiscreteBackbone.cable_loads``) and the lengths (C,) m."""
+        n_cables = self.slip.shape[0]
+        jac = np.empty((n_cables, q.size))
+        unit = np.zeros(n_cables)
+        lengths = np.empty(0)
+        for i in range(n_cables):
+            unit[i] = 1.0
+            tau, lengths = self.chain.cable_loads(q, unit)
+            jac[i] = -tau
+            unit[i] = 0.0
+        return jac, lengths
+
+    def advance_displacements(
+        self,
+        displacements: np.ndarray,
+        drive: tuple[np.ndarray, np.ndarray, float, np.ndarray],
+        n_steps: int,
+        on_step: Callable[[], None],
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Hold tendon ``displacements`` d (C,) m at compliant drives for ``n_steps`` physics
+        steps (frictionless); the final (q, q̇).
+
+        ``drive`` = (k (C,) N/m, T0 (C,) N, max_tension N, L0 (C,) m, the straight lengths):
+        each tendon pulls with T = clip(T0 + k·(d − (L0 − l(q))), 0, max_tension). The drives'
+        stiffness is implicit like K: linearised over the step, T⁺ = T_c + h·k_a·J·q̇⁺ with
+        k_a = k on the tendons inside their linear range at the *end* of the step (else 0,
+        and T_c their clamp value 0 or max_tension), so (M + hD + h²(K + Jᵀk_aJ))·Δq̇ =
+        h·(−JᵀT_c − b − Kq − (D + hK + hJᵀk_aJ)·q̇). The active set is that of the predicted
+        end state: from the start state's, re-solved while a prediction leaves its assumed
+        set (a clamped tendon is then tried linear first; at most 2C + 2 solves): a tendon
+        that goes slack within the step carries nothing, one that saturates is held at the
+        limit, so a stiff drive (k up to 10⁵ N/m and more) is stable at any h.
+        """
+        pb, cid, body, ids = self._pb, self._client, self._body, self.joint_ids
+        h, n2 = self.h, self.n_dof
+        K, D, D_plus_hK = self.K, self.D, self._D_plus_hK
+        k, t0, t_max, straight = drive
+        torque_mode = pb.TORQUE_CONTROL
+        for _ in range(n_steps):
+            q, qd = self.state()
+            ql = q.tolist()
+            jac, lengths = self.cable_jacobian(q)
+            raw = t0 + k * (displacements - (straight - lengths))
+            rows = pb.calculateMassMatrix(body, ql, physicsClientId=cid)
+            mass = np.fromiter(itertools.chain.from_iterable(rows), np.float64, n2 * n2).reshape(
+                n2, n2
+            )
+            bias = self.bias(ql, qd.tolist())
+            mass.reshape(-1)[:: n2 + 1] += self._A_diag
+            base = -bias - K * q - D_plus_hK * qd
+            rate = jac @ qd  # l̇ at the start
+            # each tendon's assumed end state: 0 slack, 1 linear, 2 saturated
+            state = np.where(raw <= 0.0, 0, np.where(raw < t_max, 1, 2))
+            for _ in range(2 * raw.size + 2):
+                active = state == 1
+                k_a = np.where(active, k, 0.0)
+                t_c = np.where(active, raw, np.where(state == 0, 0.0, t_max))
+                stiff = jac.T @ (k_a[:, None] * jac)
+                rhs = base - jac.T @ t_c - h * (jac.T @ (k_a * rate))
+                qd_new = qd + np.linalg.solve(mass + (h * h) * stiff, h * rhs)
+                level = raw + h * k * (jac @ qd_new)
+                ends = np.where(level <= 0.0, 0, np.where(level < t_max, 1, 2))
+                if np.array_equal(ends, state):
+                    break
+                # a clamped tendon predicted elsewhere is tried linear first (else the
+                # slack/saturated guesses can alternate when the whole range lies within
+                # one step's travel of a stiff drive)
+                state = np.where((ends != state) & (state != 1), 1, ends)
+            tensions = t_c + h * k_a * (jac @ qd_new)
+            torque = -jac.T @ tensions - K * (q + h * qd_new) - D * qd_new
+            pb.setJointMotorControlArray(
+                body, ids, torque_mode, forces=torque.tolist(), physicsClientId=cid
+            )
+            pb.stepSimulation(physicsClientId=cid)
+            self.invalidate()
+            on_step()
+        return self.state()
+
     @staticmethod
     def finite_and_bounded(q: np.ndarray, qd: np.ndarray) -> bool:
         """Whether every joint angle is within ``MAX_JOINT_ANGLE`` and rate within

@@ -5,6 +5,24 @@ control step per robot (``mj_step`` with ``nstep`` physics steps, or one ``mujoc
 for all N robots), never per physics step — except with cable friction (μ > 0), whose capstan
 segment tensions depend on the current wrap angles and are set before every physics step.
 
+Tendon displacements (:meth:`MuJoCoBackend.apply_displacements`, SPEC §8) are native: the
+first such command rebuilds the model with one ``general`` actuator per cable tendon whose force
+is −clip(T0 + k·(d − (L0 − L)), 0, T_max) (``mjcf``: ``ctrl`` = d, the clamp is slack and
+saturation), so MuJoCo evaluates the compliant law at every physics step from the tendon's
+current length L. The drive's stiffness k·JᵀJ is explicit in MuJoCo's step (its stiffest modes
+reach 4 000–56 000 rad/s: an explicit step would need h < 0.04–0.5 ms); to keep a stiff tendon
+stable at the default timestep each cable tendon gets the damping γ·k with γ = the physics
+timestep h (its ``damping``), and the model the ``implicitfast`` integrator, which (unlike
+``Euler``) treats tendon damping implicitly: a stiff drive mode then contracts by about
+1 − h/γ = 0 per step, whatever k (checked at the rebuild:
+:meth:`MuJoCoBackend.drive_stability`). The damping is a passive force of the tendon, not of the
+clamped actuator (gating it by the clamp makes the step chatter and diverge): a slack tendon is
+viscous while the robot moves and carries exactly 0 N at rest. Measured on a step command that
+pulls one tendon and releases another (gravity off, settling to 0.1 mm): paper robot 0.72 s at
+its k = 2·10⁴ N/m, 2.8 s at k = 10⁵ N/m; ftdcr_v4 0.62 s at its k, 4.8 s at 10⁵ (pybullet,
+whose drives are implicit without damping: 0.3–0.5 s in every case). Tension commands release the drives (``ctrl`` far
+below the slack point, force exactly 0, damping off).
+
 Frames: MuJoCo's world frame is the base frame R0 (backbone along +z); a turned base
 (``base_orientation``) turns gravity into R0 instead of turning the robot, so every reading is
 already in R0.
@@ -24,6 +42,7 @@ from cdcr_gym.backends.base import (
     MAX_JOINT_ANGLE,
     MAX_JOINT_RATE,
     Backend,
+    DriveState,
     Readings,
     SimulationDivergedError,
 )
@@ -54,6 +73,9 @@ CONTACT_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
 MAX_LINKS = 495
 #: MuJoCo integrators accepted by ``integrator``.
 INTEGRATORS = ("Euler", "implicitfast", "implicit", "RK4")
+#: The ``ctrl`` (m) of a released displacement drive: far below any slack point, so that its
+#: force is clamped to exactly 0 (tension commands).
+RELEASED = -1.0e3
 
 
 def _mujoco() -> Any:
@@ -104,6 +126,8 @@ class MuJoCoBackend(ObstacleScene, Backend):
             (``backends/mujoco/friction.py``).
         friction_slip_length: slip length x_s of the slip law (default 1e-4 m, > 0).
         integrator: MuJoCo integrator (default ``"Euler"``: semi-implicit, damping implicit).
+            Displacement commands switch ``"Euler"`` to ``"implicitfast"`` (module docstring);
+            ``"RK4"`` cannot take them.
         threads: (default ``None``) the N robots are stepped one after the other in the
             calling thread, one MuJoCo call sequence per robot and control step; an integer k:
             by ``mujoco.rollout`` in k persistent threads that release the GIL (worth it when
@@ -122,6 +146,7 @@ class MuJoCoBackend(ObstacleScene, Backend):
     """
 
     supports_length_control = False
+    supports_displacement_control = True
     supports_obstacles = True
     randomizable = frozenset({"youngs_modulus", "friction_coefficient", "gravity", "tip_payload"})
 
@@ -205,6 +230,11 @@ class MuJoCoBackend(ObstacleScene, Backend):
         self._mj = _mujoco()
         self._closed = False
         self._rollout: Any = None
+        #: Whether the model has the displacement drives (built on the first displacement).
+        self._drives = False
+        self._driving = False  # whether the drives hold the last command (else released)
+        self._displacements = np.zeros((self.num_robots, params.n_cables))
+        self._drive_state: DriveState | None = None
         self._build(segment_tendons=self.friction_coefficient > 0.0)
         self._check_timestep(self.model, "")
         # refuse, by name, a payload the robot cannot hold at the extreme shapes (goals and
@@ -238,10 +268,13 @@ class MuJoCoBackend(ObstacleScene, Backend):
             gravity=self.gravity_in_base if self.gravity else (0.0, 0.0, 0.0),
             tip_payload=self.tip_payload,
             timestep=self.physics_timestep,
-            integrator=self.integrator,
+            integrator="implicitfast"
+            if self._drives and self.integrator == "Euler"
+            else self.integrator,
             segment_tendons=segment_tendons,
             obstacles=obstacles,
             solid_obstacles=self.solid_obstacles,
+            drives=self._drives,
         )
         self.n_obstacles = obstacles
         model = mj.MjModel.from_xml_string(self.mjcf.xml)
@@ -293,6 +326,26 @@ class MuJoCoBackend(ObstacleScene, Backend):
         )
         self._cable_ids = np.array([name(model, tendon, f"cable{i}") for i in range(c)])
         self._n_pull = c
+        n_seg = sum(n is not None for row in self.mjcf.segment_tendons for n in row)
+        #: The displacement drives' ctrl entries (empty without drives).
+        self._drive_slice = slice(c + n_seg, c + n_seg + (c if self._drives else 0))
+        scratch = self._scratch
+        mj.mj_resetData(model, scratch)
+        mj.mj_kinematics(model, scratch)
+        mj.mj_tendon(model, scratch)
+        #: L0 (C,) m, the cables' tendon lengths at the straight pose.
+        self._straight = np.array(scratch.ten_length[self._cable_ids])
+        #: k (C,) N/m, T0 (C,) N and max_tension N of the drives.
+        self._drive_constants = (
+            np.asarray(p.cable_stiffness, dtype=np.float64),
+            np.asarray(p.cable_pretension, dtype=np.float64),
+            float(p.max_tension),
+        )
+        if self._drives:
+            k = np.asarray(p.cable_stiffness)
+            model.actuator_biasprm[self._drive_slice, 0] = k * self._straight - np.asarray(
+                p.cable_pretension
+            )
         chain = self.mjcf.chain
         self.routed = chain.routed  # (n_disks, C)
         self._last_span = self.routed.sum(axis=0) - 1
@@ -484,6 +537,7 @@ class MuJoCoBackend(ObstacleScene, Backend):
             data.act[:] = 0.0
             data.ctrl[:] = 0.0
             data.ctrl[: self._n_pull] = tensions
+            data.ctrl[self._drive_slice] = RELEASED
             for _ in range(int(max_iter / omega)):
                 mj.mj_forward(model, data)
                 np.subtract(data.qfrc_actuator + data.qfrc_passive, data.qfrc_bias, out=step)
@@ -551,6 +605,8 @@ class MuJoCoBackend(ObstacleScene, Backend):
         self._tensions = t
         n_pull = self._n_pull
         self.time += self.control_timestep
+        if self._drives:
+            self._release_drives()
         if self._rough:
             self._step_with_friction(t)
             for i in range(self.num_robots):
@@ -575,6 +631,157 @@ class MuJoCoBackend(ObstacleScene, Backend):
             for i in range(self.num_robots):
                 self._check_state(i)
                 self._sense(i)
+
+    # -- displacement drives -------------------------------------------------------------------
+    def enable_displacement_control(self) -> None:
+        """Build the displacement drives (module docstring) now rather than at the first
+        :meth:`apply_displacements`, so that a drive this backend cannot run is refused at
+        once (the env calls it at construction in a displacement action mode).
+
+        Raises:
+            ValueError: for ``integrator="RK4"``, an infinite ``tendon_stiffness`` (MuJoCo
+                needs a finite spring), or drives that would make the step unstable at this
+                ``physics_timestep`` (:meth:`drive_stability` >= 1).
+        """
+        self._check_open()
+        if self._drives:
+            return
+        p = self.params
+        if self.integrator == "RK4":
+            raise ValueError(
+                "integrator='RK4' cannot run displacement commands on the MuJoCo backend (the "
+                "drives' stiff tendons need implicit tendon damping: use 'Euler', "
+                "'implicitfast' or 'implicit')"
+            )
+        k = np.asarray(p.cable_stiffness)
+        if not np.isfinite(k).all():
+            raise ValueError(
+                f"tendon_stiffness must be finite (N/m) for displacement commands on the MuJoCo "
+                f"backend, got {p.tendon_stiffness!r} (use a large finite k, e.g. 1e6, for a "
+                f"nearly inextensible tendon)"
+            )
+        self._drives = True
+        self._rebuild(self._has_segments, self.n_obstacles)
+        rho = self.drive_stability()
+        if not rho < 1.0:
+            raise ValueError(
+                f"tendon_stiffness={p.tendon_stiffness!r} N/m with physics_timestep="
+                f"{self.physics_timestep!r} s makes the MuJoCo step unstable (spectral radius "
+                f"{rho:.4f} of the linearised step with taut drives, >= 1); use a smaller "
+                f"physics_timestep or a larger damping_ratio"
+            )
+
+    def drive_stability(self) -> float:
+        """Spectral radius of one physics step of the straight robot (nominal model) with
+        every drive taut, linearised: v⁺ = v + h·(M + hD)⁻¹·(−K·x − D·v), x⁺ = x + h·v⁺ with
+        K = K_joints + Jᵀ·diag(k)·J (J the cables' tendon Jacobian) and D = β·K_joints +
+        γ·Jᵀ·diag(k)·J (the joints' damping and the drives' tendon damping, both implicit in
+        ``implicitfast``). < 1: stable (tension stiffening, gravity and contacts ignored)."""
+        mj, model, data = self._mj, self.model, self._scratch
+        mj.mj_resetData(model, data)
+        mj.mj_forward(model, data)
+        nv = model.nv
+        mass = np.zeros((nv, nv))
+        mj.mj_fullM(model, data, mass)
+        jac = mj_friction.dense_tendon_jacobian(data, self._jac_index[0], self.params.n_cables, nv)
+        k = np.asarray(self.params.cable_stiffness)
+        drives = jac.T @ (k[:, None] * jac)
+        stiffness = np.diag(self._stiffness) + drives
+        h = model.opt.timestep
+        damping = self.damping_time * np.diag(self._stiffness) + h * drives
+        b = np.linalg.inv(mass + h * damping)
+        eye = np.eye(nv)
+        v_from_x, v_from_v = -h * b @ stiffness, eye - h * b @ damping
+        step = np.block([[eye + h * v_from_x, h * v_from_v], [v_from_x, v_from_v]])
+        return float(np.max(np.abs(np.linalg.eigvals(step))))
+
+    def _set_drive_damping(self, on: bool) -> None:
+        """The drives' tendon damping γ·k (γ = physics timestep, module docstring) on every
+        model, or 0."""
+        damping = self.physics_timestep * np.asarray(self.params.cable_stiffness) if on else 0.0
+        seen: set[int] = set()
+        for model in [self.model, *self._models]:
+            if id(model) not in seen:
+                seen.add(id(model))
+                model.tendon_damping[self._cable_ids] = damping
+
+    def _release_drives(self) -> None:
+        """Tension commands: the drives' force clamped to exactly 0, their damping off."""
+        if self._driving:
+            for data in self._datas:
+                data.ctrl[self._drive_slice] = RELEASED
+            self._set_drive_damping(False)
+            self._driving = False
+        self._drive_state = None
+
+    def _drive_law(
+        self, displacements: np.ndarray, lengths: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(tensions, slack, saturated) of the drives' law at tendon lengths ``lengths`` m
+        (``backends.base.drive_tensions`` with finite k, inlined: it runs every step)."""
+        k, t0, t_max = self._drive_constants
+        raw = t0 + k * (displacements - (self._straight - lengths))
+        return np.clip(raw, 0.0, t_max), raw <= 0.0, raw > t_max
+
+    def apply_displacements(self, displacements: np.ndarray) -> None:
+        """Hold drive displacements ``displacements`` (N, C) m for one control step
+        (``n_substeps`` MuJoCo steps; the drives evaluate the law at every physics step, the
+        module docstring). The first call builds the drives
+        (:meth:`enable_displacement_control`). :meth:`read`'s tensions are the law at the
+        tendons' lengths after the step (exactly 0 N for a slack tendon), :attr:`drive_state`
+        says which are slack or saturated.
+
+        Raises:
+            ValueError: naming ``displacements`` for a wrong shape or non-finite values.
+            SimulationDivergedError: as :meth:`apply_tensions`.
+        """
+        self._check_open()
+        n, c = self.num_robots, self.params.n_cables
+        if (
+            type(displacements) is np.ndarray
+            and displacements.shape == (n, c)
+            and np.isfinite(displacements).all()
+        ):
+            d = displacements.astype(np.float64)  # a copy
+        else:
+            d = validation.real_array(displacements, "displacements", (n, c)).copy()
+        if not self._drives:
+            self.enable_displacement_control()
+        if not self._driving:
+            self._set_drive_damping(True)
+            self._driving = True
+        self._displacements = d
+        self.time += self.control_timestep
+        n_pull, drive = self._n_pull, self._drive_slice
+        for data, row in zip(self._datas, d):
+            data.ctrl[:n_pull] = 0.0
+            data.ctrl[drive] = row
+        if self._rough:
+            self._step_with_friction(self._tensions.copy(), d)
+            for i in range(n):
+                self._check_state(i)
+        elif self.threads is None:
+            for i, data in enumerate(self._datas):
+                self._advance(self._models[i], data, self.n_substeps)
+                self._check_state(i)
+                self._sense(i)
+        else:
+            self._rollout_step()
+            for i in range(n):
+                self._check_state(i)
+                self._sense(i)
+        tensions, slack, saturated = self._drive_law(d, self._lengths)
+        self._tensions = tensions
+        self._drive_state = DriveState(d.copy(), slack, saturated)
+
+    @property
+    def drive_state(self) -> DriveState | None:
+        return self._drive_state
+
+    @property
+    def straight_cable_lengths(self) -> np.ndarray:
+        """The cables' tendon lengths (C,) m at the straight pose (L0 of the drives)."""
+        return self._straight.copy()
 
     def _advance(self, model: Any, data: Any, n_steps: int) -> None:
         """``n_steps`` MuJoCo steps of one robot, leaving ``data`` with the position and
@@ -635,16 +842,22 @@ class MuJoCoBackend(ObstacleScene, Backend):
             mj.mj_step1(self._models[i], data)
 
     # -- friction -------------------------------------------------------------------------------
-    def _step_with_friction(self, t: np.ndarray) -> None:
+    def _step_with_friction(self, t: np.ndarray, displacements: np.ndarray | None = None) -> None:
         """Physics step by physics step: the slip state at the end of the step (backward Euler
         in s, ``backends/mujoco/friction.py``), the capstan segment tensions at the current wrap
-        angles and that slip state, then one MuJoCo step."""
+        angles and that slip state, then one MuJoCo step. With ``displacements`` (N, C) m the
+        drives pull (the motors hold 0) and the actuator tensions ``t`` are the drives' law at
+        the current tendon lengths, renewed before every physics step."""
         if not self._has_segments:
             raise RuntimeError("internal: friction without segment tendons")
         n_pull = self._n_pull
+        n_seg = len(self._segment_order)
         for _ in range(self.n_substeps):
             for i, (model, data) in enumerate(zip(self._models, self._datas)):
-                data.ctrl[:n_pull] = t[i]
+                if displacements is None:
+                    data.ctrl[:n_pull] = t[i]
+                else:
+                    t[i] = self._drive_law(displacements[i], self._lengths[i])[0]
                 if self._mu[i] > 0.0:
                     self.slip[i] = mj_friction.implicit_slip_step(
                         self._mj,
@@ -662,7 +875,7 @@ class MuJoCoBackend(ObstacleScene, Backend):
                         segment_index=self._jac_index[1],
                     )
                 else:
-                    data.ctrl[n_pull:] = 0.0
+                    data.ctrl[n_pull : n_pull + n_seg] = 0.0
                 self._advance(model, data, 1)
                 self._sense(i)
 
@@ -917,12 +1130,15 @@ class MuJoCoBackend(ObstacleScene, Backend):
             data = self._datas[i]
             data.qpos[:] = old_data.qpos
             data.qvel[:] = old_data.qvel
-            data.ctrl[: self._n_pull] = tensions[i]
+            data.ctrl[: self._n_pull] = 0.0 if self._driving else tensions[i]
+            data.ctrl[self._drive_slice] = self._displacements[i] if self._driving else RELEASED
             data.time = old_data.time
             k = min(old_data.mocap_pos.shape[0], data.mocap_pos.shape[0])
             data.mocap_pos[:k] = old_data.mocap_pos[:k]
             mj.mj_forward(model, data)
             self._sense(i)
+        if self._drives:
+            self._set_drive_damping(self._driving)
 
     def close(self) -> None:
         """Release the MuJoCo data and the rollout threads. Safe to call more than once."""

@@ -86,7 +86,7 @@ def implicit_slip_step(
     ``wraps`` (C, n_disks) rad are the current wrap angles, ``segment_ids`` (n_disks, C) the
     segment tendon ids (−1 where a cable does not cross a span), ``segment_order`` the (span,
     cable) of each friction actuator after the C pull actuators (``mjcf``); the ctrl of the
-    pull actuators must hold ``tensions``. Leaves the friction actuators' ctrl at the returned
+    pull actuators (or the displacement drives, ``mjcf``) must apply ``tensions``. Leaves the friction actuators' ctrl at the returned
     slip state, ready for ``mj_step2``; ``cable_index`` and ``segment_index`` are the
     :func:`jacobian_index` of ``cable_ids`` and of the routed ``segment_ids`` (row-major).
     Solves ``s⁺ = update_slip(s, x(s⁺))`` with x(s⁺) the sliding of the step loaded at s⁺
@@ -97,7 +97,9 @@ def implicit_slip_step(
 
     def set_segments(s: np.ndarray) -> None:
         seg = friction.tension_profile(tensions, wraps, mu, s).T  # (n_disks, C)
-        data.ctrl[n_pull:] = [seg[k, c] - tensions[c] for k, c in segment_order]
+        data.ctrl[n_pull : n_pull + len(segment_order)] = [
+            seg[k, c] - tensions[c] for k, c in segment_order
+        ]
 
     set_segments(slip)
     mj.mj_fwdActuation(model, data)

@@ -44,6 +44,15 @@ Friction segments (``segment_tendons=True``)
     capstan tension minus the actuator's (``cdcr_gym.model.friction``), so that each segment
     carries its own tension.
 
+Displacement drives (``drives=True``)
+    One ``general`` actuator per cable tendon (``drive{i}``, after every motor) whose ``ctrl`` is
+    the tendon displacement d (m) at the drive (SPEC §8): force
+    ``gain·ctrl + bias = −k·d + (k·L0 − T0) − k·L`` clamped to ``forcerange = [−T_max, 0]``,
+    i.e. a tension T = clip(T0 + k·(d − (L0 − L)), 0, T_max) along the tendon (the sign of the
+    motors with ``gear = -1``; the one-sided clamp is the slack tendon, the other side
+    saturation). L0 is the tendon's straight length, known only once the model is compiled:
+    the backend writes ``biasprm[0] = k·L0 − T0`` then (the XML holds 0).
+
 Obstacles (``obstacles`` > 0)
     Capsule geoms along the links (radius d/2) and a disk cylinder per disk, and ``obstacles``
     sphere geoms on mocap bodies (``obstacle0`` …: positions in ``MjData.mocap_pos``, per
@@ -124,6 +133,7 @@ def build_mjcf(
     segment_tendons: bool = False,
     obstacles: int = 0,
     solid_obstacles: bool = False,
+    drives: bool = False,
 ) -> MJCFModel:
     """The MJCF model of ``params`` (module docstring).
 
@@ -141,6 +151,8 @@ def build_mjcf(
         segment_tendons: add the per-span friction tendons and their actuators.
         obstacles: number of sphere obstacles (0: no collision geometry at all).
         solid_obstacles: whether contacts with the spheres push back (constraint stage on).
+        drives: add the displacement drives (module docstring), stiffness
+            ``params.cable_stiffness`` (finite), after every other actuator.
 
     The caller (``MuJoCoBackend``) validates the arguments.
     """
@@ -349,6 +361,21 @@ def build_mjcf(
                     gear="-1",
                     ctrllimited="false",
                 )
+    if drives:
+        for i, stiff in enumerate(params.cable_stiffness):
+            ET.SubElement(
+                actuator,
+                "general",
+                name=f"drive{i}",
+                tendon=f"cable{i}",
+                gaintype="fixed",
+                gainprm=_fmt(-stiff),
+                biastype="affine",
+                biasprm=_fmt((0.0, -stiff, 0.0)),
+                ctrllimited="false",
+                forcelimited="true",
+                forcerange=_fmt((-params.max_tension, 0.0)),
+            )
     return MJCFModel(
         xml=ET.tostring(root, encoding="unicode"),
         chain=chain,
