@@ -111,17 +111,17 @@ def test_a_tendon_pulled_beyond_the_limit_saturates(backend):
         env.close()
 
 
-@pytest.mark.parametrize("backend", BACKENDS)
-@pytest.mark.parametrize("task", TASKS)
+#: MuJoCo Track builds its goal paths in ~25 s on ftdcr_v4: a slow case (CI runs it).
+FTDCR_CASES = [
+    pytest.param(b, t, marks=pytest.mark.slow) if (b, t) == ("MuJoCo", "Track") else (b, t)
+    for b in BACKENDS
+    for t in TASKS
+]
+
+
+@pytest.mark.parametrize("backend, task", FTDCR_CASES)
 def test_every_task_runs_on_ftdcr_v4(backend, task):
-    if backend == "MuJoCo" and task == "Track":
-        pytest.skip("covered by the slow variant (Track's goal paths on MuJoCo take ~25 s)")
     _run_ftdcr(backend, task)
-
-
-@pytest.mark.slow
-def test_track_runs_on_ftdcr_v4_mujoco():
-    _run_ftdcr("MuJoCo", "Track")
 
 
 def _run_ftdcr(backend, task):
