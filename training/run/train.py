@@ -78,7 +78,7 @@ from training.run.config import (
     load_config,
     save_config,
 )
-from training.run.demonstrations import pretrain
+from training.run.demonstrations import check_demonstrations, pretrain
 from training.run.envs import build_vec_env, check_env_config, resolve_device
 from training.run.logs import make_logger, truncate_csv
 from training.run.provenance import git_info, now_iso, versions, write_json
@@ -465,6 +465,7 @@ def _resolve(args: argparse.Namespace) -> tuple[ExperimentConfig, Path]:
         config.total_timesteps = args.total_timesteps
     config.validate()
     check_env_config(config)
+    check_demonstrations(config)
 
     if args.resume:
         if args.run_dir is None:
