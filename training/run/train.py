@@ -61,6 +61,7 @@ from pathlib import Path
 from typing import Any
 
 from training.run.algorithms import make_model, wrap_normalize
+from training.run.argtypes import non_negative_int, positive_int
 from training.run.callbacks import make_callbacks
 from training.run.checkpoints import (
     fallback_env_seed,
@@ -424,11 +425,13 @@ def _parse_args(argv: list[str]) -> argparse.Namespace:
     )
     parser.add_argument(
         "--total-timesteps",
-        type=int,
+        type=positive_int,
         default=None,
         help="override total_timesteps (env steps, summed over envs)",
     )
-    parser.add_argument("--seed", type=int, default=None, help="override the config's seed")
+    parser.add_argument(
+        "--seed", type=non_negative_int, default=None, help="override the config's seed"
+    )
     parser.add_argument(
         "--verbose",
         action="store_true",

@@ -32,6 +32,8 @@ from typing import Any
 
 import numpy as np
 
+from training.run.argtypes import non_negative_int, positive_float, positive_int
+
 __all__ = ["main", "build_parser", "synthetic_study", "ablation_table", "DEFAULT_BACKEND_ARGS"]
 
 #: Backend arguments a calibration uses unless overridden with ``--backend-arg``.
@@ -129,7 +131,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--stiffness-scale",
-        type=float,
+        type=positive_float,
         default=1.0,
         help="ablation: multiply every tendon stiffness (e.g. 1000: the rigid-tendon limit)",
     )
@@ -180,12 +182,17 @@ def build_parser() -> argparse.ArgumentParser:
         help="start value of a fitted parameter in SI units (the names and aliases of --fit; "
         "an alias sets every parameter it covers), repeatable",
     )
-    p.add_argument("--ramp-steps", type=int, default=25, help="physics replay: ramp steps per row")
     p.add_argument(
-        "--settle-steps", type=int, default=50, help="physics replay: settle steps per row"
+        "--ramp-steps", type=positive_int, default=25, help="physics replay: ramp steps per row"
     )
     p.add_argument(
-        "--max-evals", type=int, default=None, help="limit on least_squares steps (nfev)"
+        "--settle-steps",
+        type=non_negative_int,
+        default=50,
+        help="physics replay: settle steps per row",
+    )
+    p.add_argument(
+        "--max-evals", type=positive_int, default=None, help="limit on least_squares steps (nfev)"
     )
     p.add_argument("--quiet", action="store_true", help="no per-evaluation progress")
     p.add_argument(
