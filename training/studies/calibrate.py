@@ -23,7 +23,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import shlex
 import sys
 import time
@@ -33,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from training.run.argtypes import non_negative_int, positive_float, positive_int
+from training.run.config import ConfigError, check_writable_directory
 
 __all__ = ["main", "build_parser", "synthetic_study", "ablation_table", "DEFAULT_BACKEND_ARGS"]
 
@@ -217,12 +217,12 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _check_writable(out: Path) -> None:
+    """ValueError unless ``out`` is, or can be created as, a writable directory; nothing is
+    created here (the results are written all at once at the end, or not at all)."""
     try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ValueError(f"--out {str(out)!r} cannot be created: {exc}") from None
-    if not os.access(out, os.W_OK):
-        raise ValueError(f"--out {str(out)!r} is not writable")
+        check_writable_directory(out, "--out")
+    except ConfigError as exc:
+        raise ValueError(str(exc)) from None
 
 
 def _robot(text: str):
@@ -291,7 +291,16 @@ def main(argv: list[str] | None = None) -> int:
         )
     except ValueError as exc:
         parser.error(str(exc))
-    paths = write_outputs(result, args.out, command)
+    try:
+        paths = write_outputs(result, args.out, command)
+    except OSError as exc:  # a full disk, a directory made read-only meanwhile: nothing written
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(
+            f"cdcr-gym calibrate: error: --out {str(args.out)!r}: cannot write the results "
+            f"({where}{exc.strerror or exc}); nothing was written",
+            file=sys.stderr,
+        )
+        return 2
     _print_summary(result)
     print("wrote " + ", ".join(str(p) for p in paths.values()))
     return 0
