@@ -163,3 +163,21 @@ def test_a_full_disk_during_training_stops_with_exit_2_and_keeps_the_checkpoints
     Checkpoint.read(RunDir(run), 128)  # the earlier checkpoint is complete
     leftovers = [p.name for p in (run / "checkpoints").iterdir() if ".tmp" in p.name]
     assert leftovers == []
+
+
+def test_resume_with_a_raised_budget_trains_on_to_it(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    run = tmp_path / "run"
+    cfg = _config(tmp_path / "c.yaml", total_timesteps=128)
+    assert train_mod.main([str(cfg), "--run-dir", str(run)]) == 0
+    more = _config(tmp_path / "more.yaml", total_timesteps=256)
+    capsys.readouterr()
+    assert train_mod.main([str(more), "--run-dir", str(run), "--resume"]) == 0
+    out = capsys.readouterr().out
+    assert "nothing to do" not in out and "from step 128" in out, out
+    assert RunDir(run).latest_checkpoint() == 256
+    assert load_config(run / "config.yaml").total_timesteps == 256  # the directory says so
+    # resuming again from its own config.yaml: complete, nothing to do
+    assert train_mod.main([str(run / "config.yaml"), "--run-dir", str(run), "--resume"]) == 0
+    assert "nothing to do" in capsys.readouterr().out
