@@ -181,3 +181,29 @@ def test_resume_with_a_raised_budget_trains_on_to_it(
     # resuming again from its own config.yaml: complete, nothing to do
     assert train_mod.main([str(run / "config.yaml"), "--run-dir", str(run), "--resume"]) == 0
     assert "nothing to do" in capsys.readouterr().out
+
+
+def test_a_full_disk_while_trimming_a_log_on_resume_keeps_the_log(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import builtins
+
+    from training.run.logs import truncate_csv
+
+    log = tmp_path / "progress.csv"
+    log.write_text("step,x\n1,a\n2,b\n3,c\n")
+    real_open = builtins.open
+
+    def full_open(file, mode="r", *args, **kwargs):  # type: ignore[no-untyped-def]
+        handle = real_open(file, mode, *args, **kwargs)
+        if "w" in mode:
+            handle.close()
+            raise OSError(errno.ENOSPC, "No space left on device", str(file))
+        return handle
+
+    monkeypatch.setattr(builtins, "open", full_open)
+    with pytest.raises(OSError):
+        truncate_csv(log, "step", 2)
+    monkeypatch.undo()
+    assert log.read_text() == "step,x\n1,a\n2,b\n3,c\n"
+    assert [p.name for p in tmp_path.iterdir()] == ["progress.csv"]
