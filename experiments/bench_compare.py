@@ -29,6 +29,7 @@ import gymnasium as gym
 import numpy as np
 
 import cdcr_gym  # noqa: F401 - registers the ids
+from training.run.argtypes import positive_int
 
 
 def batched_rate(num_envs: int = 16384, steps: int = 60, repeats: int = 5) -> float:
@@ -126,7 +127,7 @@ def _line(r: dict[str, float]) -> str:
     )
 
 
-if __name__ == "__main__":
+def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="python -m experiments.bench_compare", description=__doc__.split("\n")[0]
     )
@@ -135,10 +136,15 @@ if __name__ == "__main__":
     parser.add_argument(
         "--against", metavar="CHECKOUT", help="alternate with this checkout's directory"
     )
-    parser.add_argument("--rounds", type=int, default=5, help="rounds with --against")
-    args = parser.parse_args()
+    parser.add_argument("--rounds", type=positive_int, default=5, help="rounds with --against")
+    args = parser.parse_args(argv)
     if args.against:
         alternate(args.against, args.rounds)
     else:
         result = measure()
         print(json.dumps(result) if args.json else f"{args.label}: {_line(result)}", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

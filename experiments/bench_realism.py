@@ -21,6 +21,7 @@ import numpy as np
 
 import cdcr_gym  # noqa: F401
 from cdcr_gym.backends.bullet import BulletBackend
+from training.run.argtypes import positive_int
 
 #: The randomisation and imperfections timed by the second row.
 RANDOMIZE = {"youngs_modulus": [30e9, 40e9], "cable_radius": [0.027, 0.031]}
@@ -95,9 +96,9 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(
         prog="python -m experiments.bench_realism", description=__doc__
     )
-    parser.add_argument("--num-envs", type=int, default=256)
-    parser.add_argument("--steps", type=int, default=200)
-    parser.add_argument("--repeats", type=int, default=7)
+    parser.add_argument("--num-envs", type=positive_int, default=256)
+    parser.add_argument("--steps", type=positive_int, default=200)
+    parser.add_argument("--repeats", type=positive_int, default=7)
     parser.add_argument("--bullet", action="store_true", help="time BulletReach-v0 resets")
     args = parser.parse_args(argv)
     if args.bullet:

@@ -30,6 +30,7 @@ import gymnasium as gym
 import numpy as np
 
 import cdcr_gym  # noqa: F401 - registers the ids
+from training.run.argtypes import positive_int
 
 __all__ = ["single_ratio", "batched_rates"]
 
@@ -161,10 +162,12 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="python -m experiments.bench_single", description=__doc__.split("\n")[0]
     )
-    parser.add_argument("--rounds", type=int, default=9, help="alternation rounds")
-    parser.add_argument("--steps", type=int, default=4000, help="steps per env per round")
-    parser.add_argument("--batched", type=int, nargs="*", default=[], help="batched sizes")
-    parser.add_argument("--batched-repeats", type=int, default=3, help="repeats per batched size")
+    parser.add_argument("--rounds", type=positive_int, default=9, help="alternation rounds")
+    parser.add_argument("--steps", type=positive_int, default=4000, help="steps per env per round")
+    parser.add_argument("--batched", type=positive_int, nargs="*", default=[], help="batched sizes")
+    parser.add_argument(
+        "--batched-repeats", type=positive_int, default=3, help="repeats per batched size"
+    )
     parser.add_argument("--against", metavar="CHECKOUT", help="alternate with this checkout")
     parser.add_argument("--json", action="store_true", help="print one JSON line")
     args = parser.parse_args(argv)

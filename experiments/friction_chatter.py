@@ -17,6 +17,7 @@ import numpy as np
 
 from cdcr_gym.backends.bullet import BulletBackend
 from cdcr_gym.backends.mujoco import MuJoCoBackend
+from training.run.argtypes import non_negative_float, positive_float, positive_int
 
 #: The protocol's tension levels (N) on cable 1: loading 10 → 80, then unloading 70 → 0.
 LEVELS = tuple(float(t) for t in range(10, 90, 10)) + tuple(float(t) for t in range(70, -10, -10))
@@ -127,9 +128,9 @@ def main(argv: list[str] | None = None) -> None:
         prog="python -m experiments.friction_chatter", description=__doc__.splitlines()[0]
     )
     ap.add_argument("--backend", choices=("mujoco", "bullet", "both"), default="both")
-    ap.add_argument("--hold", type=int, default=600)
-    ap.add_argument("--mu", type=float, default=0.2)
-    ap.add_argument("--damping-ratio", type=float, default=0.7)
+    ap.add_argument("--hold", type=positive_int, default=600)
+    ap.add_argument("--mu", type=non_negative_float, default=0.2)
+    ap.add_argument("--damping-ratio", type=positive_float, default=0.7)
     args = ap.parse_args(argv)
     names = ("mujoco", "bullet") if args.backend == "both" else (args.backend,)
     for name in names:

@@ -29,6 +29,7 @@ import numpy as np
 from cdcr_gym import kinematics as K
 from cdcr_gym.backends.bullet import BulletBackend
 from cdcr_gym.model import friction
+from training.run.argtypes import non_negative_int, positive_int
 
 MUS = (0.0, 0.1, 0.2, 0.3)
 LOADS = tuple(float(t) for t in range(0, 81, 10))
@@ -124,8 +125,8 @@ def plot(result: dict[str, Any], path: Path) -> None:
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(prog="python -m experiments.hysteresis", description=__doc__)
     parser.add_argument("--out", type=Path, default=Path("docs/figures/sim2real"))
-    parser.add_argument("--ramp-steps", type=int, default=25)
-    parser.add_argument("--settle-steps", type=int, default=50)
+    parser.add_argument("--ramp-steps", type=positive_int, default=25)
+    parser.add_argument("--settle-steps", type=non_negative_int, default=50)
     args = parser.parse_args(argv)
     result = run(args.ramp_steps, args.settle_steps)
     args.out.mkdir(parents=True, exist_ok=True)

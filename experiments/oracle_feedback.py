@@ -42,6 +42,7 @@ from gymnasium import error as gym_error
 import cdcr_gym  # noqa: F401
 from cdcr_gym import controllers
 from cdcr_gym.controllers.ik import FEEDBACK_GAIN
+from training.run.argtypes import non_negative_int, positive_float, positive_int
 
 __all__ = ["run_study", "run_episodes", "summarize", "markdown_table", "main"]
 
@@ -208,9 +209,11 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--backend", nargs="+", default=["Bullet", "CCKA"])
     parser.add_argument("--task", nargs="+", default=list(TASKS), choices=list(TASKS))
-    parser.add_argument("--episodes", type=int, default=100)
-    parser.add_argument("--seed", type=int, default=1_000_000)
-    parser.add_argument("--gain", type=float, default=None, help="closed-loop gain per step")
+    parser.add_argument("--episodes", type=positive_int, default=100)
+    parser.add_argument("--seed", type=non_negative_int, default=1_000_000)
+    parser.add_argument(
+        "--gain", type=positive_float, default=None, help="closed-loop gain per step"
+    )
     parser.add_argument(
         "--no-gravity", action="store_true", help="physics backends without gravity"
     )

@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from training.evaluate.conditions import read_eval
+from training.run.argtypes import fraction, positive_float
 
 __all__ = ["summarize_evals", "table_rows", "main"]
 
@@ -162,8 +163,8 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m experiments.sim2sim", description=__doc__)
     parser.add_argument("evals", nargs="+", help="training.evaluate JSON files")
     parser.add_argument("--out", required=True, help="output stem: writes OUT.json and OUT.png")
-    parser.add_argument("--target-median-mm", type=float, default=3.0)
-    parser.add_argument("--target-success", type=float, default=0.9)
+    parser.add_argument("--target-median-mm", type=positive_float, default=3.0)
+    parser.add_argument("--target-success", type=fraction, default=0.9)
     parser.add_argument("--title", default=None, help="figure title (default: env id + kwargs)")
     args = parser.parse_args(argv)
     try:

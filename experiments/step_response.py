@@ -16,6 +16,7 @@ import gymnasium as gym
 import numpy as np
 
 import cdcr_gym  # noqa: F401
+from training.run.argtypes import positive_float, positive_int
 
 SHOWN = (1, 2, 3, 5, 8, 11, 16, 21)
 
@@ -37,9 +38,9 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(
         prog="python -m experiments.step_response", description=__doc__
     )
-    parser.add_argument("--tension", type=float, default=40.0)
-    parser.add_argument("--omega", type=float, default=0.44)
-    parser.add_argument("--steps", type=int, default=30)
+    parser.add_argument("--tension", type=positive_float, default=40.0)
+    parser.add_argument("--omega", type=positive_float, default=0.44)
+    parser.add_argument("--steps", type=positive_int, default=30)
     args = parser.parse_args(argv)
     rows = {
         "bullet, gravity on": ("cdcr_gym/BulletReach-v0", {"gravity": True}),

@@ -34,6 +34,7 @@ import cdcr_gym  # noqa: F401
 from cdcr_gym.backends.analytic import AnalyticBackend
 from cdcr_gym.backends.bullet.backend import BulletBackend
 from cdcr_gym.params import RobotParams
+from training.run.argtypes import non_negative_float
 from training.run.rollout import SB3Policy
 
 __all__ = ["cotension_table", "step_response", "trace", "main"]
@@ -128,10 +129,16 @@ def main(argv: list[str] | None = None) -> int:
         prog="python -m experiments.transfer_probe", description=__doc__
     )
     parser.add_argument("--trace", default=None, help="a run directory: trace its policy")
-    parser.add_argument("--friction", type=float, default=0.0, help="bullet μ for --trace")
+    parser.add_argument(
+        "--friction", type=non_negative_float, default=0.0, help="bullet μ for --trace"
+    )
     args = parser.parse_args(argv)
-    if args.friction < 0:
-        parser.error(f"--friction must be >= 0, got {args.friction}")
+    if args.trace is not None:
+        best = Path(args.trace) / "best_model" / "model.zip"
+        if not best.is_file():
+            parser.error(
+                f"--trace {args.trace!r}: not a run directory with {best.relative_to(args.trace)}"
+            )
     print("co-tension: radial tip displacement (mm), static, cable 1 at T0 + dT, cables 2, 3 at T0")
     print("| T0 (N) | dT (N) | CCKA | bullet, gravity | bullet / CCKA |")
     print("|---|---|---|---|---|")

@@ -33,7 +33,8 @@ from cdcr_gym.backends.bullet import MAX_JOINTS, BulletBackend
 from cdcr_gym.model import statics
 from cdcr_gym.model.discrete import DiscreteBackbone, span_buckling_loads
 from cdcr_gym.model.params import STANDARD_GRAVITY as GRAVITY
-from cdcr_gym.params import RobotParams, SectionParams
+from cdcr_gym.params import PRESETS, RobotParams, SectionParams
+from training.run.argtypes import positive_int
 
 __all__ = [
     "HORIZONTAL",
@@ -425,8 +426,12 @@ def main(argv: list[str] | None = None) -> None:  # pragma: no cover
     )
     parser.add_argument("--bench", action="store_true", help="also measure the speed")
     parser.add_argument("--bench-only", action="store_true", help="only measure the speed")
-    parser.add_argument("--steps", type=int, default=5000, help="steps per speed measurement")
-    parser.add_argument("--robot", default="paper", help="robot preset of the speed rows")
+    parser.add_argument(
+        "--steps", type=positive_int, default=5000, help="steps per speed measurement"
+    )
+    parser.add_argument(
+        "--robot", default="paper", choices=sorted(PRESETS), help="robot preset of the speed rows"
+    )
     parser.add_argument(
         "--buckling", action="store_true", help="only the span-buckling table (seconds)"
     )

@@ -201,6 +201,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     command, rest = args[0], args[1:]
     if command == "configs":
+        if rest and rest[0] in ("-h", "--help"):
+            print("usage: cdcr-gym configs\n\nList the packaged experiment configs.")
+            return 0
+        if rest:
+            print(
+                f"usage: cdcr-gym configs\ncdcr-gym configs: error: unrecognized arguments: "
+                f"{' '.join(rest)}",
+                file=sys.stderr,
+            )
+            return 2
         root = configs_dir()
         if root is None:
             print("no packaged configs found", file=sys.stderr)

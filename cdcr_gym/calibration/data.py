@@ -41,7 +41,7 @@ from __future__ import annotations
 import csv
 import math
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -374,6 +374,30 @@ def read_published(path: str | Path, robot: Any = None, drive: Any = None) -> Me
     return data
 
 
+def _check_tensions(data: Measurements, robot: Any) -> None:
+    """ValueError naming file, line and column for the first tension (N) beyond what the
+    robot's model accepts as its ``max_tension`` (it would bend a section past 180°)."""
+    peaks = data.tensions.max(axis=1)
+    if not peaks.max() > robot.max_tension:
+        return
+    try:
+        replace(robot, max_tension=float(peaks.max()))
+        return
+    except ValueError:
+        pass
+    prefix = "m" if data.from_masses else "T"
+    for k in np.flatnonzero(peaks > robot.max_tension):
+        try:
+            replace(robot, max_tension=float(peaks[k]))
+        except ValueError as exc:
+            c = int(np.argmax(data.tensions[k]))
+            raise ValueError(
+                f"{data.source} line {data.lines[k]}, column '{prefix}{c + 1}': tension "
+                f"{data.tensions[k, c]:g} N is beyond this robot's range (its max_tension is "
+                f"{robot.max_tension:g} N; {exc}); a unit mix-up?"
+            ) from None
+
+
 def check_units(data: Measurements, robot: Any, drive: Any = None, cols: Any = None) -> None:
     """ValueError naming file, line and column for values a unit mix-up would produce: a
     displacement outside twice the drive's ``displacement_range`` (or beyond the robot's
@@ -404,6 +428,8 @@ def check_units(data: Measurements, robot: Any, drive: Any = None, cols: Any = N
                 f"{unit} is outside the plausible range [{lo * factor:g}, {hi * factor:g}] {unit}"
                 " of this robot (a unit mix-up, mm vs m?)"
             )
+    if data.tensions is not None and data.tensions.size:
+        _check_tensions(data, robot)
     norms = np.linalg.norm(data.tip, axis=1)
     far = np.argwhere(np.abs(data.tip) > 3.0 * length)
     if far.size:

@@ -28,9 +28,10 @@ import numpy as np
 import cdcr_gym
 from cdcr_gym.backends.analytic import AnalyticBackend
 from cdcr_gym.backends.bullet import BulletBackend
-from cdcr_gym.model.params import RobotParams
+from cdcr_gym.model.params import PRESETS, RobotParams
 from experiments.cosserat.pyelastica_solver import solve_pyelastica
 from experiments.cosserat.rod import solve_static
+from training.run.argtypes import positive_int
 
 __all__ = [
     "CASES",
@@ -279,6 +280,31 @@ def study(reference: dict | None = None) -> str:
     return "\n".join(lines)
 
 
+def _parse_refine(parser: argparse.ArgumentParser, text: str, path: Path) -> tuple[str, bool, int]:
+    """``NAME:GRAVITY:M`` of --refine, checked against the cases of ``path`` (usage error)."""
+    parts = text.split(":")
+    if len(parts) != 3 or parts[1] not in ("0", "1"):
+        parser.error(
+            f"--refine {text!r}: expected NAME:GRAVITY:M, GRAVITY 0 or 1, M an integer >= 1"
+        )
+    name, gravity, m = parts
+    try:
+        elements = positive_int(m)
+    except argparse.ArgumentTypeError as exc:
+        parser.error(f"--refine {text!r}: M {exc}")
+    if not Path(path).is_file():
+        parser.error(
+            f"--refine: the reference file {str(path)!r} does not exist (--write it first)"
+        )
+    cases = {(c["name"], c["gravity"]) for c in load_reference(path)["cases"]}
+    if (name, gravity == "1") not in cases:
+        names = sorted({n for n, _ in cases})
+        parser.error(
+            f"--refine {text!r}: no case {name!r} with gravity {gravity} in {path} (cases: {', '.join(names)})"
+        )
+    return name, gravity == "1", elements
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m experiments.cosserat")
     parser.add_argument("--write", type=Path, help="solve every case and write the JSON here")
@@ -294,12 +320,28 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--study", action="store_true", help="compare the package's models")
     parser.add_argument("--out", type=Path, default=None, help="study: write the table here")
     args = parser.parse_args(argv)
+    if not (args.write or args.refine or args.study):
+        parser.print_usage()
+        print(
+            "nothing to do: give --write FILE (solve the reference cases), --refine "
+            "NAME:GRAVITY:M (a finer PyElastica mesh for one case) or --study (compare the "
+            "package's models)"
+        )
+        return 0
+    refine = None
+    if args.refine:
+        refine = _parse_refine(parser, args.refine, args.write or REFERENCE_PATH)
+    if args.robot:
+        unknown = [r for r in args.robot if r not in PRESETS]
+        if unknown:
+            parser.error(
+                f"--robot {unknown[0]!r}: not a robot preset ({', '.join(sorted(PRESETS))})"
+            )
     if args.write and not args.refine:
         previous = load_reference(args.write) if args.write.exists() else None
         write_reference(args.write, args.pyelastica, previous, args.robot)
-    if args.refine:
-        name, gravity, m = args.refine.split(":")
-        refine_pyelastica(args.write or REFERENCE_PATH, name, gravity == "1", int(m))
+    if refine is not None:
+        refine_pyelastica(args.write or REFERENCE_PATH, *refine)
     if args.study:
         table = study()
         print(table)

@@ -57,6 +57,7 @@ from training.evaluate.oracles import plot_paths
 from training.evaluate.overlay import caption, draw_text
 from training.evaluate.random_policy import RandomPolicy
 from training.evaluate.video import write_video
+from training.run.argtypes import non_negative_int, positive_int
 from training.run.config import (
     EVALUATE_MODELS,
     ConfigError,
@@ -501,7 +502,7 @@ def _parse_args(argv: list[str]) -> argparse.Namespace:
     parser.add_argument("run_dir", type=Path, metavar="RUN_DIR", help="a training run directory")
     parser.add_argument(
         "--episodes",
-        type=int,
+        type=positive_int,
         default=None,
         help="episodes per condition (default: the config's evaluate.episodes)",
     )
@@ -532,7 +533,7 @@ def _parse_args(argv: list[str]) -> argparse.Namespace:
     )
     parser.add_argument(
         "--seed",
-        type=int,
+        type=non_negative_int,
         default=None,
         help="first reset seed of the goals (default: the config's evaluate.seed)",
     )

@@ -17,6 +17,7 @@ import numpy as np
 
 import cdcr_gym  # noqa: F401  (registers the ids)
 from cdcr_gym.controllers import AnalyticIKController
+from training.run.argtypes import non_negative_int, positive_int
 from training.run.rollout import check_env_id
 
 
@@ -28,8 +29,8 @@ def main(argv: list[str] | None = None) -> int:
         default="tension_delta",
         choices=["tension", "tension_delta", "length_delta"],
     )
-    parser.add_argument("--episodes", type=int, default=10)
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--episodes", type=positive_int, default=10)
+    parser.add_argument("--seed", type=non_negative_int, default=0)
     args = parser.parse_args(argv)
     if args.episodes < 1:
         parser.error(f"--episodes must be >= 1, got {args.episodes}")

@@ -27,6 +27,7 @@ import gymnasium as gym
 import numpy as np
 
 import cdcr_gym  # noqa: F401
+from training.run.argtypes import non_negative_int, positive_int
 from training.run.config import EVALUATE_MODELS, load_config
 from training.run.rollout import SB3Policy
 
@@ -81,8 +82,8 @@ def main(argv: list[str] | None = None) -> int:
         prog="python -m training.evaluate.obstacle_failures", description=__doc__
     )
     parser.add_argument("run", type=Path)
-    parser.add_argument("--episodes", type=int, default=100)
-    parser.add_argument("--seed", type=int, default=1_000_000)
+    parser.add_argument("--episodes", type=positive_int, default=100)
+    parser.add_argument("--seed", type=non_negative_int, default=1_000_000)
     parser.add_argument(
         "--model",
         choices=EVALUATE_MODELS,

@@ -29,6 +29,7 @@ import numpy as np
 import cdcr_gym  # noqa: F401
 from cdcr_gym import controllers
 from training.evaluate import tables
+from training.run.argtypes import non_negative_int, positive_int
 from training.run.metrics import oracle_for, run_task_episodes, summarize_task
 from training.run.rollout import parse_env_kwarg
 
@@ -139,12 +140,12 @@ def plot_paths(task: str, runs: dict[str, list[dict[str, Any]]], path: Path) -> 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="cdcr-gym oracles", description=__doc__)
     parser.add_argument("--task", required=True, choices=sorted(TASKS))
-    parser.add_argument("--episodes", type=int, default=200)
+    parser.add_argument("--episodes", type=positive_int, default=200)
     parser.add_argument("--backend", default="CCKA", choices=["CCKA", "Bullet"])
     parser.add_argument("--robot", default=None, help="robot preset (default: the id's)")
-    parser.add_argument("--seed", type=int, default=1_000_000)
+    parser.add_argument("--seed", type=non_negative_int, default=1_000_000)
     parser.add_argument("--out", type=Path, default=Path("docs/figures/tasks"))
-    parser.add_argument("--figures", type=int, default=0, help="episodes to draw")
+    parser.add_argument("--figures", type=non_negative_int, default=0, help="episodes to draw")
     parser.add_argument("--env-kwarg", action="append", default=[], metavar="KEY=VALUE")
     parser.add_argument(
         "--wide", action="store_true", help="every column (default: the ones that fit 100 columns)"

@@ -174,6 +174,11 @@ def check_writable_directory(path: Path, what: str) -> None:
     """
 
     path = Path(path)
+    if path.is_symlink() and not path.exists():
+        raise ConfigError(
+            f"{what} {str(path)!r} is a dangling symbolic link (to {os.readlink(path)!r}); "
+            f"remove it or choose another directory"
+        )
     probe = path
     while not probe.exists() and probe != probe.parent:
         probe = probe.parent

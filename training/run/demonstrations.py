@@ -161,20 +161,33 @@ def clone_demonstrations(
     return out
 
 
+def _make_oracle(config: Any) -> tuple[Any, str]:
+    """The demonstrations' oracle for ``config`` and its kind; ConfigError names oracle_kwargs."""
+    d = config.demonstrations
+    probe = make_env(config.env.id, dict(config.env.kwargs), config.env.max_episode_steps)
+    kind = "closed_loop" if is_physics(probe) else "oracle"
+    try:
+        return oracle_for(probe, kind, **d.oracle_kwargs), kind
+    except (TypeError, ValueError) as exc:
+        raise ConfigError(f"demonstrations.oracle_kwargs {d.oracle_kwargs!r}: {exc}") from None
+    finally:
+        probe.close()
+
+
+def check_demonstrations(config: Any) -> None:
+    """Make the oracle once, before the run directory exists: a bad
+    ``demonstrations.oracle_kwargs`` is a ConfigError (exit 2) with nothing written."""
+    if config.demonstrations.episodes:
+        _make_oracle(config)
+
+
 def pretrain(config: Any, model: Any, venv: Any) -> dict[str, Any]:
     """Collect the oracle's demonstrations in ``venv`` and clone them into ``model`` (a PPO)
     as ``config.demonstrations`` says; returns the report written to ``demonstrations.json``."""
 
     d = config.demonstrations
     t0 = time.perf_counter()
-    probe = make_env(config.env.id, dict(config.env.kwargs), config.env.max_episode_steps)
-    kind = "closed_loop" if is_physics(probe) else "oracle"
-    try:
-        oracle = oracle_for(probe, kind, **d.oracle_kwargs)
-    except (TypeError, ValueError) as exc:
-        raise ConfigError(f"demonstrations.oracle_kwargs {d.oracle_kwargs!r}: {exc}") from None
-    finally:
-        probe.close()
+    oracle, kind = _make_oracle(config)
     demos = collect_demonstrations(venv, oracle, d.episodes)
     collected = time.perf_counter() - t0
     norm = _unwrap_normalize(venv)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import os
 import sys
 from pathlib import Path
 from typing import Any
@@ -30,10 +31,17 @@ def truncate_csv(path: Path, step_key: str, max_step: int) -> None:
         reader = csv.DictReader(f)
         fields = reader.fieldnames or []
         rows = [r for r in reader if not r.get(step_key) or float(r[step_key]) <= max_step]
-    with open(path, "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=fields)
-        writer.writeheader()
-        writer.writerows(rows)
+    # to a temporary file, then renamed: a full disk leaves the old log whole
+    tmp = path.with_name(f".{path.name}.tmp")
+    try:
+        with open(tmp, "w", newline="") as f:
+            writer = csv.DictWriter(f, fieldnames=fields)
+            writer.writeheader()
+            writer.writerows(rows)
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
 
 
 def _resumable_csv_format(path: Path) -> Any:

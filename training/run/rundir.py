@@ -99,8 +99,12 @@ def sha256_file(path: Path) -> str:
 def atomic_write(path: Path, write: Callable[[Path], None]) -> None:
     """``write(tmp)`` then rename ``tmp`` to ``path``: a kill leaves the old file or none."""
     tmp = path.with_name(f".{path.stem}.tmp{path.suffix}")
-    write(tmp)
-    os.replace(tmp, path)
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    except BaseException:  # a full disk, a kill: no half-written temporary left behind
+        tmp.unlink(missing_ok=True)
+        raise
 
 
 class Checkpoint:

@@ -61,6 +61,7 @@ from pathlib import Path
 from typing import Any
 
 from training.run.algorithms import make_model, wrap_normalize
+from training.run.argtypes import non_negative_int, positive_int
 from training.run.callbacks import make_callbacks
 from training.run.checkpoints import (
     fallback_env_seed,
@@ -78,7 +79,7 @@ from training.run.config import (
     load_config,
     save_config,
 )
-from training.run.demonstrations import pretrain
+from training.run.demonstrations import check_demonstrations, pretrain
 from training.run.envs import build_vec_env, check_env_config, resolve_device
 from training.run.logs import make_logger, truncate_csv
 from training.run.provenance import git_info, now_iso, versions, write_json
@@ -212,6 +213,9 @@ def _train(
         }
         state.update({"start_steps": 0, "best_score": None, "wall_before": 0.0})
     else:
+        if load_config(run.config).total_timesteps != config.total_timesteps:
+            # a resume to a new budget: config.yaml says what this directory trains to
+            atomic_write(run.config, lambda tmp: save_config(config, tmp))
         if meta is None:
             meta = {"name": config.name, "algo": config.algo, "seed": config.seed, "sessions": []}
         meta["device"] = device
@@ -324,7 +328,10 @@ def _train(
         meta["status"] = status
         if state.get("stopped_by_wall_time"):
             meta["stopped_by"] = "runtime.max_wall_time_s"
-        write_json(run.run_json, meta)
+        try:
+            write_json(run.run_json, meta)
+        except OSError as exc:  # e.g. the disk that stopped training is still full
+            print(f"warning: {run.run_json} not updated: {exc.strerror or exc}", file=sys.stderr)
         model.logger.close()
         if status != "complete":
             _close_quietly(venv)
@@ -418,11 +425,13 @@ def _parse_args(argv: list[str]) -> argparse.Namespace:
     )
     parser.add_argument(
         "--total-timesteps",
-        type=int,
+        type=positive_int,
         default=None,
         help="override total_timesteps (env steps, summed over envs)",
     )
-    parser.add_argument("--seed", type=int, default=None, help="override the config's seed")
+    parser.add_argument(
+        "--seed", type=non_negative_int, default=None, help="override the config's seed"
+    )
     parser.add_argument(
         "--verbose",
         action="store_true",
@@ -459,6 +468,7 @@ def _resolve(args: argparse.Namespace) -> tuple[ExperimentConfig, Path]:
         config.total_timesteps = args.total_timesteps
     config.validate()
     check_env_config(config)
+    check_demonstrations(config)
 
     if args.resume:
         if args.run_dir is None:
@@ -469,28 +479,42 @@ def _resolve(args: argparse.Namespace) -> tuple[ExperimentConfig, Path]:
                 f"--run-dir {str(args.run_dir)!r} is not a training run directory (no config.yaml)"
             )
         refuse_legacy(run)
+        check_writable_directory(run.root, "--run-dir")
         saved = load_config(run.config)
-        if args.total_timesteps is not None:
-            saved.total_timesteps = args.total_timesteps
         if args.seed is not None and args.seed != saved.seed:
             raise ConfigError(
                 f"--seed {args.seed} differs from the run's seed {saved.seed}; "
                 f"a resumed run keeps its seed"
             )
-        # The CONFIG file must still describe this run (total_timesteps may be extended).
-        mine, theirs = config_to_dict(config), config_to_dict(saved)
-        mine["seed"], mine["total_timesteps"] = theirs["seed"], theirs["total_timesteps"]
-        flat_mine, flat_theirs = _flatten(mine), _flatten(theirs)
+        # The CONFIG file (with the CLI overrides) must still describe this run. The one change
+        # a resume honours is total_timesteps: it trains on to the new budget. Every other
+        # changed key is refused, naming it with both values.
+        mine, theirs = _flatten(config_to_dict(config)), _flatten(config_to_dict(saved))
         diff = sorted(
             k
-            for k in flat_mine.keys() | flat_theirs.keys()
-            if flat_mine.get(k) != flat_theirs.get(k)
+            for k in mine.keys() | theirs.keys()
+            if k != "total_timesteps" and mine.get(k) != theirs.get(k)
         )
         if diff:
-            raise ConfigError(
-                f"CONFIG {args.config!r} differs from {run.config} in {diff}; "
-                f"resume with the run's own config.yaml"
+            missing = "(absent)"
+            changes = "; ".join(
+                f"{k}: {theirs.get(k, missing)!r} in the run, {mine.get(k, missing)!r} in CONFIG"
+                for k in diff
             )
+            raise ConfigError(
+                f"CONFIG {str(args.config)!r} differs from {run.config} in {diff} ({changes}); "
+                f"--resume can only change total_timesteps: resume with the run's own "
+                f"config.yaml"
+            )
+        if config.total_timesteps != saved.total_timesteps:
+            trained = run.latest_checkpoint() or 0
+            if config.total_timesteps < trained:
+                raise ConfigError(
+                    f"total_timesteps {config.total_timesteps} (was {saved.total_timesteps}) is "
+                    f"below the {trained} steps this run has already trained; --resume cannot "
+                    f"train backwards"
+                )
+            saved.total_timesteps = config.total_timesteps
         return saved.validate(), run.root
     if args.run_dir is None:
         stamp = _dt.datetime.now().strftime("%Y%m%d-%H%M%S")
@@ -524,6 +548,26 @@ def _flatten(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
     return out
 
 
+def _os_error_message(exc: OSError, run_dir: Path | None) -> str:
+    """One line for an OSError while training: what failed and what the run directory keeps."""
+    where = f"{exc.filename}: " if exc.filename else ""
+    text = f"{where}{exc.strerror or exc}"
+    if run_dir is None or not Path(run_dir).is_dir():
+        return text
+    run = RunDir(run_dir)
+    steps = run.latest_checkpoint()
+    kept = (
+        f"its newest complete checkpoint is at step {steps}"
+        if steps is not None
+        else "it has no checkpoint yet"
+    )
+    return (
+        f"{text}; training stopped, the run directory {str(run.root)!r} is intact ({kept}): "
+        f"fix the cause, then continue with cdcr-gym train "
+        f"{shlex.quote(str(run.config))} --run-dir {shlex.quote(str(run.root))} --resume"
+    )
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     args = _parse_args(argv)
@@ -532,6 +576,9 @@ def main(argv: list[str] | None = None) -> int:
         return train(config, run_dir, args.resume, argv, exiting=True, verbose=args.verbose)
     except ConfigError as exc:
         print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:  # a full disk, a directory made read-only meanwhile: no traceback
+        print(f"error: {_os_error_message(exc, args.run_dir)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:  # before training started, or a second Ctrl-C while finishing
         print("interrupted", file=sys.stderr)

@@ -42,6 +42,7 @@ import numpy as np
 
 import cdcr_gym  # noqa: F401
 from training.run.algorithms import ppo_kwargs, wrap_normalize
+from training.run.argtypes import positive_int
 from training.run.config import load_config
 from training.run.envs import build_vec_env
 from training.run.sb3_vec import BatchedVecEnv
@@ -558,7 +559,10 @@ def main(argv: list[str] | None = None) -> int:
         help="shorter timings (0.3 s per repeat, 3 repeats, PPO 8 192 steps)",
     )
     parser.add_argument(
-        "--repeats", type=int, default=None, help="repeats per row (default 5; 3 with --quick)"
+        "--repeats",
+        type=positive_int,
+        default=None,
+        help="repeats per row (default 5; 3 with --quick)",
     )
     parser.add_argument(
         "--config",

@@ -44,6 +44,7 @@ import numpy as np
 
 import cdcr_gym  # noqa: F401  (registers the ids)
 from cdcr_gym.params import RobotParams
+from training.run.argtypes import positive_int
 
 __all__ = ["main", "speed_table", "accuracy_table", "load_reference", "CASES_DOC"]
 
@@ -321,8 +322,8 @@ def main(argv: list[str] | None = None) -> None:
         prog="cdcr-gym bench-physics", description=__doc__.split("\n\n")[0]
     )
     parser.add_argument("--robot", default="paper", choices=["paper", "tdcr2"])
-    parser.add_argument("--repeats", type=int, default=7)
-    parser.add_argument("--steps", type=int, default=400)
+    parser.add_argument("--repeats", type=positive_int, default=7)
+    parser.add_argument("--steps", type=positive_int, default=400)
     parser.add_argument("--accuracy", action="store_true", help="the convergence table")
     parser.add_argument("--quick", action="store_true", help="fewer rows (accuracy)")
     parser.add_argument(

@@ -23,7 +23,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import shlex
 import sys
 import time
@@ -31,6 +30,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from training.run.argtypes import non_negative_int, positive_float, positive_int
+from training.run.config import ConfigError, check_writable_directory
 
 __all__ = ["main", "build_parser", "synthetic_study", "ablation_table", "DEFAULT_BACKEND_ARGS"]
 
@@ -129,7 +131,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--stiffness-scale",
-        type=float,
+        type=positive_float,
         default=1.0,
         help="ablation: multiply every tendon stiffness (e.g. 1000: the rigid-tendon limit)",
     )
@@ -180,12 +182,17 @@ def build_parser() -> argparse.ArgumentParser:
         help="start value of a fitted parameter in SI units (the names and aliases of --fit; "
         "an alias sets every parameter it covers), repeatable",
     )
-    p.add_argument("--ramp-steps", type=int, default=25, help="physics replay: ramp steps per row")
     p.add_argument(
-        "--settle-steps", type=int, default=50, help="physics replay: settle steps per row"
+        "--ramp-steps", type=positive_int, default=25, help="physics replay: ramp steps per row"
     )
     p.add_argument(
-        "--max-evals", type=int, default=None, help="limit on least_squares steps (nfev)"
+        "--settle-steps",
+        type=non_negative_int,
+        default=50,
+        help="physics replay: settle steps per row",
+    )
+    p.add_argument(
+        "--max-evals", type=positive_int, default=None, help="limit on least_squares steps (nfev)"
     )
     p.add_argument("--quiet", action="store_true", help="no per-evaluation progress")
     p.add_argument(
@@ -210,12 +217,12 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _check_writable(out: Path) -> None:
+    """ValueError unless ``out`` is, or can be created as, a writable directory; nothing is
+    created here (the results are written all at once at the end, or not at all)."""
     try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ValueError(f"--out {str(out)!r} cannot be created: {exc}") from None
-    if not os.access(out, os.W_OK):
-        raise ValueError(f"--out {str(out)!r} is not writable")
+        check_writable_directory(out, "--out")
+    except ConfigError as exc:
+        raise ValueError(str(exc)) from None
 
 
 def _robot(text: str):
@@ -284,7 +291,16 @@ def main(argv: list[str] | None = None) -> int:
         )
     except ValueError as exc:
         parser.error(str(exc))
-    paths = write_outputs(result, args.out, command)
+    try:
+        paths = write_outputs(result, args.out, command)
+    except OSError as exc:  # a full disk, a directory made read-only meanwhile: nothing written
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(
+            f"cdcr-gym calibrate: error: --out {str(args.out)!r}: cannot write the results "
+            f"({where}{exc.strerror or exc}); nothing was written",
+            file=sys.stderr,
+        )
+        return 2
     _print_summary(result)
     print("wrote " + ", ".join(str(p) for p in paths.values()))
     return 0

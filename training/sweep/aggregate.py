@@ -53,6 +53,7 @@ from typing import Any
 
 import numpy as np
 
+from training.run.argtypes import non_negative_int, positive_int
 from training.sweep.figures import plot_curves, plot_iqm, plot_performance_profiles
 from training.sweep.scores import (
     METRICS,
@@ -555,8 +556,10 @@ def main(argv: list[str] | None = None) -> int:
         default=None,
         help="write the benchmark page (e.g. docs/experiments/benchmark.md)",
     )
-    parser.add_argument("--reps", type=int, default=50_000, help="bootstrap resamples (50 000)")
-    parser.add_argument("--seed", type=int, default=0, help="bootstrap RNG seed")
+    parser.add_argument(
+        "--reps", type=positive_int, default=50_000, help="bootstrap resamples (50 000)"
+    )
+    parser.add_argument("--seed", type=non_negative_int, default=0, help="bootstrap RNG seed")
     parser.add_argument(
         "--note", default=None, help="a paragraph for the page, under its introduction"
     )

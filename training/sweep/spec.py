@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
+import math
 import re
 from pathlib import Path
 from typing import Any
@@ -42,7 +43,8 @@ class EvaluateSpec:
     """What runs after training: ``python -m training.evaluate RUN_DIR --model MODEL``."""
 
     enabled: bool = True
-    model: str = "best"
+    #: None: the trial config's ``evaluate.model`` (a ``set:`` may choose it), normally best
+    model: str | None = None
     episodes: int | None = None
 
 
@@ -147,6 +149,11 @@ def sweep_from_dict(data: Any, name: str = "sweep", base_dir: Path | None = None
         raise ConfigError(f"overrides must be a non-empty list of mappings, got {overrides!r}")
     overrides = [_mapping(f"overrides[{i}]", o) for i, o in enumerate(overrides)]
     grid = _mapping("grid", data.get("grid"))
+    for where, mapping in [("set", common), ("grid", grid)] + [
+        (f"overrides[{i}]", o) for i, o in enumerate(overrides)
+    ]:
+        if "seed" in mapping:  # the trials' seeds are the sweep's seeds: a set seed would be lost
+            raise ConfigError(f"{where}: seed {mapping['seed']!r} cannot be set; list it in seeds")
     for key, values in grid.items():
         if not isinstance(values, list) or not values:
             raise ConfigError(f"grid.{key} must be a non-empty list of values, got {values!r}")
@@ -157,7 +164,7 @@ def sweep_from_dict(data: Any, name: str = "sweep", base_dir: Path | None = None
     evaluate = EvaluateSpec(**ev)
     if not isinstance(evaluate.enabled, bool):
         raise ConfigError(f"evaluate.enabled must be true or false, got {evaluate.enabled!r}")
-    if evaluate.model not in EVALUATE_MODELS:
+    if evaluate.model is not None and evaluate.model not in EVALUATE_MODELS:
         raise ConfigError(f"evaluate.model must be 'best' or 'final', got {evaluate.model!r}")
     if evaluate.episodes is not None and (
         not isinstance(evaluate.episodes, int)
@@ -170,16 +177,29 @@ def sweep_from_dict(data: Any, name: str = "sweep", base_dir: Path | None = None
     target = _mapping("target", data.get("target"))
     _check_keys("target.", target, list(TARGET_KEYS))
     for key, value in target.items():
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise ConfigError(f"target.{key} must be a number, got {value!r}")
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, (int, float))
+            or not math.isfinite(value)
+        ):
+            raise ConfigError(f"target.{key} must be a finite number, got {value!r}")
+        if key in ("success_rate", "within_1mm") and not 0.0 <= value <= 1.0:
+            raise ConfigError(f"target.{key} is a fraction: it must be in [0, 1], got {value!r}")
+        if key.endswith("_mm") and value < 0:
+            raise ConfigError(f"target.{key} is a distance in mm: it must be >= 0, got {value!r}")
     res = data.get("resources") or {}
     if not isinstance(res, dict):
         raise ConfigError(f"resources must be a mapping, got {res!r}")
     _check_keys("resources.", res, [f.name for f in dataclasses.fields(ResourcesSpec)])
     resources = ResourcesSpec(**res)
     cpus = resources.cpus_per_trial
-    if isinstance(cpus, bool) or not isinstance(cpus, (int, float)) or not cpus > 0:
-        raise ConfigError(f"resources.cpus_per_trial must be a number > 0, got {cpus!r}")
+    if (
+        isinstance(cpus, bool)
+        or not isinstance(cpus, (int, float))
+        or not math.isfinite(cpus)
+        or not cpus > 0
+    ):
+        raise ConfigError(f"resources.cpus_per_trial must be a finite number > 0, got {cpus!r}")
     mc = resources.max_concurrent
     if mc is not None and (not isinstance(mc, int) or isinstance(mc, bool) or mc <= 0):
         raise ConfigError(

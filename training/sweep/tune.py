@@ -22,7 +22,7 @@ A sweep file (strict: an unknown or misspelt key is an error naming it, exit sta
       ppo.learning_rate: [3.0e-4, 1.0e-3]
     evaluate:                        # after training: python -m training.evaluate RUN_DIR
       enabled: true
-      model: best                    # best | final
+      model: best                    # best | final (default: each config's evaluate.model)
       episodes: null                 # null: the config's evaluate.episodes
     target:                          # "reached the target": the first periodic evaluation
       success_rate: 0.99             #   (eval_log.csv) meeting every listed threshold;
@@ -238,16 +238,26 @@ def expand(spec: SweepSpec) -> list[Trial]:
         for variant in variants:
             for seed in spec.seeds:
                 data = json.loads(json.dumps(base))
+                data["seed"] = seed
+                # The sweep's evaluate.model goes in first, so that every set key reaches the
+                # trial's config as written (a conflict with evaluate.model is refused below).
+                if spec.evaluate.enabled and spec.evaluate.model is not None:
+                    set_dotted(data, "evaluate.model", spec.evaluate.model)
                 for key, value in {**spec.set, **part_set, **variant}.items():
                     set_dotted(data, key, value)
-                data["seed"] = seed
-                if spec.evaluate.enabled:  # the run's config names the model the sweep evaluates
-                    set_dotted(data, "evaluate.model", spec.evaluate.model)
                 where = f"config {str(path)!r}" + (f", variant {variant}" if variant else "")
                 try:
                     config = config_from_dict(data)
                 except ConfigError as exc:
                     raise ConfigError(f"{where}: {exc}") from None
+                model = config.evaluate.model  # the model the sweep evaluates: the run's choice
+                if spec.evaluate.model is not None and spec.evaluate.enabled:
+                    if model != spec.evaluate.model:
+                        raise ConfigError(
+                            f"{where}: evaluate.model {spec.evaluate.model!r} of the sweep "
+                            f"contradicts evaluate.model {model!r} set for the trial; "
+                            f"give it in one place"
+                        )
                 if config.env.id not in gym.registry:
                     raise ConfigError(f"{where}: env.id {config.env.id!r} is not registered")
                 label = _label(variant)
@@ -268,7 +278,7 @@ def expand(spec: SweepSpec) -> list[Trial]:
                         seed=seed,
                         config=config_to_dict(config),
                         out_dir=str(spec.output),
-                        evaluate=dataclasses.asdict(spec.evaluate),
+                        evaluate={**dataclasses.asdict(spec.evaluate), "model": model},
                         part=part_name,
                     )
                 )

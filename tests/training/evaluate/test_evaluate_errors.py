@@ -53,7 +53,7 @@ def test_a_policy_on_a_robot_of_other_spaces_is_exit_2_and_writes_nothing(
 @pytest.mark.parametrize(
     "args, message",
     [
-        (["--seed", "-5"], "--seed must be an integer"),
+        (["--seed", "-5"], "argument --seed: must be an integer"),
         (["--env-id", "CartPole-v1"], "'CartPole-v1' is not a cdcr_gym env"),
         (["--env-id", "cdcr_gym/Nope-v0"], "is not registered"),
     ],

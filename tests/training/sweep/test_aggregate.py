@@ -204,7 +204,9 @@ def test_aggregate_cli_writes_the_page(sweep_dir: Path, tmp_path: Path, capsys) 
 def test_aggregate_cli_errors(tmp_path: Path, capsys) -> None:
     assert main([str(tmp_path)]) == 2
     assert "sweep.json" in capsys.readouterr().err
-    assert main([str(tmp_path), "--reps", "0"]) == 2
+    with pytest.raises(SystemExit) as exc:  # an argparse usage error (shared argument types)
+        main([str(tmp_path), "--reps", "0"])
+    assert exc.value.code == 2
     assert "--reps" in capsys.readouterr().err
 
 

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from cdcr_gym.model.params import RobotParams
+from training.run.argtypes import int_at_least, positive_float, positive_int
 from training.studies.reproduce import report
 from training.studies.reproduce.outputs import summary_rows, write_outputs
 from training.studies.reproduce.study import (
@@ -50,32 +51,6 @@ def quick_config(**overrides) -> StudyConfig:
     )
     base.update(overrides)
     return StudyConfig(**base)
-
-
-def _positive_int(name: str, lo: int = 1) -> Callable[[str], int]:
-    def parse(text: str) -> int:
-        try:
-            v = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be an integer, got {text!r}") from None
-        if v < lo:
-            raise argparse.ArgumentTypeError(f"{name} must be >= {lo}, got {v}")
-        return v
-
-    return parse
-
-
-def _positive_float(name: str) -> Callable[[str], float]:
-    def parse(text: str) -> float:
-        try:
-            v = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be a number, got {text!r}") from None
-        if not math.isfinite(v) or v <= 0.0:
-            raise argparse.ArgumentTypeError(f"{name} must be finite and > 0, got {text!r}")
-        return v
-
-    return parse
 
 
 def _float_list(name: str, lo: float = 0.0) -> Callable[[str], tuple[float, ...]]:
@@ -137,13 +112,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     ap.add_argument(
         "--forces",
-        type=_positive_int("--forces", 2),
+        type=int_at_least(2),
         default=None,
         help="number of tensions from 0 to --max-force on cable 1 (default 17: 5 N steps)",
     )
     ap.add_argument(
         "--max-force",
-        type=_positive_float("--max-force"),
+        type=positive_float,
         default=None,
         help="largest tension on cable 1, N (default: max_tension = 80 N, the paper's)",
     )
@@ -155,7 +130,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     ap.add_argument(
         "--links-per-span",
-        type=_positive_int("--links-per-span"),
+        type=positive_int,
         default=None,
         help="links per disk span of the main sweeps (default: 1 on mujoco, 4 on bullet)",
     )
@@ -174,25 +149,25 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--no-horizontal", action="store_true", help="skip the horizontal-base sweep")
     ap.add_argument(
         "--threshold-pct",
-        type=_positive_float("--threshold-pct"),
+        type=positive_float,
         default=1.0,
         help="error (%% of the length) above which CCKA is said to fail (default 1)",
     )
     ap.add_argument(
         "--settle-tol",
-        type=_positive_float("--settle-tol"),
+        type=positive_float,
         default=1e-6,
         help="settling tolerance: tip motion (m) over one check window (default 1e-6)",
     )
     ap.add_argument(
         "--settle-max-steps",
-        type=_positive_int("--settle-max-steps"),
+        type=positive_int,
         default=5000,
         help="cap on control steps spent settling one state (default 5000)",
     )
     ap.add_argument(
         "--dpi",
-        type=_positive_int("--dpi", 30),
+        type=int_at_least(30),
         default=100,
         help="figure resolution (default 100)",
     )
