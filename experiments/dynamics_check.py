@@ -286,22 +286,32 @@ def run(quick: bool = False) -> dict:  # pragma: no cover (the CLI; tests call t
                 flush=True,
             )
     damping = []
-    for backend in ("mujoco", "bullet"):
-        for zeta in (0.05, 0.3, 0.7):
-            for dt in (None, 0.005, 0.001):
-                res = free_vibration(backend, "paper", zeta, physics_timestep=dt)
-                damping.append(res)
-                if res["frequency_hz"] is None:
-                    print(
-                        f"{backend:6s} paper ζ = {zeta:4.2f} dt = {res['timestep_s']:.3f} s: diverged"
-                    )
-                    continue
-                print(
-                    f"{backend:6s} paper ζ = {zeta:4.2f} dt = {res['timestep_s']:.3f} s: "
-                    f"f1 = {res['frequency_hz']:6.3f} Hz, ζ_fit = {res['damping_ratio_fit']:.3f} "
-                    f"({_pct(res['damping_ratio_fit'], zeta):+.1f} %)",
-                    flush=True,
-                )
+    cases = [
+        (backend, "paper", zeta, dt, False)
+        for backend in ("mujoco", "bullet")
+        for zeta in (0.05, 0.3, 0.7)
+        for dt in (None, 0.005, 0.001)
+    ]
+    if not quick:  # gravity: the damping ratio rises by ω₁(no gravity)/ω₁(gravity)
+        cases += [
+            (backend, name, 0.05, 0.001, True)
+            for backend in ("mujoco", "bullet")
+            for name in ("paper", "tdcr2", "ftdcr_v4")
+        ]
+    for backend, name, zeta, dt, grav in cases:
+        res = free_vibration(backend, name, zeta, physics_timestep=dt, gravity=grav)
+        damping.append(res)
+        head = (
+            f"{backend:6s} {name:8s} g={int(grav)} ζ = {zeta:4.2f} dt = {res['timestep_s']:.3f} s:"
+        )
+        if res["frequency_hz"] is None:
+            print(head, "diverged", flush=True)
+            continue
+        print(
+            f"{head} f1 = {res['frequency_hz']:6.3f} Hz, ζ_fit = {res['damping_ratio_fit']:.3f} "
+            f"({_pct(res['damping_ratio_fit'], zeta):+.1f} %)",
+            flush=True,
+        )
     return {
         "command": "python -m experiments.dynamics_check",
         "frequencies": rows,

@@ -113,3 +113,15 @@ def test_bullet_damping_is_the_set_ratio_plus_backward_eulers():
     omega1 = 2 * math.pi * _ref("paper", "slack_gravity_off")[0]
     assert res["damping_ratio_fit"] == pytest.approx(zeta + 0.5 * h * omega1, rel=0.10)
     assert res["frequency_hz"] == pytest.approx(omega1 / (2 * math.pi), rel=0.03)
+
+
+def test_gravity_raises_the_first_modes_damping_ratio_by_the_frequency_ratio():
+    """D = β·K with β = 2ζ/ω₁ of the unloaded chain; gravity softens the mode to ω₁ᵍ but the
+    elastic stiffness it damps is unchanged, so ζ₁ = ζ·ω₁/ω₁ᵍ (tdcr2: ×1.10)."""
+    zeta = 0.05
+    res = dc.free_vibration(
+        "mujoco", "tdcr2", zeta, physics_timestep=0.001, gravity=True, duration=4.0
+    )
+    ratio = _ref("tdcr2", "slack_gravity_off")[0] / _ref("tdcr2", "slack_gravity_on")[0]
+    assert res["damping_ratio_fit"] == pytest.approx(zeta * ratio, rel=0.03)
+    assert res["frequency_hz"] == pytest.approx(_ref("tdcr2", "slack_gravity_on")[0], rel=0.03)
