@@ -11,8 +11,8 @@ per disk span, ``damping_ratio`` 0.7):
   differences of every generalized force at rest (joint springs, cables, gravity); the
   generalized eigenproblem K·v = ω²·M·v. MuJoCo's ball joints add twist modes: a mode is a
   bending mode if less than half of its coordinates' weight is twist. Bending frequencies
-  come in pairs (x and y plane); the table gives each pair's mean (the pair splits by < 0.1 %
-  on ``ftdcr_v4``'s slightly bent taut pose).
+  come in pairs (x and y plane); the table gives each pair's mean (on ``ftdcr_v4``'s slightly
+  bent taut pose the pair's members differ a little).
 * **free vibration** (what an env sees): the robot rests bent by a small tension on one cable,
   the tension is released (cables slack) and the tip is recorded every physics step; a damped
   sinusoid A·e^(−ζωt)·cos(ω·√(1−ζ²)·t + φ) + c fitted to the tip's deflection gives the first
