@@ -47,6 +47,8 @@ from cdcr_gym.backends.base import (
     SimulationDivergedError,
 )
 from cdcr_gym.backends.mujoco import friction as mj_friction
+from cdcr_gym.backends.mujoco.drives import RELEASED, TendonDrives
+from cdcr_gym.backends.mujoco.limits import StabilityLimits
 from cdcr_gym.backends.mujoco.mjcf import JOINTS, MJCFModel, build_mjcf
 from cdcr_gym.backends.mujoco.obstacles import ObstacleScene
 from cdcr_gym.model import friction
@@ -73,9 +75,6 @@ CONTACT_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
 MAX_LINKS = 495
 #: MuJoCo integrators accepted by ``integrator``.
 INTEGRATORS = ("Euler", "implicitfast", "implicit", "RK4")
-#: The ``ctrl`` (m) of a released displacement drive: far below any slack point, so that its
-#: force is clamped to exactly 0 (tension commands).
-RELEASED = -1.0e3
 
 
 def _mujoco() -> Any:
@@ -84,7 +83,7 @@ def _mujoco() -> Any:
     return mujoco
 
 
-class MuJoCoBackend(ObstacleScene, Backend):
+class MuJoCoBackend(ObstacleScene, TendonDrives, StabilityLimits, Backend):
     """``num_robots`` CDCRs simulated by MuJoCo (see the module docstring and ``mjcf``).
 
     Args:
@@ -383,97 +382,6 @@ class MuJoCoBackend(ObstacleScene, Backend):
             self._models[i] = copy.copy(self.model)
         return self._models[i]
 
-    # -- validation -----------------------------------------------------------------------------
-    def stable_timestep(self, model: Any = None) -> float:
-        """The longest ``physics_timestep`` (s) accepted for ``model`` (default: the nominal
-        one): with D = β·K (β = 2ζ/ω₁) the Euler step is linearly stable for h < 2β in every
-        mode (damping implicit, stiffness explicit); the cables' load (a follower force) and
-        the joints' nonlinearity take part of that, most at low ζ, so h <= β·min(1, 1/2 + ζ)
-        is accepted (measured: bang-bang extreme tensions for 400 steps stay stable there on
-        the paper robot, ball and Cardan joints, ζ from 0.01 to 1.5; they diverge near 2β).
-        RK4 treats the damping explicitly: h <= 2.5/(β·ω_max²) and 2.5/ω_max."""
-        model = self.model if model is None else model
-        first, highest = self._modes(model)
-        beta = 2.0 * self.damping_ratio / first
-        if self.integrator == "RK4":
-            return min(2.5 / (beta * highest**2), 2.5 / highest)
-        return beta * min(1.0, 0.5 + self.damping_ratio)
-
-    def _modes(self, model: Any) -> tuple[float, float]:
-        """ω₁ and ω_max (rad/s) of ``model``'s straight chain (its stiffness and masses)."""
-        mj, data = self._mj, self._scratch
-        mj.mj_resetData(model, data)
-        mj.mj_forward(model, data)
-        mass = np.zeros((model.nv, model.nv))
-        mj.mj_fullM(model, data, mass)
-        mass[np.diag_indices(model.nv)] -= model.dof_armature  # the links' own inertia
-        return bending_modes(mass, model.jnt_stiffness[model.dof_jntid])
-
-    def _check_timestep(self, model: Any, context: str) -> None:
-        """Refuse a physics timestep beyond :meth:`stable_timestep` of ``model``, naming the
-        arguments (``context``: the randomised robot it is about, if any)."""
-        limit = self.stable_timestep(model)
-        if self.physics_timestep <= limit:
-            return
-        raise ValueError(
-            f"physics_timestep={self.physics_timestep!r} s is too long for "
-            f"damping_ratio={self.damping_ratio!r} with integrator={self.integrator!r}"
-            f"{context}: the step diverges; stable up to {limit:.3g} s (see "
-            f"MuJoCoBackend.stable_timestep): use a physics_timestep <= {limit:.3g} s that "
-            f"divides control_timestep={self.control_timestep!r} s, or "
-            + ("integrator='Euler'" if self.integrator == "RK4" else "a larger damping_ratio")
-        )
-
-    def check_randomization(self, ranges: dict[str, tuple[float, float]]) -> None:
-        """Refuse, when the env is made, ``randomize`` ranges (name → (low, high)) whose
-        extreme robots this backend cannot simulate: the heaviest ``tip_payload`` on the
-        softest robot must be held under gravity (``check_tip_payload``, as the constructor's
-        ``tip_payload``), and the stiffest, lightest robot (highest ``youngs_modulus``, lowest
-        payload) must be stable at ``physics_timestep`` (:meth:`stable_timestep`).
-
-        Raises:
-            ValueError: naming ``randomize[<name>]``, the range and the reason.
-        """
-        e0 = self.params.youngs_modulus
-        e_low, e_high = ranges.get("youngs_modulus", (e0, e0))
-        p_low, p_high = ranges.get("tip_payload", (self.tip_payload, self.tip_payload))
-        gravity = self.gravity or ranges.get("gravity", (0.0, 0.0))[1] > 0.0
-        named = " and ".join(
-            f"randomize[{k!r}]={list(ranges[k])}"
-            for k in ("youngs_modulus", "tip_payload")
-            if k in ranges
-        )
-        if not named:
-            return
-
-        def robot(youngs: float, payload: float) -> Any:
-            model = copy.copy(self.model)
-            model.jnt_stiffness[:] = self._nominal_stiffness * (youngs / e0)
-            self._set_payload(model, payload)
-            model.opt.gravity[:] = self.gravity_in_base if gravity else 0.0
-            return model
-
-        if "tip_payload" in ranges or "youngs_modulus" in ranges:
-            heavy = robot(e_low, p_high)
-            try:
-                check_tip_payload(
-                    p_high,
-                    self.params,
-                    gravity,
-                    lambda t: self._solve_static(heavy, self._scratch, t, relaxations=(1.0,)),
-                )
-            except ValueError as exc:
-                raise ValueError(
-                    f"{named}: at the range's extreme (youngs_modulus={e_low!r} Pa, "
-                    f"tip_payload={p_high!r} kg): {exc}; narrow the range"
-                ) from None
-        stiff = robot(e_high, p_low)
-        self._check_timestep(
-            stiff,
-            f" and {named} (the stiffest robot: youngs_modulus={e_high!r} Pa, "
-            f"tip_payload={p_low!r} kg)",
-        )
-
     def _check_open(self) -> None:
         if self._closed:
             raise RuntimeError("this MuJoCoBackend is closed")
@@ -631,157 +539,6 @@ class MuJoCoBackend(ObstacleScene, Backend):
             for i in range(self.num_robots):
                 self._check_state(i)
                 self._sense(i)
-
-    # -- displacement drives -------------------------------------------------------------------
-    def enable_displacement_control(self) -> None:
-        """Build the displacement drives (module docstring) now rather than at the first
-        :meth:`apply_displacements`, so that a drive this backend cannot run is refused at
-        once (the env calls it at construction in a displacement action mode).
-
-        Raises:
-            ValueError: for ``integrator="RK4"``, an infinite ``tendon_stiffness`` (MuJoCo
-                needs a finite spring), or drives that would make the step unstable at this
-                ``physics_timestep`` (:meth:`drive_stability` >= 1).
-        """
-        self._check_open()
-        if self._drives:
-            return
-        p = self.params
-        if self.integrator == "RK4":
-            raise ValueError(
-                "integrator='RK4' cannot run displacement commands on the MuJoCo backend (the "
-                "drives' stiff tendons need implicit tendon damping: use 'Euler', "
-                "'implicitfast' or 'implicit')"
-            )
-        k = np.asarray(p.cable_stiffness)
-        if not np.isfinite(k).all():
-            raise ValueError(
-                f"tendon_stiffness must be finite (N/m) for displacement commands on the MuJoCo "
-                f"backend, got {p.tendon_stiffness!r} (use a large finite k, e.g. 1e6, for a "
-                f"nearly inextensible tendon)"
-            )
-        self._drives = True
-        self._rebuild(self._has_segments, self.n_obstacles)
-        rho = self.drive_stability()
-        if not rho < 1.0:
-            raise ValueError(
-                f"tendon_stiffness={p.tendon_stiffness!r} N/m with physics_timestep="
-                f"{self.physics_timestep!r} s makes the MuJoCo step unstable (spectral radius "
-                f"{rho:.4f} of the linearised step with taut drives, >= 1); use a smaller "
-                f"physics_timestep or a larger damping_ratio"
-            )
-
-    def drive_stability(self) -> float:
-        """Spectral radius of one physics step of the straight robot (nominal model) with
-        every drive taut, linearised: v⁺ = v + h·(M + hD)⁻¹·(−K·x − D·v), x⁺ = x + h·v⁺ with
-        K = K_joints + Jᵀ·diag(k)·J (J the cables' tendon Jacobian) and D = β·K_joints +
-        γ·Jᵀ·diag(k)·J (the joints' damping and the drives' tendon damping, both implicit in
-        ``implicitfast``). < 1: stable (tension stiffening, gravity and contacts ignored)."""
-        mj, model, data = self._mj, self.model, self._scratch
-        mj.mj_resetData(model, data)
-        mj.mj_forward(model, data)
-        nv = model.nv
-        mass = np.zeros((nv, nv))
-        mj.mj_fullM(model, data, mass)
-        jac = mj_friction.dense_tendon_jacobian(data, self._jac_index[0], self.params.n_cables, nv)
-        k = np.asarray(self.params.cable_stiffness)
-        drives = jac.T @ (k[:, None] * jac)
-        stiffness = np.diag(self._stiffness) + drives
-        h = model.opt.timestep
-        damping = self.damping_time * np.diag(self._stiffness) + h * drives
-        b = np.linalg.inv(mass + h * damping)
-        eye = np.eye(nv)
-        v_from_x, v_from_v = -h * b @ stiffness, eye - h * b @ damping
-        step = np.block([[eye + h * v_from_x, h * v_from_v], [v_from_x, v_from_v]])
-        return float(np.max(np.abs(np.linalg.eigvals(step))))
-
-    def _set_drive_damping(self, on: bool) -> None:
-        """The drives' tendon damping γ·k (γ = physics timestep, module docstring) on every
-        model, or 0."""
-        damping = self.physics_timestep * np.asarray(self.params.cable_stiffness) if on else 0.0
-        seen: set[int] = set()
-        for model in [self.model, *self._models]:
-            if id(model) not in seen:
-                seen.add(id(model))
-                model.tendon_damping[self._cable_ids] = damping
-
-    def _release_drives(self) -> None:
-        """Tension commands: the drives' force clamped to exactly 0, their damping off."""
-        if self._driving:
-            for data in self._datas:
-                data.ctrl[self._drive_slice] = RELEASED
-            self._set_drive_damping(False)
-            self._driving = False
-        self._drive_state = None
-
-    def _drive_law(
-        self, displacements: np.ndarray, lengths: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(tensions, slack, saturated) of the drives' law at tendon lengths ``lengths`` m
-        (``backends.base.drive_tensions`` with finite k, inlined: it runs every step)."""
-        k, t0, t_max = self._drive_constants
-        raw = t0 + k * (displacements - (self._straight - lengths))
-        return np.clip(raw, 0.0, t_max), raw <= 0.0, raw > t_max
-
-    def apply_displacements(self, displacements: np.ndarray) -> None:
-        """Hold drive displacements ``displacements`` (N, C) m for one control step
-        (``n_substeps`` MuJoCo steps; the drives evaluate the law at every physics step, the
-        module docstring). The first call builds the drives
-        (:meth:`enable_displacement_control`). :meth:`read`'s tensions are the law at the
-        tendons' lengths after the step (exactly 0 N for a slack tendon), :attr:`drive_state`
-        says which are slack or saturated.
-
-        Raises:
-            ValueError: naming ``displacements`` for a wrong shape or non-finite values.
-            SimulationDivergedError: as :meth:`apply_tensions`.
-        """
-        self._check_open()
-        n, c = self.num_robots, self.params.n_cables
-        if (
-            type(displacements) is np.ndarray
-            and displacements.shape == (n, c)
-            and np.isfinite(displacements).all()
-        ):
-            d = displacements.astype(np.float64)  # a copy
-        else:
-            d = validation.real_array(displacements, "displacements", (n, c)).copy()
-        if not self._drives:
-            self.enable_displacement_control()
-        if not self._driving:
-            self._set_drive_damping(True)
-            self._driving = True
-        self._displacements = d
-        self.time += self.control_timestep
-        n_pull, drive = self._n_pull, self._drive_slice
-        for data, row in zip(self._datas, d):
-            data.ctrl[:n_pull] = 0.0
-            data.ctrl[drive] = row
-        if self._rough:
-            self._step_with_friction(self._tensions.copy(), d)
-            for i in range(n):
-                self._check_state(i)
-        elif self.threads is None:
-            for i, data in enumerate(self._datas):
-                self._advance(self._models[i], data, self.n_substeps)
-                self._check_state(i)
-                self._sense(i)
-        else:
-            self._rollout_step()
-            for i in range(n):
-                self._check_state(i)
-                self._sense(i)
-        tensions, slack, saturated = self._drive_law(d, self._lengths)
-        self._tensions = tensions
-        self._drive_state = DriveState(d.copy(), slack, saturated)
-
-    @property
-    def drive_state(self) -> DriveState | None:
-        return self._drive_state
-
-    @property
-    def straight_cable_lengths(self) -> np.ndarray:
-        """The cables' tendon lengths (C,) m at the straight pose (L0 of the drives)."""
-        return self._straight.copy()
 
     def _advance(self, model: Any, data: Any, n_steps: int) -> None:
         """``n_steps`` MuJoCo steps of one robot, leaving ``data`` with the position and

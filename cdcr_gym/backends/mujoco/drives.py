@@ -1,0 +1,182 @@
+"""Tendon displacement drives of a :class:`~cdcr_gym.backends.mujoco.backend.MuJoCoBackend`.
+
+:class:`TendonDrives` holds the backend's ``apply_displacements`` and what it needs (a base class
+of the backend; not used on its own). Each cable's drive is a ``general`` actuator on its
+tendon with force −clip(T0 + k·(d − (L0 − L)), 0, T_max): gain −k on the command d (m), bias
+k·L0 − T0 and −k·L (L the tendon length, L0 at the straight pose), force range [−T_max, 0] — the
+one-sided clamp is the slack tendon, the upper one the saturation (``cdcr_gym.model.tendons``).
+The drives' tendons get damping γ·k (γ = the physics timestep) and the step the
+``implicitfast`` integrator, which treats that damping implicitly: the stiff spring stays stable.
+Tension commands release the drives (force exactly 0, damping off).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from cdcr_gym import validation
+from cdcr_gym.backends.base import DriveState
+from cdcr_gym.backends.mujoco import friction as mj_friction
+
+__all__ = ["RELEASED", "TendonDrives"]
+
+#: The drives' control while released: far below any slack point, so the force is exactly 0.
+RELEASED = -1.0e3
+
+
+class TendonDrives:
+    """The displacement-drive part of :class:`~cdcr_gym.backends.mujoco.backend.MuJoCoBackend`."""
+
+    _drive_state: DriveState | None
+
+    def enable_displacement_control(self: Any) -> None:
+        """Build the displacement drives (module docstring) now rather than at the first
+        :meth:`apply_displacements`, so that a drive this backend cannot run is refused at
+        once (the env calls it at construction in a displacement action mode).
+
+        Raises:
+            ValueError: for ``integrator="RK4"``, an infinite ``tendon_stiffness`` (MuJoCo
+                needs a finite spring), or drives that would make the step unstable at this
+                ``physics_timestep`` (:meth:`drive_stability` >= 1).
+        """
+        self._check_open()
+        if self._drives:
+            return
+        p = self.params
+        if self.integrator == "RK4":
+            raise ValueError(
+                "integrator='RK4' cannot run displacement commands on the MuJoCo backend (the "
+                "drives' stiff tendons need implicit tendon damping: use 'Euler', "
+                "'implicitfast' or 'implicit')"
+            )
+        k = np.asarray(p.cable_stiffness)
+        if not np.isfinite(k).all():
+            raise ValueError(
+                f"tendon_stiffness must be finite (N/m) for displacement commands on the MuJoCo "
+                f"backend, got {p.tendon_stiffness!r} (use a large finite k, e.g. 1e6, for a "
+                f"nearly inextensible tendon)"
+            )
+        self._drives = True
+        self._rebuild(self._has_segments, self.n_obstacles)
+        rho = self.drive_stability()
+        if not rho < 1.0:
+            raise ValueError(
+                f"tendon_stiffness={p.tendon_stiffness!r} N/m with physics_timestep="
+                f"{self.physics_timestep!r} s makes the MuJoCo step unstable (spectral radius "
+                f"{rho:.4f} of the linearised step with taut drives, >= 1); use a smaller "
+                f"physics_timestep or a larger damping_ratio"
+            )
+
+    def drive_stability(self: Any) -> float:
+        """Spectral radius of one physics step of the straight robot (nominal model) with
+        every drive taut, linearised: v⁺ = v + h·(M + hD)⁻¹·(−K·x − D·v), x⁺ = x + h·v⁺ with
+        K = K_joints + Jᵀ·diag(k)·J (J the cables' tendon Jacobian) and D = β·K_joints +
+        γ·Jᵀ·diag(k)·J (the joints' damping and the drives' tendon damping, both implicit in
+        ``implicitfast``). < 1: stable (tension stiffening, gravity and contacts ignored)."""
+        mj, model, data = self._mj, self.model, self._scratch
+        mj.mj_resetData(model, data)
+        mj.mj_forward(model, data)
+        nv = model.nv
+        mass = np.zeros((nv, nv))
+        mj.mj_fullM(model, data, mass)
+        jac = mj_friction.dense_tendon_jacobian(data, self._jac_index[0], self.params.n_cables, nv)
+        k = np.asarray(self.params.cable_stiffness)
+        drives = jac.T @ (k[:, None] * jac)
+        stiffness = np.diag(self._stiffness) + drives
+        h = model.opt.timestep
+        damping = self.damping_time * np.diag(self._stiffness) + h * drives
+        b = np.linalg.inv(mass + h * damping)
+        eye = np.eye(nv)
+        v_from_x, v_from_v = -h * b @ stiffness, eye - h * b @ damping
+        step = np.block([[eye + h * v_from_x, h * v_from_v], [v_from_x, v_from_v]])
+        return float(np.max(np.abs(np.linalg.eigvals(step))))
+
+    def _set_drive_damping(self: Any, on: bool) -> None:
+        """The drives' tendon damping γ·k (γ = physics timestep, module docstring) on every
+        model, or 0."""
+        damping = self.physics_timestep * np.asarray(self.params.cable_stiffness) if on else 0.0
+        seen: set[int] = set()
+        for model in [self.model, *self._models]:
+            if id(model) not in seen:
+                seen.add(id(model))
+                model.tendon_damping[self._cable_ids] = damping
+
+    def _release_drives(self: Any) -> None:
+        """Tension commands: the drives' force clamped to exactly 0, their damping off."""
+        if self._driving:
+            for data in self._datas:
+                data.ctrl[self._drive_slice] = RELEASED
+            self._set_drive_damping(False)
+            self._driving = False
+        self._drive_state = None
+
+    def _drive_law(
+        self: Any, displacements: np.ndarray, lengths: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(tensions, slack, saturated) of the drives' law at tendon lengths ``lengths`` m
+        (``backends.base.drive_tensions`` with finite k, inlined: it runs every step)."""
+        k, t0, t_max = self._drive_constants
+        raw = t0 + k * (displacements - (self._straight - lengths))
+        return np.clip(raw, 0.0, t_max), raw <= 0.0, raw > t_max
+
+    def apply_displacements(self: Any, displacements: np.ndarray) -> None:
+        """Hold drive displacements ``displacements`` (N, C) m for one control step
+        (``n_substeps`` MuJoCo steps; the drives evaluate the law at every physics step, the
+        module docstring). The first call builds the drives
+        (:meth:`enable_displacement_control`). :meth:`read`'s tensions are the law at the
+        tendons' lengths after the step (exactly 0 N for a slack tendon), :attr:`drive_state`
+        says which are slack or saturated.
+
+        Raises:
+            ValueError: naming ``displacements`` for a wrong shape or non-finite values.
+            SimulationDivergedError: as :meth:`apply_tensions`.
+        """
+        self._check_open()
+        n, c = self.num_robots, self.params.n_cables
+        if (
+            type(displacements) is np.ndarray
+            and displacements.shape == (n, c)
+            and np.isfinite(displacements).all()
+        ):
+            d = displacements.astype(np.float64)  # a copy
+        else:
+            d = validation.real_array(displacements, "displacements", (n, c)).copy()
+        if not self._drives:
+            self.enable_displacement_control()
+        if not self._driving:
+            self._set_drive_damping(True)
+            self._driving = True
+        self._displacements = d
+        self.time += self.control_timestep
+        n_pull, drive = self._n_pull, self._drive_slice
+        for data, row in zip(self._datas, d):
+            data.ctrl[:n_pull] = 0.0
+            data.ctrl[drive] = row
+        if self._rough:
+            self._step_with_friction(self._tensions.copy(), d)
+            for i in range(n):
+                self._check_state(i)
+        elif self.threads is None:
+            for i, data in enumerate(self._datas):
+                self._advance(self._models[i], data, self.n_substeps)
+                self._check_state(i)
+                self._sense(i)
+        else:
+            self._rollout_step()
+            for i in range(n):
+                self._check_state(i)
+                self._sense(i)
+        tensions, slack, saturated = self._drive_law(d, self._lengths)
+        self._tensions = tensions
+        self._drive_state = DriveState(d.copy(), slack, saturated)
+
+    @property
+    def drive_state(self: Any) -> DriveState | None:
+        return self._drive_state
+
+    @property
+    def straight_cable_lengths(self: Any) -> np.ndarray:
+        """The cables' tendon lengths (C,) m at the straight pose (L0 of the drives)."""
+        return self._straight.copy()
