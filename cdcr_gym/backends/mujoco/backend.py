@@ -39,8 +39,6 @@ import numpy as np
 
 from cdcr_gym import validation
 from cdcr_gym.backends.base import (
-    MAX_JOINT_ANGLE,
-    MAX_JOINT_RATE,
     Backend,
     DriveState,
     Readings,
@@ -51,6 +49,7 @@ from cdcr_gym.backends.mujoco.drives import RELEASED, TendonDrives
 from cdcr_gym.backends.mujoco.limits import StabilityLimits
 from cdcr_gym.backends.mujoco.mjcf import JOINTS, MJCFModel, build_mjcf
 from cdcr_gym.backends.mujoco.obstacles import ObstacleScene
+from cdcr_gym.backends.mujoco.statics import StaticSolve
 from cdcr_gym.model import friction
 from cdcr_gym.model.discrete import (
     ROUTINGS,
@@ -83,7 +82,7 @@ def _mujoco() -> Any:
     return mujoco
 
 
-class MuJoCoBackend(ObstacleScene, TendonDrives, StabilityLimits, Backend):
+class MuJoCoBackend(ObstacleScene, TendonDrives, StabilityLimits, StaticSolve, Backend):
     """``num_robots`` CDCRs simulated by MuJoCo (see the module docstring and ``mjcf``).
 
     Args:
@@ -414,71 +413,6 @@ class MuJoCoBackend(ObstacleScene, TendonDrives, StabilityLimits, Backend):
                 return t
         return self._check_tensions(tensions, self.num_robots)
 
-    # -- statics --------------------------------------------------------------------------------
-    def _solve_static(
-        self,
-        model: Any,
-        data: Any,
-        tensions: np.ndarray,
-        tol: float = 1e-13,
-        max_iter: int = 1000,
-        relaxations: tuple[float, ...] = (1.0, 0.5, 0.25),
-    ) -> bool:
-        """Put ``data`` at the static equilibrium of ``model`` under ``tensions`` (C,) N.
-
-        The fixed point q ← q ⊕ ω·K⁻¹·(τ_cable(q) + τ_passive(q) − τ_gravity(q)) from the
-        straight pose (bullet's iteration, in MuJoCo's generalized forces; ⊕ MuJoCo's position
-        integration, which handles the ball joints' quaternions), to max |K⁻¹·τ| < ``tol`` rad.
-        With ω = 1 it converges when the cable and gravity load stiffnesses are a fraction of K;
-        where they are not (tdcr2 with gravity and every cable near max_tension: the plain
-        iteration oscillates although the dynamics settle) it is restarted with the smaller
-        relaxation factors ω of ``relaxations`` (``max_iter``/ω iterations each). Every ω has the
-        same fixed point, the state the dynamics settle to, so a case the plain iteration solves
-        gives the same bits. Returns whether it converged.
-        """
-        mj = self._mj
-        k_inv = 1.0 / model.jnt_stiffness[model.dof_jntid]
-        step = np.empty(model.nv)
-        for omega in relaxations:
-            data.qpos[:] = model.qpos0
-            data.qvel[:] = 0.0
-            data.act[:] = 0.0
-            data.ctrl[:] = 0.0
-            data.ctrl[: self._n_pull] = tensions
-            data.ctrl[self._drive_slice] = RELEASED
-            for _ in range(int(max_iter / omega)):
-                mj.mj_forward(model, data)
-                np.subtract(data.qfrc_actuator + data.qfrc_passive, data.qfrc_bias, out=step)
-                step *= k_inv
-                size = np.max(np.abs(step))
-                if not size <= MAX_JOINT_ANGLE:  # NaN too
-                    break
-                mj.mj_integratePos(model, data.qpos, step, omega)
-                if size < tol:
-                    mj.mj_forward(model, data)
-                    return True
-        return False
-
-    def static_equilibrium(self, tensions: np.ndarray, index: int = 0) -> np.ndarray:
-        """Joint positions ``qpos`` of robot ``index``'s static equilibrium under ``tensions``
-        (C,) N (MuJoCo's qpos layout: 4 per ball joint, 2 per Cardan joint).
-
-        Raises:
-            SimulationDivergedError: if no equilibrium is found.
-        """
-        t = self._check_tensions(tensions, 1)[0]
-        data = self._scratch
-        model = self._models[index]
-        if not self._solve_static(model, data, t):
-            raise self._diverged(
-                "no static equilibrium found: the cables' destabilising load stiffness exceeds "
-                "the joint stiffness; use more disks, more links_per_span or lower tensions",
-                data,
-                t,
-                0.0,
-            )
-        return data.qpos.copy()
-
     # -- Backend API ----------------------------------------------------------------------------
     def reset(self, tensions: np.ndarray, mask: np.ndarray | None = None) -> None:
         """Rest every robot of ``mask`` (all if None) in its static equilibrium under its row of
@@ -675,63 +609,6 @@ class MuJoCoBackend(ObstacleScene, TendonDrives, StabilityLimits, Backend):
             for d in self._datas
         ]
 
-    def _check_state(self, i: int) -> None:
-        """Raise :class:`SimulationDivergedError` if robot i's state is non-finite, a joint is
-        bent beyond ``MAX_JOINT_ANGLE``, the joint-rate vector is longer than
-        ``MAX_JOINT_RATE``, a cable's length is beyond every shape's (a section bent past 180°:
-        |l_i − L_i| > π r_i m_i, the observation's bound), or MuJoCo reported a bad
-        acceleration (it then resets the data)."""
-        qpos, qvel, warning = self._views[i][:3]
-        rate2 = qvel.dot(qvel)  # NaN fails the comparisons below
-        lengths = self._views[i][5][self._cable_ids]
-        if (
-            warning.number > 0
-            or not rate2 <= MAX_JOINT_RATE * MAX_JOINT_RATE
-            or not self._max_joint_angle(qpos) <= MAX_JOINT_ANGLE
-            or not np.all(np.abs(lengths - self._run_lengths) <= self._length_reach)
-        ):
-            data = self._datas[i]
-            if warning.number > 0:
-                why = "MuJoCo reported a bad acceleration"
-            elif not rate2 <= MAX_JOINT_RATE * MAX_JOINT_RATE:
-                why = f"a joint turns faster than {MAX_JOINT_RATE:g} rad/s"
-            elif not self._max_joint_angle(qpos) <= MAX_JOINT_ANGLE:
-                why = f"a joint is bent beyond {math.degrees(MAX_JOINT_ANGLE):g}°"
-            else:
-                why = "a section is bent past 180° (a cable length beyond every shape's)"
-            raise self._diverged(
-                f"the simulation diverged: {why}", data, self._tensions[i], float(self.time[i])
-            )
-
-    def _max_joint_angle(self, q: np.ndarray) -> float:
-        """Largest joint angle (rad) of joint positions ``q``: the ball joints' rotation angles,
-        the hinges' angles (inf for a non-finite state); a cheap bound first (sum of squares)."""
-        if self.joint == "ball":
-            w = q[0::4]
-            # Σ sin²(angle/2) = n − Σ w² <= 1/2 bounds every angle by 90°
-            if self.n_links - w.dot(w) <= 0.5:
-                return 0.0
-            w_min = float(np.abs(w).min())
-            return 2.0 * math.acos(min(w_min, 1.0)) if math.isfinite(w_min) else math.inf
-        if q.dot(q) <= MAX_JOINT_ANGLE * MAX_JOINT_ANGLE:
-            return 0.0
-        return float(np.abs(q).max())
-
-    def _diverged(
-        self, message: str, data: Any, tensions: np.ndarray, time: float
-    ) -> SimulationDivergedError:
-        state = {
-            "joint_positions": np.array(data.qpos),
-            "joint_velocities": np.array(data.qvel),
-            "tensions": np.array(tensions),
-            "time": time,
-        }
-        return SimulationDivergedError(
-            f"{message} (t = {time:.4f} s, tensions {np.asarray(tensions).tolist()} N, "
-            f"max |q̇| = {np.max(np.abs(data.qvel))} rad/s)",
-            state,
-        )
-
     def read(self) -> Readings:
         self._check_open()
         anchors = self.anchor_tensions if self._report_anchors else None
@@ -742,25 +619,6 @@ class MuJoCoBackend(ObstacleScene, TendonDrives, StabilityLimits, Backend):
             self._tensions.copy(),
             anchors,
         )
-
-    def equilibrium(self, tensions: np.ndarray) -> Readings:
-        """Static equilibria under ``tensions`` (M, C) N of the nominal robot (the constructor's
-        parameters, not a randomised robot's: the interface has no robot index, and so the
-        goals of N batched envs are those of N single envs, as on the analytic backend),
-        without changing the state. The placed spheres are ignored."""
-        self._check_open()
-        t_all = self._check_tensions(tensions)
-        m = t_all.shape[0]
-        tip, direction = np.empty((m, 3)), np.empty((m, 3))
-        lengths = np.empty((m, self.params.n_cables))
-        data, model = self._scratch, self.model
-        for j, t in enumerate(t_all):
-            if not self._solve_static(model, data, t):
-                raise self._diverged("no static equilibrium found", data, t, 0.0)
-            tip[j] = data.site_xpos[self._tip_id]
-            direction[j] = data.site_xmat[self._tip_id, 2::3]
-            lengths[j] = data.ten_length[self._cable_ids]
-        return Readings(tip, direction, lengths, t_all.copy())
 
     def backbone_points(self, index: int = 0) -> np.ndarray:
         """Backbone polyline (2n+1, 3) m in R0: base, then per link its joint and its station

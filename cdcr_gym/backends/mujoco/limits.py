@@ -2,16 +2,19 @@
 
 :class:`StabilityLimits` (a base class of the backend; not used on its own) computes the longest
 stable physics timestep from the chain's bending modes and refuses, at construction or when the
-env is made, timesteps and randomisation ranges the backend cannot run, naming the argument.
+env is made, timesteps and randomisation ranges the backend cannot run, naming the argument; at
+every step it checks the state and raises ``SimulationDivergedError`` saying what diverged.
 """
 
 from __future__ import annotations
 
 import copy
+import math
 from typing import Any
 
 import numpy as np
 
+from cdcr_gym.backends.base import MAX_JOINT_ANGLE, MAX_JOINT_RATE, SimulationDivergedError
 from cdcr_gym.model.discrete import bending_modes
 from cdcr_gym.model.statics import check_tip_payload
 
@@ -109,4 +112,61 @@ class StabilityLimits:
             stiff,
             f" and {named} (the stiffest robot: youngs_modulus={e_high!r} Pa, "
             f"tip_payload={p_low!r} kg)",
+        )
+
+    def _check_state(self: Any, i: int) -> None:
+        """Raise :class:`SimulationDivergedError` if robot i's state is non-finite, a joint is
+        bent beyond ``MAX_JOINT_ANGLE``, the joint-rate vector is longer than
+        ``MAX_JOINT_RATE``, a cable's length is beyond every shape's (a section bent past 180°:
+        |l_i − L_i| > π r_i m_i, the observation's bound), or MuJoCo reported a bad
+        acceleration (it then resets the data)."""
+        qpos, qvel, warning = self._views[i][:3]
+        rate2 = qvel.dot(qvel)  # NaN fails the comparisons below
+        lengths = self._views[i][5][self._cable_ids]
+        if (
+            warning.number > 0
+            or not rate2 <= MAX_JOINT_RATE * MAX_JOINT_RATE
+            or not self._max_joint_angle(qpos) <= MAX_JOINT_ANGLE
+            or not np.all(np.abs(lengths - self._run_lengths) <= self._length_reach)
+        ):
+            data = self._datas[i]
+            if warning.number > 0:
+                why = "MuJoCo reported a bad acceleration"
+            elif not rate2 <= MAX_JOINT_RATE * MAX_JOINT_RATE:
+                why = f"a joint turns faster than {MAX_JOINT_RATE:g} rad/s"
+            elif not self._max_joint_angle(qpos) <= MAX_JOINT_ANGLE:
+                why = f"a joint is bent beyond {math.degrees(MAX_JOINT_ANGLE):g}°"
+            else:
+                why = "a section is bent past 180° (a cable length beyond every shape's)"
+            raise self._diverged(
+                f"the simulation diverged: {why}", data, self._tensions[i], float(self.time[i])
+            )
+
+    def _max_joint_angle(self: Any, q: np.ndarray) -> float:
+        """Largest joint angle (rad) of joint positions ``q``: the ball joints' rotation angles,
+        the hinges' angles (inf for a non-finite state); a cheap bound first (sum of squares)."""
+        if self.joint == "ball":
+            w = q[0::4]
+            # Σ sin²(angle/2) = n − Σ w² <= 1/2 bounds every angle by 90°
+            if self.n_links - w.dot(w) <= 0.5:
+                return 0.0
+            w_min = float(np.abs(w).min())
+            return 2.0 * math.acos(min(w_min, 1.0)) if math.isfinite(w_min) else math.inf
+        if q.dot(q) <= MAX_JOINT_ANGLE * MAX_JOINT_ANGLE:
+            return 0.0
+        return float(np.abs(q).max())
+
+    def _diverged(
+        self: Any, message: str, data: Any, tensions: np.ndarray, time: float
+    ) -> SimulationDivergedError:
+        state = {
+            "joint_positions": np.array(data.qpos),
+            "joint_velocities": np.array(data.qvel),
+            "tensions": np.array(tensions),
+            "time": time,
+        }
+        return SimulationDivergedError(
+            f"{message} (t = {time:.4f} s, tensions {np.asarray(tensions).tolist()} N, "
+            f"max |q̇| = {np.max(np.abs(data.qvel))} rad/s)",
+            state,
         )
