@@ -321,7 +321,9 @@ def run(quick: bool = False) -> dict:  # pragma: no cover (the CLI; tests call t
 
 
 def main(argv: list[str] | None = None) -> None:  # pragma: no cover
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(
+        prog="python -m experiments.dynamics_check", description=__doc__.splitlines()[0]
+    )
     parser.add_argument("--out", type=Path, default=Path("experiments/dynamics/check.json"))
     parser.add_argument("--quick", action="store_true", help="the paper robot only")
     args = parser.parse_args(argv)

@@ -291,7 +291,9 @@ def build_reference() -> dict:
 
 
 def main(argv: list[str] | None = None) -> None:  # pragma: no cover
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(
+        prog="python -m experiments.dynamics_reference", description=__doc__.splitlines()[0]
+    )
     parser.add_argument("--out", type=Path, default=Path("experiments/dynamics/reference.json"))
     args = parser.parse_args(argv)
     ref = build_reference()
