@@ -521,23 +521,11 @@ def _read_cdcr(path: str | Path) -> Measurements:
         labels.append(cell.get("label", ""))
     t_arr = np.array(tensions)
     direction = np.array(dirs)
-    if kind == "d":
-        return Measurements(
-            None,
-            np.array(tips),
-            direction,
-            np.array(sig),
-            np.array(tans) if tans else None,
-            np.array(sig_dir) if tans else None,
-            np.array(lines),
-            tuple(labels),
-            name,
-            displacements=t_arr,
-            timestamps=np.array(times) if times else None,
-        )
-    check_directions(t_arr, direction, np.array(lines), name)
+    displacement = kind == "d"
+    if not displacement:
+        check_directions(t_arr, direction, np.array(lines), name)
     return Measurements(
-        t_arr,
+        None if displacement else t_arr,
         np.array(tips),
         direction,
         np.array(sig),
@@ -547,6 +535,7 @@ def _read_cdcr(path: str | Path) -> Measurements:
         tuple(labels),
         name,
         kind == "m",
+        displacements=t_arr if displacement else None,
         timestamps=np.array(times) if times else None,
     )
 
