@@ -439,26 +439,17 @@ def _fitted_robot(base: RobotParams, values: dict[str, float]) -> RobotParams:
             )
         )
     del owner
-    e = values.get("youngs_modulus", base.youngs_modulus)
+    geometry: dict[str, Any] = dict(
+        sections=tuple(sections),
+        youngs_modulus=values.get("youngs_modulus", base.youngs_modulus),
+        length=None,
+        n_disks=None,
+        cable_radius=None,
+    )
     try:
-        return replace(
-            base,
-            sections=tuple(sections),
-            youngs_modulus=e,
-            length=None,  # type: ignore[arg-type]
-            n_disks=None,  # type: ignore[arg-type]
-            cable_radius=None,
-        )
+        return replace(base, **geometry)
     except ValueError:
-        probe = replace(
-            base,
-            sections=tuple(sections),
-            youngs_modulus=e,
-            length=None,  # type: ignore[arg-type]
-            n_disks=None,  # type: ignore[arg-type]
-            cable_radius=None,
-            max_tension=1e-6,
-        )
+        probe = replace(base, **geometry, max_tension=1e-6)
         limit = max(probe.section_bend_limits) / 1e-6
         return replace(probe, max_tension=0.999 * math.pi / limit)
 
