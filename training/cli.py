@@ -45,7 +45,7 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     ),
     "evaluate": (
         "training.evaluate.agent",
-        "evaluate a run against the analytic-IK oracle",
+        "evaluate a run beside its task's oracle and baselines",
         "train",
     ),
     "sweep": ("training.sweep.tune", "hyperparameter sweep (Ray Tune)", "sweep"),
@@ -69,8 +69,8 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     ),
     "results": ("training.evaluate.results", "markdown tables of evaluated runs", "train"),
     "task-results": (
-        "training.evaluate.task_results",
-        "collect task evaluations into a JSON",
+        "training.evaluate.results",
+        "the same as results (collect evaluations into a JSON with --out)",
         "train",
     ),
     "bench-physics": (

@@ -1,38 +1,35 @@
-"""Evaluate a trained run against the analytic-IK oracle, on fixed-seed goals.
+"""Evaluate a trained run beside its task's oracle and baselines, on fixed-seed episodes.
 
 Usage::
 
     python -m training.evaluate RUN_DIR [--episodes N] [--env-id ID] [--video]
                                 [--model best|final] [--env-kwarg KEY=VALUE ...] [--tag NAME]
 
-Loads the run's best model (``best_model/``; ``final_model/`` with ``--model final`` or the
-config's ``evaluate.model: final``) with its VecNormalize
-statistics, and runs, for every starting state × horizon of the config's ``evaluate`` section
-(default: straight and random starting shapes × 100 and 200 steps), N episodes on goals and
-starting shapes drawn with reset seeds ``evaluate.seed + i`` — the same for every run, model and
-backend. The analytic-IK controller (``cdcr_gym.controllers.AnalyticIKController``) runs on
-exactly the same goals and starts, in the same backend and for the same number of steps.
+One pipeline for every task (Reach, Track, Pose, Obstacle). Loads the run's best model
+(``best_model/``; ``final_model/`` with ``--model final`` or the config's ``evaluate.model:
+final``) with its VecNormalize statistics, and runs, for every starting state × horizon of the
+config's ``evaluate`` section (default: straight and random starting shapes × 100 and 200
+steps), N episodes reset with seeds ``evaluate.seed + i`` — the same for every run, model and
+backend — by :func:`training.run.rollout.run_episodes`. On exactly the same episodes run the
+baselines (:func:`baselines`): the task's oracle (``cdcr_gym.controllers.oracle_for``), on a
+physics backend also closed loop, for a task with obstacles the plain reach IK, and uniform
+random actions (the floor).
 
 Writes ``RUN_DIR/eval.json`` (``RUN_DIR/eval_<tag>.json`` for another env id or env kwargs) and
-figures in ``RUN_DIR/eval/`` (``eval_<tag>/``), and prints a table. The JSON's top-level
-``success_rate``, ``within_1mm``, ``error_mm`` and ``ik`` are the *headline* condition (the first
-starting state and the first horizon, by default: straight start, the training episode length);
-``conditions`` holds every condition in the same layout:
-
-* ``success_rate``: fraction of episodes whose *final* tip error is within the env's
-  ``distance_threshold`` (5 mm by default); ``within_1mm`` likewise at 1 mm;
-* ``error_mm``: ``mean``, ``median``, ``p95``, ``max`` of the final tip error (mm);
-* ``max_error_after_train_horizon_mm`` (horizons longer than the training episode): per episode,
-  the largest error from the training episode length to the end — does the agent hold the goal;
-* ``ik``: the IK controller's ``success_rate``, ``within_1mm``, ``error_mm``, and the distance
-  between the policy's final cable state and the IK solution for the goal —
-  ``cable_length_distance_mm`` (Euclidean over the three cables, mm), ``tension_distance_n``
-  (N) and ``tension_distance_bending_n`` (N, after removing each side's common-mode tension,
-  min_i T_i, which does not bend the CCKA robot).
+figures in ``RUN_DIR/eval/`` (``eval_<tag>/``), and prints a table. The JSON (one shape for every
+task): the run and env, ``task``, ``episodes``, ``seed``, ``train_horizon``,
+``headline_condition`` (the first starting state at the first horizon: by default straight start,
+the training episode length), ``conditions`` (``straight_100steps``, ...: ``initial_state``,
+``horizon`` and one summary per policy — ``policy``, ``oracle``, ``oracle_closed_loop``,
+``reach_ik``, ``random``), the headline condition's summaries again at the top level, the
+``command``, ``figures`` and ``wall_time_s``. A summary is :func:`training.run.metrics.summarize`:
+success rate, final distance statistics (mm), the task's own metrics, and for the policy
+``to_oracle``, the distance of its final cable state from the oracle's on the same episode.
 
 ``--env-id`` evaluates the policy on another backend (sim-to-sim, e.g. a CCKA-trained tension
-policy on ``cdcr_gym/BulletReach-v0``); the IK runs on that backend too. ``--video`` writes an
-an H.264 MP4 (``training.evaluate.video``, ffmpeg from imageio-ffmpeg) of the first few headline episodes.
+policy on ``cdcr_gym/BulletReach-v0``); the baselines run on that backend too. ``--video`` writes
+an H.264 MP4 (``training.evaluate.video``, ffmpeg from imageio-ffmpeg) of the first few headline
+episodes.
 """
 
 from __future__ import annotations
@@ -44,13 +41,13 @@ import re
 import shlex
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 import cdcr_gym  # noqa: F401
-from cdcr_gym.controllers import AnalyticIKController
 from training.evaluate import plots, tables
 from training.evaluate.conditions import condition_name
 from training.evaluate.oracles import plot_paths
@@ -66,26 +63,22 @@ from training.run.config import (
     load_config,
 )
 from training.run.envs import registered_steps
-from training.run.metrics import (
-    error_stats,
-    is_physics,
-    oracle_for,
-    run_task_episodes,
-    summarize,
-    summarize_task,
-    task_name,
-)
+from training.run.metrics import is_physics, oracle_for, summarize, task_name
 from training.run.rollout import (
+    EpisodeSpecs,
     ModelFileError,
+    Rollouts,
     SB3Policy,
     check_env_id,
     make_env,
-    make_specs,
     parse_env_kwarg,
     run_episodes,
 )
 
-__all__ = ["main", "evaluate"]
+__all__ = ["main", "evaluate", "evaluate_policies", "baselines", "print_table", "check_spaces"]
+
+#: episodes whose paths are drawn per condition (Track: target vs tip; Obstacle: the scene)
+PATH_EPISODES = 3
 
 
 def _tag_for(env_id: str, overrides: dict[str, Any]) -> str:
@@ -94,20 +87,76 @@ def _tag_for(env_id: str, overrides: dict[str, Any]) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", "_".join(parts))
 
 
-def _state_distances(
-    tensions: np.ndarray, lengths: np.ndarray, ik_tensions: np.ndarray, ik_lengths: np.ndarray
-) -> dict[str, dict[str, float]]:
+def baselines(env: Any, seed: int) -> dict[str, Any]:
+    """The policies every evaluation runs beside the trained one, on the same episodes, built
+    from ``env``: ``oracle`` (the task's, open loop), ``oracle_closed_loop`` (physics backends
+    only: the open-loop oracle misses there), ``reach_ik`` (a task whose env reports
+    collisions: the plain reach IK, which ignores the obstacles) and ``random`` (uniform random
+    actions drawn from ``seed``: the floor)."""
+    out = {"oracle": oracle_for(env)}
+    if is_physics(env):
+        out["oracle_closed_loop"] = oracle_for(env, "closed_loop")
+    if "collision" in env.unwrapped.task.info_keys():
+        out["reach_ik"] = oracle_for(env, "reach_ik")
+    out["random"] = RandomPolicy.from_env(env, seed)
+    return out
 
-    dl = np.linalg.norm(lengths - ik_lengths, axis=-1)
-    dt = np.linalg.norm(tensions - ik_tensions, axis=-1)
-    bend = tensions - tensions.min(axis=-1, keepdims=True)
-    ik_bend = ik_tensions - ik_tensions.min(axis=-1, keepdims=True)
-    db = np.linalg.norm(bend - ik_bend, axis=-1)
-    return {
-        "cable_length_distance_mm": error_stats(dl, 1000.0),
-        "tension_distance_n": error_stats(dt),
-        "tension_distance_bending_n": error_stats(db),
-    }
+
+def evaluate_policies(
+    env_id: str,
+    env_kwargs: dict[str, Any],
+    policy: Callable[[Any], np.ndarray],
+    *,
+    initial_states: list[str],
+    horizons: list[int],
+    episodes: int,
+    seed: int,
+    train_horizon: int,
+    record: int = 0,
+) -> tuple[str, dict[str, Any], dict[str, dict[str, Rollouts]]]:
+    """Run ``policy`` and the :func:`baselines` on the same episodes in every condition.
+
+    Every condition (starting state × horizon) runs ``episodes`` episodes reset with seeds
+    ``seed + i`` in ``make_env(env_id, {**env_kwargs, "initial_state": state},
+    max(horizon, train_horizon))`` for ``horizon`` steps.
+
+    Returns:
+        ``(task, conditions, rollouts)``: the task's name; per condition name its
+        ``initial_state``, ``horizon`` and one :func:`training.run.metrics.summarize` per
+        policy (``policy`` first); the same conditions' :class:`Rollouts` per policy.
+    """
+    conditions: dict[str, Any] = {}
+    raw: dict[str, dict[str, Rollouts]] = {}
+    task = ""
+    specs = EpisodeSpecs.from_seeds(episodes, seed)
+    for initial_state in initial_states:
+        kwargs = {**env_kwargs, "initial_state": initial_state}
+        for horizon in horizons:
+
+            def env_fn(k: dict[str, Any] = kwargs, h: int = horizon) -> Any:
+                return make_env(env_id, k, max(h, train_horizon))
+
+            probe = env_fn()
+            task = task_name(probe)
+            policies = {"policy": policy, **baselines(probe, seed)}
+            probe.close()
+            runs = {
+                who: run_episodes(env_fn, act, specs, horizon, record=record)
+                for who, act in policies.items()
+            }
+            cond: dict[str, Any] = {"initial_state": initial_state, "horizon": horizon}
+            for who, rollouts in runs.items():
+                reference = runs["oracle"] if who == "policy" else None
+                cond[who] = summarize(task, rollouts, train_horizon, reference)
+            name = condition_name(initial_state, horizon)
+            conditions[name] = cond
+            raw[name] = runs
+    return task, conditions, raw
+
+
+def _jsonable(kwargs: dict[str, Any]) -> dict[str, Any]:
+    plain = (int, float, str, bool, type(None), list, dict)
+    return {k: (v if isinstance(v, plain) else repr(v)) for k, v in kwargs.items()}
 
 
 def evaluate(
@@ -123,7 +172,8 @@ def evaluate(
     seed: int | None = None,
     command: str = "",
 ) -> dict[str, Any]:
-    """Run the evaluation, write JSON + figures, return the result dict."""
+    """Run the evaluation of ``run_dir``'s model, write JSON + figures, return the result dict
+    (the JSON's content and ``_json_path``)."""
     import torch
 
     torch.set_num_threads(config.runtime.torch_threads)
@@ -142,125 +192,48 @@ def evaluate(
     seed = ev.seed if seed is None else seed
     train_horizon = config.env.max_episode_steps or registered_steps(config.env.id)
     probe = make_env(env_id, env_kwargs)
-    if type(probe.unwrapped.task).__name__ != "Reach":
-        probe.close()
-        return _evaluate_task(
-            run_dir, config, policy, episodes, env_id, env_kwargs, tag, seed, model_step, command
-        )
-    params = probe.unwrapped.params
-    threshold = float(probe.unwrapped.task.distance_threshold)
-    ik = AnalyticIKController.from_env(probe)
-
-    # on a physics backend the open-loop IK misses by centimetres: the closed-loop IK beside it
-    closed = AnalyticIKController.from_env(probe, feedback=True) if is_physics(probe) else None
-    action_space = probe.action_space
+    threshold = getattr(probe.unwrapped.task, "distance_threshold", None)
     probe.close()
-
+    task, conditions, raw = evaluate_policies(
+        env_id,
+        env_kwargs,
+        policy,
+        initial_states=list(ev.initial_states),
+        horizons=list(ev.horizons),
+        episodes=episodes,
+        seed=seed,
+        train_horizon=train_horizon,
+        record=min(PATH_EPISODES, episodes),
+    )
     out_json = run_dir / ("eval.json" if tag is None else f"eval_{tag}.json")
     fig_dir = run_dir / ("eval" if tag is None else f"eval_{tag}")
     fig_dir.mkdir(parents=True, exist_ok=True)
-
-    conditions: dict[str, Any] = {}
-    raw: dict[str, Any] = {}
-    for initial_state in ev.initial_states:
-        specs = make_specs(episodes, seed, initial_state, params)
-        ik_tensions, ik_lengths = ik.targets(specs.goals)
-        for horizon in ev.horizons:
-            name = condition_name(initial_state, horizon)
-
-            def env_fn(h: int = horizon) -> Any:
-                return make_env(env_id, env_kwargs, max(h, train_horizon))
-
-            pol = run_episodes(env_fn, policy, specs, horizon)
-            ikr = run_episodes(env_fn, ik.action, specs, horizon)
-            cond: dict[str, Any] = {"initial_state": initial_state, "horizon": horizon}
-            cond.update(summarize(pol.final_distance, threshold))
-            cond["mean_return"] = float(np.mean(pol.returns))
-            if horizon > train_horizon:
-                at = pol.distances[:, train_horizon]
-                cond["error_mm_at_train_horizon"] = error_stats(at, 1000.0)
-                cond["max_error_after_train_horizon_mm"] = error_stats(
-                    pol.distances[:, train_horizon:].max(axis=1), 1000.0
-                )
-            ik_block = summarize(ikr.final_distance, threshold)
-            ik_block.update(
-                _state_distances(pol.final_tensions, pol.final_lengths, ik_tensions, ik_lengths)
-            )
-            cond["ik"] = ik_block
-            if closed is not None:
-                closed_run = run_episodes(env_fn, closed.action, specs, horizon)
-                cond["ik_closed_loop"] = summarize(closed_run.final_distance, threshold)
-            # the floor: uniform random tensions on the same goals (the same draws every run)
-            random_run = run_episodes(env_fn, RandomPolicy(action_space, seed), specs, horizon)
-            cond["random"] = summarize(random_run.final_distance, threshold)
-            conditions[name] = cond
-            raw[name] = (specs, pol, ikr)
-
     headline = condition_name(ev.initial_states[0], ev.horizons[0])
     head = conditions[headline]
     result: dict[str, Any] = {
         "run_dir": str(run_dir),
         "model": str(model_dir / "model.zip"),
         "model_step": model_step,
-        "trained_on": {"env_id": config.env.id, "env_kwargs": config.env.kwargs},
+        "trained_on": {"env_id": config.env.id, "env_kwargs": _jsonable(config.env.kwargs)},
         "env_id": env_id,
-        "env_kwargs": {
-            k: (v if isinstance(v, (int, float, str, bool, type(None), list, dict)) else repr(v))
-            for k, v in env_kwargs.items()
-        },
+        "env_kwargs": _jsonable(env_kwargs),
+        "task": task,
         "episodes": episodes,
         "seed": seed,
-        "distance_threshold_m": threshold,
+        "distance_threshold_m": None if threshold is None else float(threshold),
         "train_horizon": train_horizon,
         "headline_condition": headline,
-        "success_rate": head["success_rate"],
-        "within_1mm": head["within_1mm"],
-        "error_mm": head["error_mm"],
-        "ik": head["ik"],
-        **({"ik_closed_loop": head["ik_closed_loop"]} if closed is not None else {}),
-        "random": head["random"],
+        **{who: s for who, s in head.items() if who not in ("initial_state", "horizon")},
         "conditions": conditions,
         "command": command,
     }
-
-    # -- figures ------------------------------------------------------------------------------
-    specs, pol, ikr = raw[headline]
-    pol_mm, ik_mm = pol.final_distance * 1000.0, ikr.final_distance * 1000.0
-    where = f"{env_id.split('/')[-1]}, {headline}"
-    figures = {
-        "histogram": plots.plot_error_histogram(
-            {f"{config.algo.upper()} policy": pol_mm, "analytic IK": ik_mm},
-            fig_dir / "error_histogram.png",
-            f"final tip error ({where}, {episodes} goals)",
-        ),
-        "workspace": plots.plot_workspace_errors(
-            specs.goals,
-            pol_mm,
-            fig_dir / "workspace_errors.png",
-            f"PPO final error over the workspace ({where})",
-        ),
-        "policy_vs_ik": plots.plot_policy_vs_ik(
-            pol_mm, ik_mm, fig_dir / "policy_vs_ik.png", f"per goal ({where})"
-        ),
-    }
-    longest = max(ev.horizons)
-    curves = {}
-    for s in ev.initial_states:
-        _, p_, i_ = raw[condition_name(s, longest)]
-        curves[f"PPO ({s})"] = p_.distances
-        curves[f"IK ({s})"] = i_.distances
-    figures["error_vs_step"] = plots.plot_error_vs_step(
-        curves,
-        fig_dir / "error_vs_step.png",
-        train_horizon,
-        f"tip error vs step ({env_id.split('/')[-1]}, {episodes} goals)",
-    )
+    figures = _figures(result, raw, fig_dir, config.algo.upper(), list(ev.horizons))
     if video:
         figures["video"] = _write_video(
             env_id,
-            env_kwargs,
+            {**env_kwargs, "initial_state": ev.initial_states[0]},
             policy,
-            specs,
+            EpisodeSpecs.from_seeds(episodes, seed),
             ev.horizons[0],
             ev.video_episodes,
             fig_dir,
@@ -273,73 +246,63 @@ def evaluate(
     return result
 
 
-def _evaluate_task(
-    run_dir: Path,
-    config: ExperimentConfig,
-    policy: Any,
-    episodes: int,
-    env_id: str,
-    env_kwargs: dict[str, Any],
-    tag: str | None,
-    seed: int,
-    model_step: int,
-    command: str,
-) -> dict[str, Any]:
-    """Track, Pose, Obstacle: the task's own metrics for the policy beside its oracle's (and, for
-    Obstacle, the plain reach IK's) on the same episodes, per starting state, at the first
-    horizon (``training.run.metrics``). Writes the JSON and the path figures."""
-
-    ev = config.evaluate
-    horizon = ev.horizons[0]
-    out_json = run_dir / ("eval.json" if tag is None else f"eval_{tag}.json")
-    fig_dir = run_dir / ("eval" if tag is None else f"eval_{tag}")
-    fig_dir.mkdir(parents=True, exist_ok=True)
-    conditions: dict[str, Any] = {}
-    task = ""
-    for initial_state in ev.initial_states:
-        kwargs = {**env_kwargs, "initial_state": initial_state}
-
-        def env_fn(k: dict[str, Any] = kwargs) -> Any:
-            return make_env(env_id, k, horizon)
-
-        probe = env_fn()
-        baselines = {"oracle": oracle_for(probe)}
-        if is_physics(probe):  # the open-loop oracle misses on physics: also closed loop
-            baselines["oracle_closed_loop"] = oracle_for(probe, "closed_loop")
-        task = type(probe.unwrapped.task).__name__
-        if task == "Obstacle":
-            baselines["reach_ik"] = oracle_for(probe, "reach_ik")
-        baselines["random"] = RandomPolicy.from_env(probe, seed)  # the floor
-        probe.close()
-        record = min(3, episodes)
-        runs = {"policy": run_task_episodes(env_fn, policy, episodes, seed, record=record)}
-        for name, baseline in baselines.items():
-            runs[name] = run_task_episodes(env_fn, baseline, episodes, seed, record=record)
-        name = condition_name(initial_state, horizon)
-        conditions[name] = {key: summarize_task(value) for key, value in runs.items()}
-        plot_paths(task, {k: v["paths"] for k, v in runs.items()}, fig_dir / f"{name}_paths.png")
-    headline = conditions[next(iter(conditions))]
-    result = {
-        "run_dir": str(run_dir),
-        "env_id": env_id,
-        "task": task,
-        "env_kwargs": env_kwargs,
-        "episodes": episodes,
-        "seed": seed,
-        "model_step": model_step,
-        "command": command,
-        **headline,
-        "conditions": conditions,
+def _figures(
+    result: dict[str, Any],
+    raw: dict[str, dict[str, Rollouts]],
+    fig_dir: Path,
+    algo: str,
+    horizons: list[int],
+) -> dict[str, Path]:
+    """The figures of an evaluation: final-distance histogram, the policy's errors over the
+    goals, policy vs oracle per episode (headline condition), distance vs step (longest
+    horizon, per starting state), and per condition the paths of the first episodes (Track,
+    Obstacle)."""
+    headline, env = result["headline_condition"], result["env_id"].split("/")[-1]
+    runs = raw[headline]
+    pol_mm = runs["policy"].final_distance * 1000.0
+    orc_mm = runs["oracle"].final_distance * 1000.0
+    where = f"{env}, {headline}"
+    n = result["episodes"]
+    figures = {
+        "histogram": plots.plot_error_histogram(
+            {f"{algo} policy": pol_mm, "oracle": orc_mm},
+            fig_dir / "error_histogram.png",
+            f"final tip error ({where}, {n} episodes)",
+        ),
+        "workspace": plots.plot_workspace_errors(
+            runs["policy"].goals,
+            pol_mm,
+            fig_dir / "workspace_errors.png",
+            f"{algo} final error over the workspace ({where})",
+        ),
+        "policy_vs_oracle": plots.plot_policy_vs_ik(
+            pol_mm, orc_mm, fig_dir / "policy_vs_oracle.png", f"per episode ({where})"
+        ),
     }
-    out_json.write_text(json.dumps(result, indent=2, default=str) + "\n")
-    return result
+    curves = {}
+    for name, cond in result["conditions"].items():
+        if cond["horizon"] == max(horizons):
+            curves[f"{algo} ({cond['initial_state']})"] = raw[name]["policy"].distances
+            curves[f"oracle ({cond['initial_state']})"] = raw[name]["oracle"].distances
+    figures["error_vs_step"] = plots.plot_error_vs_step(
+        curves,
+        fig_dir / "error_vs_step.png",
+        result["train_horizon"],
+        f"tip error vs step ({env}, {n} episodes)",
+    )
+    for name, runs in raw.items():
+        path = fig_dir / f"{name}_paths.png"
+        plot_paths(result["task"], {who: r.paths for who, r in runs.items()}, path)
+        if path.is_file():
+            figures[f"{name}_paths"] = path
+    return figures
 
 
 def _write_video(
     env_id: str,
     env_kwargs: dict[str, Any],
     policy: Any,
-    specs: Any,
+    specs: EpisodeSpecs,
     horizon: int,
     n_episodes: int,
     fig_dir: Path,
@@ -354,9 +317,7 @@ def _write_video(
     frames = []
     try:
         for i in range(min(n_episodes, len(specs))):
-            obs, info = env.reset(
-                options={"goal": specs.goals[i], "initial_tensions": specs.initial_tensions[i]}
-            )
+            obs, info = env.reset(**specs.reset_kwargs(i))
             task = task_name(env)
             frames.append(draw_text(env.render(), caption(0, horizon, info, task)))
             for t in range(horizon):
@@ -372,108 +333,26 @@ def _write_video(
     return write_video(fig_dir / "episodes.mp4", frames, fps=25)
 
 
-def reach_columns(result: dict[str, Any]) -> list[tables.Column]:
-    """The columns of the Reach table: rows are ``(condition name, condition dict)``."""
-    thr = f"{result['distance_threshold_m'] * 1000.0:g}"
-    headline = result["headline_condition"]
-    C = tables.Column
-
-    def err(who: str, stat: str) -> Any:
-        return lambda r: f"{_block(r[1], who)['error_mm'][stat]:.3f}" if _block(r[1], who) else "–"
-
-    def rate(who: str, key: str = "success_rate") -> Any:
-        return lambda r: tables.pct(_block(r[1], who)[key]) if _block(r[1], who) else "–"
-
-    cols = [
-        C(
-            "condition",
-            "starting shape and episode length (* the headline)",
-            lambda r: r[0] + (" *" if r[0] == headline else ""),
-        ),
-        C(
-            f"≤{thr}mm",
-            f"the policy's episodes with a final tip error ≤ {thr} mm (success)",
-            rate("policy"),
-        ),
-        C("≤1mm", "... ≤ 1 mm", rate("policy", "within_1mm")),
-        C("mean", "mean final tip error, mm", err("policy", "mean"), narrow=False),
-        C("median", "median final tip error, mm", err("policy", "median")),
-        C("p95", "95th percentile of the final tip error, mm", err("policy", "p95")),
-        C("max", "largest final tip error, mm", err("policy", "max"), narrow=False),
-        C(
-            f"IK≤{thr}mm",
-            "success of the analytic IK (open loop) on the same goals and starts",
-            rate("ik"),
-        ),
-        C("IK med", "its median final tip error, mm", err("ik", "median")),
-        C("IK p95", "its 95th percentile, mm", err("ik", "p95"), narrow=False),
-        C(
-            "ΔL IK",
-            "median distance of the policy's final cable lengths from the IK solution "
-            "(Euclidean over the cables), mm",
-            lambda r: f"{r[1]['ik']['cable_length_distance_mm']['median']:.3f}",
-            narrow=False,
-        ),
-        C(
-            "ΔT IK",
-            "median distance of the policy's final tensions from the IK solution "
-            "(Euclidean over the cables), N",
-            lambda r: f"{r[1]['ik']['tension_distance_n']['median']:.2f}",
-            narrow=False,
-        ),
-    ]
-    if "ik_closed_loop" in result:
-        cols += [
-            C(
-                f"CL≤{thr}mm",
-                "success of the closed-loop IK (corrected from the measured tip)",
-                rate("ik_closed_loop"),
-                narrow=False,
-            ),
-            C(
-                "CL med",
-                "the closed-loop IK's median final tip error, mm",
-                err("ik_closed_loop", "median"),
-            ),
-        ]
-    cols += [
-        C(
-            f"rnd≤{thr}mm",
-            "success of uniform random tensions (the floor)",
-            rate("random"),
-            narrow=False,
-        ),
-        C(
-            "rnd med",
-            "median final tip error of uniform random tensions, mm",
-            err("random", "median"),
-        ),
-    ]
-    return cols
-
-
-def _block(cond: dict[str, Any], who: str) -> dict[str, Any] | None:
-    """The summary of ``who`` (policy, ik, ik_closed_loop, random) in one condition (None if
-    absent: random is missing in eval.json files written before it was added)."""
-    return cond if who == "policy" else cond.get(who)
-
-
-def _print_table(result: dict[str, Any], wide: bool = False) -> None:
-    columns = reach_columns(result)
+def print_table(result: dict[str, Any], wide: bool = False) -> None:
+    """The evaluation's table: one row per condition and policy (the task's columns,
+    :func:`training.evaluate.tables.task_columns`), a legend under it."""
     print(
         tables.wrap(
-            f"{result['env_id']}: {result['episodes']} goals per condition, model at step "
-            f"{result['model_step']}; every policy on the same goals and starts"
+            f"{result['task']} on {result['env_id']}: {result['episodes']} episodes per "
+            f"condition, model at step {result['model_step']}; every policy on the same episodes"
         )
     )
-    print(tables.text_table(columns, list(result["conditions"].items()), wide))
+    rows = [
+        (name, who, s)
+        for name, cond in result["conditions"].items()
+        for who, s in cond.items()
+        if isinstance(s, dict)
+    ]
+    columns = tables.task_columns(result["task"])
+    print(tables.text_table(columns, rows, wide))
     print(tables.legend(columns, wide))
-    print(
-        tables.wrap(
-            f"wrote {result['_json_path']} and figures "
-            f"{', '.join(Path(p).name for p in result['figures'].values())}"
-        )
-    )
+    if "_json_path" in result:
+        print(tables.wrap(f"wrote {result['_json_path']} and figures in {result['run_dir']}"))
 
 
 def check_spaces(
@@ -497,7 +376,7 @@ def check_spaces(
 def _parse_args(argv: list[str]) -> argparse.Namespace:
     parser = argparse.ArgumentParser(
         prog="cdcr-gym evaluate",
-        description="Evaluate a trained run (best model) against the analytic IK.",
+        description="Evaluate a trained run (best model) beside its task's oracle and baselines.",
     )
     parser.add_argument("run_dir", type=Path, metavar="RUN_DIR", help="a training run directory")
     parser.add_argument(
@@ -618,22 +497,8 @@ def main(argv: list[str] | None = None) -> int:
         seed=args.seed,
         command=command,
     )
-    if "task" in result:
-        _print_task_table(result, args.wide)
-    else:
-        _print_table(result, args.wide)
+    print_table(result, args.wide)
     return 0
-
-
-def _print_task_table(result: dict[str, Any], wide: bool = False) -> None:
-    """One row per condition and policy: success, error and the task's own numbers."""
-    print(f"{result['task']} on {result['env_id']}: {result['episodes']} episodes per condition")
-    rows = [
-        (name, who, s) for name, block in result["conditions"].items() for who, s in block.items()
-    ]
-    columns = tables.task_columns(result["task"])
-    print(tables.text_table(columns, rows, wide))
-    print(tables.legend(columns, wide))
 
 
 if __name__ == "__main__":

@@ -6,8 +6,9 @@ Usage::
                                [--seed 1000000] [--out DIR] [--figures N] [--env-kwarg K=V ...]
 
 Runs the task's oracle (``training.run.metrics.oracle_for``: tracking IK, pose IK, the
-RRT-Connect planner) for ``--episodes`` episodes reset with seeds ``seed + i`` and prints and
-writes its task metrics (``DIR/oracle_<task>_<backend>_<robot>.json``). For the Obstacle task
+RRT-Connect planner) for ``--episodes`` episodes reset with seeds ``seed + i``
+(``training.run.rollout.run_episodes``) and prints and writes its summary
+(``training.run.metrics.summarize``, the same numbers as ``cdcr-gym evaluate``) (``DIR/oracle_<task>_<backend>_<robot>.json``). For the Obstacle task
 the plain reach IK controller runs on the same episodes too (``reach_ik``: how often the direct
 route collides). On the pybullet backend the oracles are open loop (they command the model's
 solution). ``--figures N`` draws the first N episodes: target vs tip paths (Track), scenes with
@@ -30,8 +31,8 @@ import cdcr_gym  # noqa: F401
 from cdcr_gym import controllers
 from training.evaluate import tables
 from training.run.argtypes import non_negative_int, positive_int
-from training.run.metrics import oracle_for, run_task_episodes, summarize_task
-from training.run.rollout import parse_env_kwarg
+from training.run.metrics import oracle_for, summarize, task_name
+from training.run.rollout import EpisodeSpecs, parse_env_kwarg, run_episodes
 
 __all__ = ["main", "run_oracle"]
 
@@ -62,6 +63,10 @@ def run_oracle(
 
     probe = env_fn()
     robot_name = robot or ("tdcr2" if probe.unwrapped.params.n_sections == 2 else "paper")
+    name = task_name(probe)
+    policies = {"oracle": oracle_for(probe)}
+    if "collision" in probe.unwrapped.task.info_keys():  # the direct route: how often it collides
+        policies["reach_ik"] = oracle_for(probe, "reach_ik")
     probe.close()
     out: dict[str, Any] = {
         "env_id": env_id,
@@ -69,27 +74,21 @@ def run_oracle(
         "env_kwargs": {k: v for k, v in kwargs.items() if k != "robot"},
         "seed": seed,
     }
-    t0 = time.perf_counter()
-    metrics = run_task_episodes(env_fn, None, episodes, seed, record=record)
-    out["oracle"] = summarize_task(metrics)
-    out["oracle"]["wall_time_s"] = time.perf_counter() - t0
-    paths = {"oracle": metrics.get("paths", [])}
-    if TASKS[task] == "Obstacle":
-        paths = {"planner": paths["oracle"]}
-    if TASKS[task] == "Obstacle":
-        env = env_fn()
-        ik = oracle_for(env, "reach_ik")
-        env.close()
-        base = run_task_episodes(env_fn, ik, episodes, seed, record=record)
-        out["reach_ik"] = summarize_task(base)
-        paths["reach_ik"] = base.get("paths", [])
+    specs = EpisodeSpecs.from_seeds(episodes, seed)
+    paths = {}
+    for who, policy in policies.items():
+        t0 = time.perf_counter()
+        rollouts = run_episodes(env_fn, policy, specs, record=record)
+        out[who] = summarize(name, rollouts)
+        out[who]["wall_time_s"] = time.perf_counter() - t0
+        paths["planner" if name == "Obstacle" and who == "oracle" else who] = rollouts.paths
     out["_paths"] = paths
     return out
 
 
 def plot_paths(task: str, runs: dict[str, list[dict[str, Any]]], path: Path) -> None:
     """Target vs tip paths (Track) or scenes with tip paths (Obstacle), one panel per episode;
-    ``runs`` maps a policy name to its recorded episodes (``run_task_episodes(record=N)``), the
+    ``runs`` maps a policy name to its recorded episodes (``Rollouts.paths``), the
     first drawn solid, the others dashed, on the same episodes."""
     import matplotlib
 

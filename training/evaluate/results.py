@@ -1,22 +1,33 @@
-"""Markdown tables of evaluated runs, straight from their ``run.json`` and ``eval*.json``.
+"""Tables and a collected JSON of evaluated runs, straight from their ``run.json`` and ``eval*.json``.
 
 Usage::
 
     cdcr-gym results RUN_DIR[:EVAL_NAME] ... [--conditions straight_100steps,...] [--wide]
+                     [--tag TAG] [--out FILE.json] [--figures DIR]
 
 ``EVAL_NAME`` picks the evaluation file (``eval`` = ``eval.json``, the default;
-``eval_BulletReach-v0`` = ``eval_BulletReach-v0.json``). Reach evaluations: one row per run and
-condition, the policy's final-error statistics and the analytic-IK oracle's on the same goals;
-``--wide`` adds the training command's wall time and steps (from ``run.json``) and the remaining
-statistics. Track, Pose and Obstacle evaluations: one table per task, one row per run,
-condition and policy (the trained policy, the task's oracle and the baselines), with the task's
-own numbers. A legend under each table explains its columns.
+``eval_BulletReach-v0`` = ``eval_BulletReach-v0.json``); ``--tag TAG`` picks ``eval_<TAG>.json``
+for every run (an evaluation with ``cdcr-gym evaluate RUN --tag TAG``). Every task reads the same
+way (``cdcr-gym evaluate`` writes one shape; files of before it are read by
+:func:`training.evaluate.conditions.read_eval`): one Markdown table per task, one row per run,
+condition and policy (the trained policy, the task's oracle and the baselines on the same
+episodes) with the task's columns (:func:`training.evaluate.tables.task_columns`); ``--wide``
+adds the training command's wall time and steps (from ``run.json``) and the remaining numbers.
+A legend under each table explains its columns.
+
+``--out FILE.json`` also writes the collected evaluations: per run the task, env id, seed,
+training steps and wall time (s), the evaluate command and its conditions' summaries
+(:func:`collect`; ``cdcr-gym task-results`` is the same command). With ``--figures DIR`` the
+path figures ``RUN/eval/<condition>_paths.png`` are copied to
+``DIR/ppo_<task>_seed<S>_<condition>[_<tag>]_paths.png``.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import shlex
+import shutil
 import sys
 from pathlib import Path
 from typing import Any
@@ -24,120 +35,125 @@ from typing import Any
 from training.evaluate import tables
 from training.evaluate.conditions import canonical_condition, read_eval
 
-__all__ = ["COLUMNS", "records", "task_records", "rows", "main"]
+__all__ = ["ResultsError", "collect", "records", "columns", "main"]
 
 
-def _fmt(x: float) -> str:
-    return f"{x:.3f}" if x < 10 else f"{x:.1f}"
+class ResultsError(ValueError):
+    """A run directory that cannot be read (missing ``run.json`` or evaluation file)."""
 
 
-def _err(who: str, stat: str) -> Any:
-    return lambda r: _fmt((r["cond"] if who == "policy" else r["cond"][who])["error_mm"][stat])
-
-
-def _pct(key: str, who: str = "policy") -> Any:
-    return lambda r: tables.pct((r["cond"] if who == "policy" else r["cond"][who])[key])
-
-
-C = tables.Column
-#: the columns; a record (:func:`records`) has run, env, wall, steps, name, cond (one condition)
-COLUMNS = [
-    C("run", "the run directory", lambda r: r["run"]),
-    C("on", "the env evaluated on (and env kwargs that differ from training)", lambda r: r["env"]),
-    C("condition", "starting shape and episode length", lambda r: r["name"]),
-    C("train time", "the training command's wall time", lambda r: r["wall"], narrow=False),
-    C("steps", "training env steps", lambda r: r["steps"], narrow=False),
-    C(
-        "≤5mm",
-        "the policy's episodes with a final tip error within the success threshold (5 mm unless "
-        "the env sets another)",
-        _pct("success_rate"),
-    ),
-    C("≤1mm", "... within 1 mm", _pct("within_1mm"), narrow=False),
-    C("mean", "mean final tip error, mm", _err("policy", "mean"), narrow=False),
-    C("median", "median final tip error, mm", _err("policy", "median")),
-    C("p95", "95th percentile of the final tip error, mm", _err("policy", "p95")),
-    C("max", "largest final tip error, mm", _err("policy", "max"), narrow=False),
-    C(
-        "IK ≤5mm",
-        "success of the analytic IK on the same goals and starts",
-        _pct("success_rate", "ik"),
-        narrow=False,
-    ),
-    C(
-        "IK med",
-        "the analytic IK's median final tip error on the same goals, mm",
-        _err("ik", "median"),
-    ),
-    C("IK p95", "its 95th percentile, mm", _err("ik", "p95"), narrow=False),
-    C("IK max", "its largest error, mm", _err("ik", "max"), narrow=False),
-    C(
-        "ΔL IK",
-        "median distance of the policy's final cable lengths from the IK solution (Euclidean "
-        "over the cables), mm",
-        lambda r: f"{r['cond']['ik']['cable_length_distance_mm']['median']:.3f}",
-        narrow=False,
-    ),
-]
+def _paths(run_dir: Path, eval_name: str) -> tuple[Path, Path]:
+    ev_path, meta_path = run_dir / f"{eval_name}.json", run_dir / "run.json"
+    for path in (meta_path, ev_path):
+        if not path.is_file():
+            raise ResultsError(f"RUN_DIR {str(run_dir)!r}: {path.name} does not exist")
+    return ev_path, meta_path
 
 
 def records(
     run_dir: Path, eval_name: str = "eval", conditions: list[str] | None = None
-) -> list[dict[str, Any]]:
-    """One record per condition of one run's evaluation file (see :data:`COLUMNS`)."""
-    meta: dict[str, Any] = json.loads((run_dir / "run.json").read_text())
-    data: dict[str, Any] = read_eval(run_dir / f"{eval_name}.json")
-    wall = meta.get("total_wall_time_s")
-    steps = meta.get("total_steps")
-    env = data["env_id"].split("/")[-1]
-    trained = data["trained_on"]["env_kwargs"]
-    overrides = {k: v for k, v in data["env_kwargs"].items() if trained.get(k) != v}
-    if overrides:
+) -> tuple[str, list[tuple[str, str, dict[str, Any], dict[str, str]]]]:
+    """The task and the table rows of one run's evaluation file: ``(run and condition, policy,
+    summary, run facts)``, the facts being ``on`` (the env evaluated on, with the env kwargs
+    that differ from training), ``wall`` and ``steps`` (training, from ``run.json``)."""
+    ev_path, meta_path = _paths(run_dir, eval_name)
+    meta: dict[str, Any] = json.loads(meta_path.read_text())
+    data = read_eval(ev_path)
+    wall, steps = meta.get("total_wall_time_s"), meta.get("total_steps")
+    env = str(data.get("env_id", "?")).split("/")[-1]
+    trained = (data.get("trained_on") or {}).get("env_kwargs") or {}
+    overrides = {k: v for k, v in (data.get("env_kwargs") or {}).items() if trained.get(k) != v}
+    if overrides and trained:
         env += " " + ", ".join(f"{k}={v}" for k, v in overrides.items())
+    facts = {
+        "on": env,
+        "wall": f"{wall / 60:.1f} min" if wall is not None else "?",
+        "steps": f"{steps:,}" if steps is not None else "?",
+    }
     wanted = {canonical_condition(c) for c in conditions} if conditions else None
-    return [
-        {
-            "run": run_dir.name,
-            "env": env,
-            "wall": f"{wall / 60:.1f} min" if wall is not None else "?",
-            "steps": f"{steps:,}" if steps is not None else "?",
-            "name": name,
-            "cond": cond,
-        }
+    rows = [
+        (f"{run_dir.name} {name}", who, summary, facts)
         for name, cond in data["conditions"].items()
         if wanted is None or name in wanted
+        for who, summary in cond.items()
+        if isinstance(summary, dict)
+    ]
+    return str(data["task"]), rows
+
+
+def columns(task: str) -> list[tables.Column]:
+    """The columns of one task's table (rows of :func:`records`)."""
+    C = tables.Column
+    cols = tables.task_columns(task, ("run", "the run directory and condition"))
+    return [
+        cols[0],
+        C(
+            "on",
+            "the env evaluated on (and env kwargs that differ from training)",
+            lambda r: r[3]["on"],
+            narrow=False,
+        ),
+        C("train time", "the training command's wall time", lambda r: r[3]["wall"], narrow=False),
+        C("steps", "training env steps", lambda r: r[3]["steps"], narrow=False),
+        *cols[1:],
     ]
 
 
-def task_records(
-    run_dir: Path, eval_name: str = "eval", conditions: list[str] | None = None
-) -> tuple[str, list[tuple[str, str, dict[str, Any]]]]:
-    """The task and the rows ``(run condition, policy, summary)`` of a Track/Pose/Obstacle
-    evaluation file (rows for :func:`training.evaluate.tables.task_columns`)."""
-    data: dict[str, Any] = read_eval(run_dir / f"{eval_name}.json")
-    wanted = {canonical_condition(c) for c in conditions} if conditions else None
-    return data["task"], [
-        (f"{run_dir.name} {name}", who, summary)
-        for name, block in data["conditions"].items()
-        if wanted is None or name in wanted
-        for who, summary in block.items()
-    ]
+def collect(run_dirs: list[Path], tag: str | None = None) -> list[dict[str, Any]]:
+    """One record per run, in the given order (module docstring); ``tag``: read
+    ``eval_<tag>.json`` instead of ``eval.json``.
+
+    Raises:
+        ResultsError: a run without ``run.json`` or the evaluation file.
+    """
+    out = []
+    name = "eval" if tag is None else f"eval_{tag}"
+    for run in run_dirs:
+        ev_path, meta_path = _paths(run, name)
+        ev = read_eval(ev_path)
+        meta = json.loads(meta_path.read_text())
+        tagged = {} if tag is None else {"eval_tag": tag, "env_kwargs": ev.get("env_kwargs")}
+        out.append(
+            {
+                **tagged,
+                "run": run.name,
+                "task": ev["task"],
+                "env_id": ev["env_id"],
+                "seed": meta.get("seed"),
+                "config": meta.get("name"),
+                "train_steps": meta.get("total_steps"),
+                "train_wall_time_s": meta.get("total_wall_time_s"),
+                "model_step": ev.get("model_step"),
+                "episodes": ev.get("episodes"),
+                "eval_seed": ev.get("seed"),
+                "eval_command": ev.get("command"),
+                "conditions": ev["conditions"],
+            }
+        )
+    return out
 
 
-def rows(
-    run_dir: Path, eval_name: str = "eval", conditions: list[str] | None = None, wide: bool = False
-) -> list[str]:
-    """Markdown table rows (without the header) for one run's evaluation file."""
-    table = tables.markdown_table(COLUMNS, records(run_dir, eval_name, conditions), wide)
-    return table.splitlines()[2:]
+def _copy_figures(
+    runs: list[Path], collected: list[dict[str, Any]], tag: str | None, dst: Path
+) -> None:
+    dst.mkdir(parents=True, exist_ok=True)
+    fig_dir = "eval" if tag is None else f"eval_{tag}"
+    for run, r in zip(runs, collected, strict=True):
+        for name in r["conditions"]:
+            src = run / fig_dir / f"{name}_paths.png"
+            for path in (run / fig_dir).glob("*_paths.png"):  # straight_h100_paths.png of before
+                if canonical_condition(path.stem[: -len("_paths")]) == name:
+                    src = path
+            if src.is_file():
+                suffix = "" if tag is None else f"_{tag}"
+                shutil.copyfile(
+                    src, dst / f"ppo_{r['task'].lower()}_seed{r['seed']}_{name}{suffix}_paths.png"
+                )
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
-        prog="cdcr-gym results",
-        description=__doc__.split("\n\n")[0],
-        epilog=tables.legend(COLUMNS, wide=True),
-    )
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = argparse.ArgumentParser(prog="cdcr-gym results", description=__doc__.split("\n\n")[0])
     parser.add_argument("runs", nargs="+", metavar="RUN_DIR[:EVAL_NAME]")
     parser.add_argument(
         "--conditions", default=None, help="comma-separated condition names to show (default: all)"
@@ -145,37 +161,43 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--wide", action="store_true", help="every column (default: the ones that fit 100 columns)"
     )
+    parser.add_argument(
+        "--tag", default=None, help="read eval_<TAG>.json (cdcr-gym evaluate --tag) of every run"
+    )
+    parser.add_argument("--out", type=Path, default=None, help="also write the collected JSON")
+    parser.add_argument("--figures", type=Path, default=None, help="copy the path figures here")
     args = parser.parse_args(argv)
     conditions = args.conditions.split(",") if args.conditions else None
-    found: list[dict[str, Any]] = []
-    by_task: dict[str, list[tuple[str, str, dict[str, Any]]]] = {}
-    for spec in args.runs:
-        path, _, name = spec.partition(":")
-        run_dir = Path(path)
-        if not (run_dir / "run.json").is_file():
-            print(f"error: RUN_DIR {path!r} has no run.json", file=sys.stderr)
-            return 2
-        if not (run_dir / f"{name or 'eval'}.json").is_file():
-            print(f"error: {run_dir / (name or 'eval')}.json does not exist", file=sys.stderr)
-            return 2
-        if "task" in read_eval(run_dir / f"{name or 'eval'}.json"):
-            task, task_rows = task_records(run_dir, name or "eval", conditions)
-            by_task.setdefault(task, []).extend(task_rows)
-        else:
-            found.extend(records(run_dir, name or "eval", conditions))
-    blocks = []
-    if found:
-        blocks.append((COLUMNS, found))
-    for task, task_rows in by_task.items():
-        blocks.append(
-            (tables.task_columns(task, ("run", "the run directory and condition")), task_rows)
-        )
-    for k, (columns, table_rows) in enumerate(blocks):
+    by_task: dict[str, list[Any]] = {}
+    run_dirs = []
+    try:
+        for spec in args.runs:
+            path, _, name = spec.partition(":")
+            if name and args.tag:
+                raise ResultsError(f"RUN_DIR {spec!r}: give :EVAL_NAME or --tag, not both")
+            name = name or ("eval" if args.tag is None else f"eval_{args.tag}")
+            task, rows = records(Path(path), name, conditions)
+            by_task.setdefault(task, []).extend(rows)
+            run_dirs.append(Path(path))
+        collected = collect(run_dirs, args.tag) if args.out or args.figures else []
+    except ResultsError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    if args.out is not None:
+        command = " ".join(shlex.quote(a) for a in ["cdcr-gym", "results", *argv])
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        args.out.write_text(json.dumps({"command": command, "runs": collected}, indent=1) + "\n")
+    if args.figures is not None:
+        _copy_figures(run_dirs, collected, args.tag, args.figures)
+    for k, (task, rows) in enumerate(by_task.items()):
+        cols = columns(task)
         if k:
             print()
-        print(tables.markdown_table(columns, table_rows, args.wide))
+        print(f"{task}:")
         print()
-        print(tables.legend(columns, args.wide))
+        print(tables.markdown_table(cols, rows, args.wide))
+        print()
+        print(tables.legend(cols, args.wide))
     return 0
 
 

@@ -1,4 +1,4 @@
-"""The evaluation tables of ``cdcr-gym evaluate``, ``results``, ``task-results`` and ``oracles``.
+"""The evaluation tables of ``cdcr-gym evaluate``, ``results`` and ``oracles``.
 
 A table is a list of :class:`Column`: a short header, a legend (what the number is, its unit)
 and a formatter of one row's record. By default only the columns marked ``narrow`` are shown, so
@@ -93,13 +93,23 @@ def wrap(text: str, width: int = WIDTH) -> str:
 def task_columns(
     task: str, first: tuple[str, str] = ("condition", "starting shape and episode length")
 ) -> list[Column]:
-    """The columns of a table of task summaries (``cdcr-gym evaluate`` for Track, Pose and
-    Obstacle; ``cdcr-gym oracles``): rows are ``(label, who, summary)``, ``first`` the label
-    column's header and legend, ``summary`` from :func:`training.run.metrics.summarize_task`."""
+    """The columns of a table of evaluation summaries (``cdcr-gym evaluate``, ``results``,
+    ``oracles``; every task): rows are ``(label, who, summary)``, ``first`` the label column's
+    header and legend, ``summary`` from :func:`training.run.metrics.summarize`. The columns
+    every task has, then ``task``'s own; a number a summary lacks (a file written before it was
+    reported) reads ``–``."""
     C = Column
 
     def stat(key: str, s: str, fmt: str = ".3f") -> Any:
         return lambda r: format(r[2][key][s], fmt) if key in r[2] else "–"
+
+    def rate(key: str) -> Any:
+        return lambda r: pct(r[2][key]) if key in r[2] else "–"
+
+    def to_oracle(key: str, fmt: str) -> Any:
+        return lambda r: (
+            format(r[2]["to_oracle"][key]["median"], fmt) if "to_oracle" in r[2] else "–"
+        )
 
     cols = [
         C(*first, lambda r: r[0]),
@@ -110,10 +120,31 @@ def task_columns(
             "the plain reach IK, random = uniform random actions",
             lambda r: r[1],
         ),
-        C("success", "episodes that end successful", lambda r: pct(r[2]["success_rate"])),
+        C("success", "episodes that end successful", rate("success_rate")),
+        C("≤1mm", "episodes ending within 1 mm of the goal", rate("within_1mm"), narrow=False),
         C("dist med", "median final tip-to-goal distance, mm", stat("final_distance_mm", "median")),
+        C("dist mean", "its mean, mm", stat("final_distance_mm", "mean"), narrow=False),
         C("dist p95", "its 95th percentile, mm", stat("final_distance_mm", "p95"), narrow=False),
-        C("return", "mean episode return", lambda r: f"{r[2]['mean_return']:.2f}", narrow=False),
+        C("dist max", "its largest value, mm", stat("final_distance_mm", "max"), narrow=False),
+        C(
+            "return",
+            "mean episode return",
+            lambda r: f"{r[2]['mean_return']:.2f}" if "mean_return" in r[2] else "–",
+            narrow=False,
+        ),
+        C(
+            "ΔL oracle",
+            "median distance of the policy's final cable lengths from the oracle's on the same "
+            "episode (Euclidean over the cables), mm",
+            to_oracle("cable_length_distance_mm", ".3f"),
+            narrow=False,
+        ),
+        C(
+            "ΔT oracle",
+            "median distance of the policy's final tensions from the oracle's, N",
+            to_oracle("tension_distance_n", ".2f"),
+            narrow=False,
+        ),
     ]
     if task == "Track":
         cols += [

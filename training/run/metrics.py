@@ -1,39 +1,42 @@
-"""Each task's own episode metrics, for any policy (an oracle or a trained model).
+"""The numbers of evaluation episodes, for any task and any policy: one function,
+:func:`summarize`.
 
-:func:`task_metrics` reads each episode's task metrics from the rollouts of
-:func:`training.run.rollout.run_episodes` (its last step's ``info`` and the per-step minima);
-:func:`run_task_episodes` runs a policy for episodes reset with seeds ``seed + i`` (the same
-scenes for every policy) and returns them:
+:func:`summarize` reads the rollouts of :func:`training.run.rollout.run_episodes` (the last
+step's ``info`` of each episode, the per-step distances and minima) and returns the JSON-ready
+summary reported by ``cdcr-gym evaluate``, ``oracles`` and the sweep tables. Which metrics a
+summary holds is named by the task itself, through the ``info`` keys its env reports:
 
-* every task: ``return``, ``final_distance_mm``, ``success`` (the last step's ``is_success``);
-* Track: ``tracking_rms_mm``, ``tracking_max_mm`` (after the settling window);
-* Pose: ``final_angle_deg``;
-* Obstacle: ``collided`` (any step), ``min_clearance_mm`` (smallest over the episode), and
-  ``success`` = final distance within the threshold with no collision.
+* every task: ``episodes``, ``success_rate`` (the last step's ``is_success``), ``within_1mm``
+  (final tip-to-goal distance ≤ 1 mm), ``mean_return``, ``final_distance_mm`` (statistics);
+* ``tracking_rms`` in ``info`` (Track): ``tracking_rms_mm``, ``tracking_max_mm``;
+* ``angle`` in ``info`` (Pose): ``final_angle_deg``, ``within_1mm_1deg``;
+* ``collision`` in ``info`` (Obstacle): ``collision_rate``, ``collisions_in_successful_episodes``,
+  ``min_clearance_mm``, and, with the safety filter on, ``filtered_step_fraction``;
+* episodes longer than the training horizon: ``final_distance_mm_at_train_horizon`` and
+  ``max_distance_after_train_horizon_mm`` (per episode the largest distance from the training
+  episode length to the end: does the policy hold the goal);
+* beside a reference run on the same episodes (the task's oracle): ``to_oracle``, the distance
+  of the final cable state from the reference's — ``cable_length_distance_mm`` (Euclidean over
+  the cables), ``tension_distance_n`` and ``tension_distance_bending_n`` (after removing each
+  side's common-mode tension, min_i T_i, which does not bend the robot).
 
-:func:`summarize_task` turns them into the numbers reported in README/docs (means, medians,
-p95, max, rates); :func:`summarize` and :func:`error_stats` the final-error numbers of the Reach
-report. :func:`oracle_for` builds each task's oracle (``cdcr_gym.controllers.ORACLES``) from an
-env.
+Statistics (:func:`error_stats`) are ``mean``, ``median``, ``p95``, ``max``; distances in mm,
+angles in degrees, rates in [0, 1]. :func:`oracle_for` builds each task's oracle
+(``cdcr_gym.controllers.ORACLES``) from an env.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
 
 from cdcr_gym import controllers
-from training.run.rollout import EpisodeSpecs, Rollouts, run_episodes
+from training.run.rollout import Rollouts
 
 __all__ = [
-    "task_metrics",
-    "run_task_episodes",
-    "summarize_task",
-    "error_stats",
     "summarize",
+    "error_stats",
     "oracle_for",
     "task_name",
     "is_physics",
@@ -66,88 +69,6 @@ def oracle_for(env: Any, kind: str = "oracle", **options: Any) -> Any:
     return cls.from_env(env, feedback=feedback, **options)
 
 
-def task_metrics(task: str, rollouts: Rollouts) -> dict[str, Any]:
-    """Per-episode metrics (arrays of length n) of ``task`` from its rollouts (module
-    docstring), with ``"task"`` and, if recorded, ``"paths"``."""
-    final = rollouts.final_infos
-    out: dict[str, Any] = {
-        "return": rollouts.returns.astype(np.float64),
-        "final_distance_mm": 1e3 * np.array([info["distance"] for info in final], np.float64),
-        "success": np.array([float(info["is_success"]) for info in final]),
-    }
-    if task == "Track":
-        out["tracking_rms_mm"] = 1e3 * np.array([info["tracking_rms"] for info in final])
-        out["tracking_max_mm"] = 1e3 * np.array([info["tracking_max"] for info in final])
-    elif task == "Pose":
-        out["final_angle_deg"] = np.rad2deg(np.array([info["angle"] for info in final], float))
-    elif task == "Obstacle":
-        out["collided"] = rollouts.collided.astype(np.float64)
-        out["min_clearance_mm"] = 1e3 * rollouts.min_clearance
-        if final and "safety_filtered" in final[-1]:  # the env's safety filter is on
-            out["filtered_step_fraction"] = rollouts.filtered_steps / np.maximum(
-                rollouts.episode_length, 1
-            )
-    out["task"] = task
-    if rollouts.paths:
-        out["paths"] = rollouts.paths
-    return out
-
-
-def run_task_episodes(
-    env_fn: Callable[[], gym.Env],
-    policy: Callable[[np.ndarray], np.ndarray] | None,
-    episodes: int,
-    seed: int,
-    record: int = 0,
-) -> dict[str, Any]:
-    """Per-episode metrics (:func:`task_metrics`) of ``policy`` in ``env_fn()`` over
-    ``episodes`` episodes reset with seeds ``seed + i`` (:func:`training.run.rollout.run_episodes`
-    in one env, for the env's own episode length).
-
-    ``policy`` None runs the task's oracle (built from the env). ``record`` > 0 keeps the tip,
-    target (Track) and obstacles (Obstacle) of the first ``record`` episodes in ``"paths"``.
-    """
-    env = env_fn()
-    try:
-        task = task_name(env)
-        act = oracle_for(env) if policy is None else policy
-        rollouts = run_episodes(
-            env_fn, act, EpisodeSpecs.from_seeds(episodes, seed), batch_size=1, record=record
-        )
-    finally:
-        env.close()
-    return task_metrics(task, rollouts)
-
-
-def summarize_task(metrics: dict[str, Any]) -> dict[str, Any]:
-    """The reported numbers of :func:`run_task_episodes`' output (JSON-ready)."""
-    task = metrics["task"]
-    out: dict[str, Any] = {
-        "task": task,
-        "episodes": int(len(metrics["return"])),
-        "success_rate": float(np.mean(metrics["success"])),
-        "mean_return": float(np.mean(metrics["return"])),
-        "final_distance_mm": error_stats(metrics["final_distance_mm"]),
-    }
-    if task == "Track":
-        out["tracking_rms_mm"] = error_stats(metrics["tracking_rms_mm"])
-        out["tracking_max_mm"] = error_stats(metrics["tracking_max_mm"])
-    elif task == "Pose":
-        out["final_angle_deg"] = error_stats(metrics["final_angle_deg"])
-        out["within_1mm_1deg"] = float(
-            np.mean((metrics["final_distance_mm"] <= 1.0) & (metrics["final_angle_deg"] <= 1.0))
-        )
-    elif task == "Obstacle":
-        collided = metrics["collided"] > 0
-        success = metrics["success"] > 0
-        out["collision_rate"] = float(np.mean(collided))
-        out["collisions_in_successful_episodes"] = int(np.sum(collided & success))
-        out["min_clearance_mm"] = error_stats(metrics["min_clearance_mm"])
-        if "filtered_step_fraction" in metrics:  # the env's safety filter was on
-            out["filtered_step_fraction"] = float(np.mean(metrics["filtered_step_fraction"]))
-    return out
-
-
 def error_stats(values: np.ndarray, scale: float = 1.0) -> dict[str, float]:
     """``mean``, ``median``, ``p95``, ``max`` of ``values`` × ``scale``."""
     v = np.asarray(values, dtype=np.float64) * scale
@@ -159,11 +80,75 @@ def error_stats(values: np.ndarray, scale: float = 1.0) -> dict[str, float]:
     }
 
 
-def summarize(final_distance: np.ndarray, threshold: float) -> dict[str, Any]:
-    """Success rate (at ``threshold`` m), fraction within 1 mm and error statistics in mm."""
-    d = np.asarray(final_distance, dtype=np.float64)
+def _state_distances(run: Rollouts, reference: Rollouts) -> dict[str, dict[str, float]]:
+    """Statistics of the distance between two runs' final cable states, episode by episode."""
+    t, t_ref = run.final_tensions, reference.final_tensions
+    bend = t - t.min(axis=-1, keepdims=True)
+    bend_ref = t_ref - t_ref.min(axis=-1, keepdims=True)
     return {
-        "success_rate": float(np.mean(d <= threshold)),
-        "within_1mm": float(np.mean(d <= 0.001)),
-        "error_mm": error_stats(d, 1000.0),
+        "cable_length_distance_mm": error_stats(
+            np.linalg.norm(run.final_lengths - reference.final_lengths, axis=-1), 1000.0
+        ),
+        "tension_distance_n": error_stats(np.linalg.norm(t - t_ref, axis=-1)),
+        "tension_distance_bending_n": error_stats(np.linalg.norm(bend - bend_ref, axis=-1)),
     }
+
+
+def summarize(
+    task: str,
+    rollouts: Rollouts,
+    train_horizon: int | None = None,
+    reference: Rollouts | None = None,
+) -> dict[str, Any]:
+    """The reported numbers of ``rollouts`` (n episodes of ``task``; module docstring).
+
+    Args:
+        task: the task's name (``"Reach"``, ...), recorded in the summary.
+        rollouts: the episodes (:func:`training.run.rollout.run_episodes`).
+        train_horizon: the training episode length; episodes longer than it get the
+            hold-the-goal numbers.
+        reference: another policy's rollouts on the same episodes (the oracle's): adds
+            ``to_oracle``.
+
+    Returns:
+        A JSON-ready dict.
+    """
+    final = rollouts.final_infos
+    n = len(final)
+    if n == 0:
+        raise ValueError("rollouts: no episodes to summarize")
+    distance_mm = 1e3 * rollouts.final_distance
+    success = np.array([bool(info["is_success"]) for info in final])
+    out: dict[str, Any] = {
+        "task": task,
+        "episodes": int(n),
+        "success_rate": float(np.mean(success)),
+        "within_1mm": float(np.mean(distance_mm <= 1.0)),
+        "mean_return": float(np.mean(rollouts.returns)),
+        "final_distance_mm": error_stats(distance_mm),
+    }
+    keys = set(final[-1])
+    if "tracking_rms" in keys:
+        out["tracking_rms_mm"] = error_stats([info["tracking_rms"] for info in final], 1e3)
+        out["tracking_max_mm"] = error_stats([info["tracking_max"] for info in final], 1e3)
+    if "angle" in keys:
+        angle_deg = np.rad2deg(np.array([info["angle"] for info in final], np.float64))
+        out["final_angle_deg"] = error_stats(angle_deg)
+        out["within_1mm_1deg"] = float(np.mean((distance_mm <= 1.0) & (angle_deg <= 1.0)))
+    if "collision" in keys:
+        out["collision_rate"] = float(np.mean(rollouts.collided))
+        out["collisions_in_successful_episodes"] = int(np.sum(rollouts.collided & success))
+        out["min_clearance_mm"] = error_stats(rollouts.min_clearance, 1e3)
+        if "safety_filtered" in keys:  # the env's safety filter is on
+            fraction = rollouts.filtered_steps / np.maximum(rollouts.episode_length, 1)
+            out["filtered_step_fraction"] = float(np.mean(fraction))
+    steps = rollouts.distances.shape[1] - 1
+    if train_horizon is not None and steps > train_horizon:
+        d = rollouts.distances
+        out["final_distance_mm_at_train_horizon"] = error_stats(d[:, train_horizon], 1e3)
+        out["max_distance_after_train_horizon_mm"] = error_stats(
+            d[:, train_horizon:].max(axis=1), 1e3
+        )
+    if reference is not None:
+        out["to_oracle"] = _state_distances(rollouts, reference)
+    return out

@@ -26,14 +26,8 @@ METRICS = {
     "collision_rate": ("collision rate", "%", True),
 }
 RATE_METRICS = ("success_rate", "within_1mm")
-#: Reach's baselines in eval.json's conditions -> their row labels
-REACH_BASELINES = {
-    "ik": "analytic IK",
-    "ik_closed_loop": "analytic IK, closed loop",
-    "random": "random policy",
-}
-#: Track/Pose/Obstacle's baselines in eval.json's conditions -> their row labels
-TASK_BASELINES = {
+#: the baselines in eval.json's conditions (every task) -> their row labels
+BASELINES = {
     "oracle": "oracle",
     "oracle_closed_loop": "oracle, closed loop",
     "reach_ik": "reach IK (ignores the spheres)",
@@ -85,17 +79,20 @@ class RunResult:
 
 
 def task_scores(summary: dict[str, Any]) -> dict[str, float]:
-    """The scores of one policy's Track/Pose/Obstacle summary (``summarize_task`` in
-    :mod:`training.run.metrics`): medians over the episodes (mm, °) and rates (fractions).
+    """The scores of one policy's summary (:func:`training.run.metrics.summarize`, any task):
+    medians over the episodes (mm, °) and rates (fractions).
 
-    Every task: ``median_error_mm`` (final tip distance to the goal or target) and
-    ``success_rate``; Track: ``tracking_rms_mm``; Pose: ``final_angle_deg``, ``within_1mm_1deg``;
-    Obstacle: ``collision_rate``.
+    Every task: ``median_error_mm`` (final tip distance to the goal or target),
+    ``success_rate`` and ``within_1mm`` (absent in task files written before it was reported);
+    Track: ``tracking_rms_mm``; Pose: ``final_angle_deg``, ``within_1mm_1deg``; Obstacle:
+    ``collision_rate``.
     """
     out = {
         "median_error_mm": float(summary["final_distance_mm"]["median"]),
         "success_rate": float(summary["success_rate"]),
     }
+    if "within_1mm" in summary:
+        out["within_1mm"] = float(summary["within_1mm"])
     if "tracking_rms_mm" in summary:
         out["tracking_rms_mm"] = float(summary["tracking_rms_mm"]["median"])
     if "final_angle_deg" in summary:
@@ -159,28 +156,14 @@ def load_runs(sweep_dir: Path) -> tuple[dict[str, Any], list[RunResult]]:
                 data = read_eval(run_dir / "eval.json")
                 run.kind = str(data.get("task", "Reach"))
                 for name, c in data["conditions"].items():
-                    if "policy" in c:  # Track, Pose, Obstacle: the task's own metrics
-                        run.scores[name] = task_scores(c["policy"])
-                        run.baselines[name] = {
-                            TASK_BASELINES.get(k, k): task_scores(v)
-                            for k, v in c.items()
-                            if k != "policy"
-                        }
-                        continue
-                    run.scores[name] = {
-                        "median_error_mm": float(c["error_mm"]["median"]),
-                        "success_rate": float(c["success_rate"]),
-                        "within_1mm": float(c["within_1mm"]),
+                    run.scores[name] = task_scores(c["policy"])
+                    # the baselines on the same episodes: the oracle (open loop; on a physics
+                    # backend also closed loop), the reach IK and the random policy (the floor)
+                    run.baselines[name] = {
+                        BASELINES.get(k, k): task_scores(v)
+                        for k, v in c.items()
+                        if k != "policy" and isinstance(v, dict)
                     }
-                    # the baselines on the same goals: analytic IK (open loop), on a physics
-                    # backend also closed loop, and the uniform random policy (the floor)
-                    for key, label in REACH_BASELINES.items():
-                        if key in c:
-                            run.baselines.setdefault(name, {})[label] = {
-                                "median_error_mm": float(c[key]["error_mm"]["median"]),
-                                "success_rate": float(c[key]["success_rate"]),
-                                "within_1mm": float(c[key]["within_1mm"]),
-                            }
             if (run_dir / "eval_log.csv").is_file():
                 with open(run_dir / "eval_log.csv", newline="") as f:
                     for row in csv.DictReader(f):
