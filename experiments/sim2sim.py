@@ -75,15 +75,15 @@ def summarize_evals(
         data = _load(Path(path))
         conditions = {}
         for name, cond in data["conditions"].items():
-            ik = cond.get("ik", {})
+            pol, ik = cond["policy"], cond.get("oracle", {})
             conditions[name] = {
-                "success_rate": cond["success_rate"],
-                "within_1mm": cond["within_1mm"],
-                "median_mm": cond["error_mm"]["median"],
-                "p95_mm": cond["error_mm"]["p95"],
+                "success_rate": pol["success_rate"],
+                "within_1mm": pol.get("within_1mm"),
+                "median_mm": pol["final_distance_mm"]["median"],
+                "p95_mm": pol["final_distance_mm"]["p95"],
                 "ik_success_rate": ik.get("success_rate"),
-                "ik_median_mm": ik.get("error_mm", {}).get("median"),
-                "ik_p95_mm": ik.get("error_mm", {}).get("p95"),
+                "ik_median_mm": ik.get("final_distance_mm", {}).get("median"),
+                "ik_p95_mm": ik.get("final_distance_mm", {}).get("p95"),
             }
         head = conditions[data["headline_condition"]]
         meets = head["median_mm"] <= target_median_mm and head["success_rate"] >= target_success

@@ -217,16 +217,22 @@ def test_bad_arguments_are_value_errors(env_id, kwargs, message):
 
 
 def test_task_metrics_report_the_share_of_filtered_steps():
-    from training.run.metrics import run_task_episodes, summarize_task
+    from training.run.metrics import summarize
+    from training.run.rollout import EpisodeSpecs, run_episodes
 
     def env_fn(**extra):
         return lambda: gym.make(ENV_ID, tension_step=0.1, max_episode_steps=100, **extra)
 
-    safe = run_task_episodes(env_fn(safety_filter=True), None, 4, 1_000_000)
+    def run(fn, policy):
+        return summarize(
+            "Obstacle", run_episodes(fn, policy, EpisodeSpecs.from_seeds(4, 1_000_000))
+        )
+
+    safe = run(env_fn(safety_filter=True), oracle_for(env_fn(safety_filter=True)()))
     ik = oracle_for(env_fn(safety_filter=True)(), "reach_ik")
-    pushed = summarize_task(run_task_episodes(env_fn(safety_filter=True), ik, 4, 1_000_000))
+    pushed = run(env_fn(safety_filter=True), ik)
     assert 0.0 < pushed["filtered_step_fraction"] <= 1.0
     assert pushed["collision_rate"] == 0.0
-    assert "filtered_step_fraction" in summarize_task(safe)
-    plain = summarize_task(run_task_episodes(env_fn(), ik, 4, 1_000_000))
+    assert "filtered_step_fraction" in safe
+    plain = run(env_fn(), ik)
     assert "filtered_step_fraction" not in plain

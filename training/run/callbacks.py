@@ -7,22 +7,14 @@ from typing import Any
 
 import numpy as np
 
-from cdcr_gym.params import RobotParams
 from training.run.checkpoints import save_checkpoint, save_model_dir
 from training.run.config import (
     ExperimentConfig,
 )
-from training.run.envs import registered_steps, registered_task
+from training.run.envs import registered_steps
 from training.run.logs import append_csv
-from training.run.metrics import run_task_episodes, summarize
 from training.run.provenance import write_json
-from training.run.rollout import (
-    SB3Policy,
-    concat_specs,
-    make_env,
-    make_specs,
-    run_episodes,
-)
+from training.run.rollout import EpisodeSpecs, SB3Policy, make_env, run_episodes
 from training.run.rundir import RunDir
 
 
@@ -87,68 +79,40 @@ def make_callbacks(config: ExperimentConfig, run: RunDir, state: dict[str, Any])
             super().__init__()
             ev = config.eval
             self.next_at = (state["start_steps"] // ev.freq + 1) * ev.freq
-            params = config.env.kwargs.get("params")
-            if isinstance(params, dict):
-                params = RobotParams(**params)
-            self.specs = concat_specs(
-                [make_specs(ev.n_episodes, ev.seed, s, params) for s in ev.initial_states]
-            )
             self.horizon = config.env.max_episode_steps or registered_steps(config.env.id)
-            self.task = registered_task(config.env.id)
-
-        def _task_row(self, policy: Any) -> dict[str, Any]:
-            """Success, errors (mm) and return of the task's own metrics (training.run.metrics):
-            the error is the tracking RMS for Track, the final distance otherwise."""
-
-            e, ev = config.env, config.eval
-            parts = []
-            for start in ev.initial_states:
-                kwargs = {**e.kwargs, "initial_state": start}
-                parts.append(
-                    run_task_episodes(
-                        lambda k=kwargs: make_env(e.id, k, self.horizon),
-                        policy,
-                        ev.n_episodes,
-                        ev.seed,
-                    )
-                )
-            key = "tracking_rms_mm" if self.task == "Track" else "final_distance_mm"
-            errors = np.concatenate([p[key] for p in parts])
-            return {
-                "timesteps": self.num_timesteps,
-                "success_rate": float(np.mean(np.concatenate([p["success"] for p in parts]))),
-                "within_1mm": float(np.mean(errors <= 1.0)),
-                "mean_error_mm": float(np.mean(errors)),
-                "median_error_mm": float(np.median(errors)),
-                "p95_error_mm": float(np.percentile(errors, 95)),
-                "max_error_mm": float(np.max(errors)),
-                "mean_reward": float(np.mean(np.concatenate([p["return"] for p in parts]))),
-            }
 
         def _evaluate(self) -> None:
+            """Success, errors (mm) and return of fixed-seed episodes from every starting state
+            (the episodes of ``cdcr-gym evaluate``, :func:`training.run.rollout.run_episodes`):
+            the error is the tracking RMS where the task reports one (Track), the final
+            distance otherwise."""
             vecnorm = self.model.get_vec_normalize_env()
             policy = SB3Policy.from_model(self.model, vecnorm)
-            e = config.env
+            e, ev = config.env, config.eval
             t0 = time.perf_counter()
-            if self.task != "Reach":
-                row = self._task_row(policy)
-                row["wall_time_s"] = state["wall_before"] + time.perf_counter() - state["t_start"]
-                self._record(row, vecnorm, t0)
-                return
-            rollouts = run_episodes(
-                lambda: make_env(e.id, e.kwargs, self.horizon), policy, self.specs, self.horizon
-            )
-            threshold = config.env.kwargs.get("distance_threshold", 0.005)
-            stats = summarize(rollouts.final_distance, threshold)
+            errors, success, returns = [], [], []
+            for start in ev.initial_states:
+                kwargs = {**e.kwargs, "initial_state": start}
+                rollouts = run_episodes(
+                    lambda k=kwargs: make_env(e.id, k, self.horizon),
+                    policy,
+                    EpisodeSpecs.from_seeds(ev.n_episodes, ev.seed),
+                    self.horizon,
+                )
+                final = rollouts.final_infos
+                errors += [1e3 * info.get("tracking_rms", info["distance"]) for info in final]
+                success += [bool(info["is_success"]) for info in final]
+                returns += list(rollouts.returns)
+            err = np.asarray(errors, dtype=np.float64)
             row = {
                 "timesteps": self.num_timesteps,
-                "success_rate": stats["success_rate"],
-                "within_1mm": stats["within_1mm"],
-                "mean_error_mm": stats["error_mm"]["mean"],
-                "median_error_mm": stats["error_mm"]["median"],
-                "p95_error_mm": stats["error_mm"]["p95"],
-                "max_error_mm": stats["error_mm"]["max"],
-                "mean_reward": float(np.mean(rollouts.returns)),
+                "success_rate": float(np.mean(success)),
+                "within_1mm": float(np.mean(err <= 1.0)),
+                "mean_error_mm": float(np.mean(err)),
+                "median_error_mm": float(np.median(err)),
+                "p95_error_mm": float(np.percentile(err, 95)),
+                "max_error_mm": float(np.max(err)),
+                "mean_reward": float(np.mean(returns)),
                 "wall_time_s": state["wall_before"] + time.perf_counter() - state["t_start"],
             }
             self._record(row, vecnorm, t0)

@@ -7,12 +7,10 @@ batch of observations (b, obs_dim) (or a dict of batches) to a batch of actions 
 trained model behind its VecNormalize statistics (:class:`SB3Policy`, any algo) or a task's
 oracle (``cdcr_gym.controllers``), so every policy runs on exactly the same episodes.
 
-An episode is given by :class:`EpisodeSpecs`: either a reset seed (``reset(seed=seed + i)``: the
-task draws its own scene) or an explicit goal and starting tensions, drawn by resetting a CCKA
-Reach env with seeds ``seed, seed + 1, ...`` (:func:`make_specs`; the goal and start sampling
-depends only on the robot parameters and the seed, not on the backend, so the same specs serve
-every backend) and put on the env with ``reset(options={"goal": ..., "initial_tensions": ...})``.
-The per-task numbers of the episodes are computed by :mod:`training.run.metrics`.
+An episode is given by :class:`EpisodeSpecs`: a reset seed (``reset(seed=seed + i)``: the task
+draws its own scene and starting shape; every evaluation uses these), or an explicit goal and
+starting tensions put on the env with ``reset(options={"goal": ..., "initial_tensions": ...})``.
+The numbers of the episodes are computed by :func:`training.run.metrics.summarize`.
 """
 
 from __future__ import annotations
@@ -27,8 +25,6 @@ import gymnasium as gym
 import numpy as np
 
 import cdcr_gym  # noqa: F401
-from cdcr_gym.backends.analytic import AnalyticBackend
-from cdcr_gym.envs.env import CDCREnv
 from cdcr_gym.params import RobotParams
 
 __all__ = [
@@ -39,8 +35,6 @@ __all__ = [
     "Rollouts",
     "SB3Policy",
     "algo_class",
-    "make_specs",
-    "concat_specs",
     "make_env",
     "run_episodes",
 ]
@@ -105,31 +99,6 @@ class Rollouts:
     def final_distance(self) -> np.ndarray:
         """(n,) final tip error, m."""
         return self.distances[:, -1]
-
-
-def make_specs(
-    n: int, seed: int, initial_state: str = "straight", params: Any = None
-) -> EpisodeSpecs:
-    """Goals and starting tensions of ``n`` episodes, drawn with reset seeds seed + i."""
-    env = CDCREnv(AnalyticBackend(params), initial_state=initial_state)
-    goals = np.empty((n, 3))
-    starts = np.empty((n, 3))
-    for i in range(n):
-        _, info = env.reset(seed=seed + i)
-        goals[i] = info["goal"]
-        starts[i] = info["tensions"]
-    env.close()
-    return EpisodeSpecs(goals, starts, initial_state, seed)
-
-
-def concat_specs(parts: list[EpisodeSpecs]) -> EpisodeSpecs:
-    """One :class:`EpisodeSpecs` holding the episodes of ``parts`` in order."""
-    return EpisodeSpecs(
-        np.concatenate([p.goals for p in parts]),
-        np.concatenate([p.initial_tensions for p in parts]),
-        "+".join(p.initial_state for p in parts),
-        parts[0].seed,
-    )
 
 
 def make_env(

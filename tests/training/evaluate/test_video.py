@@ -104,7 +104,7 @@ def test_frames_carry_the_step_the_tip_error_and_the_task_metric():
 
 def test_the_evaluation_video_has_text_on_every_frame(monkeypatch, tmp_path):
     from training.evaluate import agent
-    from training.run.rollout import make_specs
+    from training.run.rollout import EpisodeSpecs
 
     written = {}
 
@@ -113,7 +113,7 @@ def test_the_evaluation_video_has_text_on_every_frame(monkeypatch, tmp_path):
         return path
 
     monkeypatch.setattr(agent, "write_video", capture)
-    specs = make_specs(1, 0, "straight", None)
+    specs = EpisodeSpecs.from_seeds(1, 0)
     agent._write_video(
         "cdcr_gym/CCKAReach-v0", {}, lambda obs: np.zeros((len(obs), 3)), specs, 4, 1, tmp_path, 4
     )
@@ -122,7 +122,7 @@ def test_the_evaluation_video_has_text_on_every_frame(monkeypatch, tmp_path):
     env = gym.make(
         "cdcr_gym/CCKAReach-v0", render_mode="rgb_array", render_width=320, render_height=320
     )
-    env.reset(options={"goal": specs.goals[0], "initial_tensions": specs.initial_tensions[0]})
+    env.reset(**specs.reset_kwargs(0))
     plain = env.render()
     env.close()
     first = written["frames"][0]
