@@ -8,6 +8,8 @@ import shutil
 from pathlib import Path
 
 from training.evaluate import agent, results, tables
+from training.evaluate.conditions import canonical_eval as read_eval_data
+from training.evaluate.conditions import read_eval
 
 REPO = Path(__file__).resolve().parents[3]
 REACH_EVAL = REPO / "docs/figures/training/ppo_mujoco_reach_seed0_eval.json"
@@ -19,29 +21,32 @@ def _widest(text: str) -> int:
 
 
 def _headers_explained(text: str, columns: list[tables.Column], wide: bool) -> None:
+    text = " ".join(text.split())  # the legend is wrapped: a header may span two lines
     legend = text[text.index(tables.shown(columns, wide)[0].header + ":") :]
     for column in tables.shown(columns, wide):
         assert f"{column.header}: " in legend, column.header
 
 
 def test_the_evaluate_table_fits_100_characters_and_wide_shows_every_column(capsys):
-    result = json.loads(REACH_EVAL.read_text())
+    result = read_eval(REACH_EVAL)  # written before the one report shape: read into it
     result["_json_path"] = "runs/ppo_mujoco_reach_seed0/eval.json"
-    agent._print_table(result)
+    agent.print_table(result)
     narrow = capsys.readouterr().out
-    agent._print_table(result, wide=True)
+    agent.print_table(result, wide=True)
     wide = capsys.readouterr().out
     assert _widest(narrow) <= tables.WIDTH < _widest(wide)
-    columns = agent.reach_columns(result)
-    assert "ΔT IK" in wide and "ΔT IK" not in narrow.splitlines()[2]
+    columns = tables.task_columns(result["task"])
+    assert "ΔT oracle" in wide and "ΔT oracle" not in narrow.splitlines()[2]
     assert "--wide shows" in narrow and "--wide shows" not in wide
+    assert "oracle_closed_loop" in narrow  # MuJoCo: the IK also closed loop
     _headers_explained(narrow, columns, False)
     _headers_explained(wide, columns, True)
 
 
 def test_the_task_table_fits_100_characters(capsys):
     for run in json.loads(TASK_RESULTS.read_text())["runs"]:
-        agent._print_task_table({**run, "env_id": run["env_id"], "episodes": run["episodes"]})
+        result = read_eval_data({**run, "model_step": run["model_step"], "run_dir": run["run"]})
+        agent.print_table(result)
         out = capsys.readouterr().out
         assert _widest(out) <= tables.WIDTH, out
         assert run["task"] in out and "success" in out
@@ -57,9 +62,13 @@ def test_results_reads_a_committed_evaluation_and_fits_100_characters(tmp_path, 
     assert results.main([str(run), "--wide"]) == 0
     wide = capsys.readouterr().out
     assert _widest(narrow) <= tables.WIDTH < _widest(wide)
-    assert narrow.count("| ppo_mujoco_reach_seed0 |") == 4  # one row per condition
+    # one row per condition and policy (policy, oracle, oracle_closed_loop)
+    assert narrow.count("| ppo_mujoco_reach_seed0 ") == 4 * 3
     assert "10.0 min" in wide and "819,200" in wide and "10.0 min" not in narrow
-    _headers_explained(narrow, results.COLUMNS, False)
+    _headers_explained(narrow, results.columns("Reach"), False)
+    # the numbers are the file's: the headline policy's median final error
+    median = json.loads(REACH_EVAL.read_text())["error_mm"]["median"]
+    assert f"{median:.3f}" in narrow
 
 
 def test_a_legend_is_wrapped_and_names_the_hidden_columns():
@@ -84,3 +93,4 @@ def test_results_reads_task_evaluations_too(tmp_path, capsys):
     assert _widest(out) <= tables.WIDTH, out
     n_rows = sum(len(block) for block in run["conditions"].values())
     assert out.count("| ppo_task ") == n_rows and "| oracle |" in out
+    assert out.startswith(f"{run['task']}:")
