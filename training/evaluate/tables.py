@@ -121,10 +121,10 @@ def task_columns(
             lambda r: r[1],
         ),
         C("success", "episodes that end successful", rate("success_rate")),
-        C("≤1mm", "episodes ending within 1 mm of the goal", rate("within_1mm"), narrow=False),
+        C("≤1mm", "episodes ending within 1 mm of the goal", rate("within_1mm")),
         C("dist med", "median final tip-to-goal distance, mm", stat("final_distance_mm", "median")),
         C("dist mean", "its mean, mm", stat("final_distance_mm", "mean"), narrow=False),
-        C("dist p95", "its 95th percentile, mm", stat("final_distance_mm", "p95"), narrow=False),
+        C("dist p95", "its 95th percentile, mm", stat("final_distance_mm", "p95")),
         C("dist max", "its largest value, mm", stat("final_distance_mm", "max"), narrow=False),
         C(
             "return",

@@ -63,8 +63,8 @@ def test_collects_runs_writes_json_copies_figures_and_prints_the_table(tmp_path,
     assert (figs / "ppo_obstacle_seed2_straight_100steps_paths.png").exists()
     table = capsys.readouterr().out
     assert "Track:" in table and "Obstacle:" in table  # one table per task
-    assert "| a straight_100steps | policy | 75.0% | 0.500 | 0.500 |" in table  # Track: RMS
-    assert "| b straight_100steps | policy | 75.0% | 3.000 | 25.0% |" in table  # collided
+    assert "| a straight_100steps | policy | 75.0% | – | 0.500 | 0.500 | 0.500 |" in table  # RMS
+    assert "| b straight_100steps | policy | 75.0% | – | 3.000 | 3.000 | 25.0% |" in table
     rows = [line for line in table.splitlines() if line.startswith("| ")]
     assert len(rows) == 2 * 3  # per table the header + one row per policy
 

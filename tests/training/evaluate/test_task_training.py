@@ -164,12 +164,10 @@ def test_off_policy_config_trains_and_evaluates_beside_the_baselines(
     assert result.returncode == 0, result.stderr[-3000:]
     out = json.loads((run / "eval.json").read_text())
     head = out["conditions"]["straight_20steps"]
-    if "policy" in head:  # Track, Pose, Obstacle: the task's metrics beside the baselines
-        assert {"oracle", "random"} <= set(head)
-        assert head["random"]["episodes"] == head["policy"]["episodes"] == 2
-    else:  # Reach
-        assert {"ik", "random"} <= set(head)
-        assert "ik_closed_loop" in head  # MuJoCo: the IK also closed loop
+    # every task: its metrics beside the oracle and the random floor, on the same episodes
+    assert {"policy", "oracle", "random"} <= set(head) and out["task"] in name.title()
+    assert head["random"]["episodes"] == head["policy"]["episodes"] == 2
+    assert ("oracle_closed_loop" in head) == ("mujoco" in name)  # physics: also closed loop
     if out.get("task") == "Obstacle":  # its failures sorted: the config's model, any algorithm
         replay = _run("training.evaluate.obstacle_failures", run, "--episodes", 2)
         assert replay.returncode == 0, replay.stderr[-3000:]
