@@ -334,7 +334,8 @@ def test_pinned_aggregate_numbers(sweep_dir: Path) -> None:
 
 def test_a_sweep_in_parts_gets_a_parts_table_and_its_baseline_rows(tmp_path: Path) -> None:
     """Parts: budgets per part, trials not run yet are neither scores nor failures; Reach's
-    baselines (analytic IK open and closed loop, random policy) become reference rows."""
+    baselines (the oracle, the analytic IK, open and closed loop, and the random policy; in an
+    eval.json of before the one report shape) become reference rows."""
     root = tmp_path / "sweep"
     records = []
     for seed, err in enumerate([0.5, 0.7, 0.9, 1.1, 30.0]):
@@ -380,8 +381,8 @@ def test_a_sweep_in_parts_gets_a_parts_table_and_its_baseline_rows(tmp_path: Pat
     assert "With 5 runs per group the IQM drops the best and the worst runs" in text
     assert "0.9 [" in text  # IQM of 0.7, 0.9, 1.1
     for label, value in (
-        ("*analytic IK*", "40 mm"),
-        ("*analytic IK, closed loop*", "0.2 mm"),
+        ("*oracle*", "40 mm"),  # Reach's oracle, the analytic IK, named like every task's
+        ("*oracle, closed loop*", "0.2 mm"),
         ("*random policy*", "150 mm"),
     ):
         row = next(line for line in lines if line.startswith(f"| {label} | straight"))
@@ -406,7 +407,7 @@ def test_reference_rows_mark_the_performance_profiles(tmp_path: Path) -> None:
     _, runs = load_runs(root)
     # the straight start's (the first condition's) values, one line per reference row
     assert reference_errors(runs) == {
-        "MuJoCoReach-v0": {"analytic IK, closed loop": 0.2, "random policy": 150.0}
+        "MuJoCoReach-v0": {"oracle, closed loop": 0.2, "random policy": 150.0}
     }
 
 
