@@ -11,7 +11,7 @@
     cdcr-gym demo [--env-id ID] ...                     # training.evaluate.ik_demo
     cdcr-gym configs                                    # the packaged experiment configs
 
-and ``from-zoo``, ``oracles``, ``results``, ``task-results``, ``bench-physics``, ``calibrate``
+and ``from-zoo``, ``oracles``, ``results``, ``bench-physics``, ``calibrate``
 (``cdcr-gym --help``). One-off studies and benchmarks are not commands: they live in the
 checkout's ``experiments/`` package (``python -m experiments.<name>``), outside the wheel.
 Each subcommand's module also runs as ``python -m <module>`` (``python -m training.run.train``).
@@ -67,10 +67,9 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
         "the task oracles' numbers on fixed-seed episodes",
         "train",
     ),
-    "results": ("training.evaluate.results", "markdown tables of evaluated runs", "train"),
-    "task-results": (
+    "results": (
         "training.evaluate.results",
-        "the same as results (collect evaluations into a JSON with --out)",
+        "markdown tables of evaluated runs (any task); --out collects them into a JSON",
         "train",
     ),
     "bench-physics": (

@@ -36,7 +36,6 @@ POSITIONAL = {
     "sweep": ["sweeps/benchmark"],
     "aggregate": ["OUT"],
     "results": ["RUN"],
-    "task-results": ["RUN", "--out", "OUT"],
     "from-zoo": ["ZOO", "RUN"],
     "oracles": ["--task", "reach"],
     "sim2sim": ["eval.json", "--out", "OUT"],
@@ -163,7 +162,7 @@ def test_a_bad_value_is_a_usage_error_naming_the_flag(
 def test_every_command_is_covered_by_a_bad_value() -> None:
     """Each command with a numeric or choice option has at least one bad-value case above."""
     covered = {c for c, _, _ in BAD_VALUES}
-    exempt = {"results", "task-results", "from-zoo", "configs"}  # no numeric or choice options
+    exempt = {"results", "from-zoo", "configs"}  # no numeric or choice options
     assert set(ALL) - exempt <= covered
 
 

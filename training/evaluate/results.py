@@ -17,7 +17,7 @@ A legend under each table explains its columns.
 
 ``--out FILE.json`` also writes the collected evaluations: per run the task, env id, seed,
 training steps and wall time (s), the evaluate command and its conditions' summaries
-(:func:`collect`; ``cdcr-gym task-results`` is the same command). With ``--figures DIR`` the
+(:func:`collect`). With ``--figures DIR`` the
 path figures ``RUN/eval/<condition>_paths.png`` are copied to
 ``DIR/ppo_<task>_seed<S>_<condition>[_<tag>]_paths.png``.
 """

@@ -1,5 +1,5 @@
 """training.evaluate.results --out: collects the evaluations of several runs, any task, into one
-JSON (fake runs, no training); ``cdcr-gym task-results`` is the same command."""
+JSON (fake runs, no training)."""
 
 from __future__ import annotations
 
