@@ -191,7 +191,7 @@ def evaluate(
     ev = config.evaluate
     seed = ev.seed if seed is None else seed
     train_horizon = config.env.max_episode_steps or registered_steps(config.env.id)
-    probe = make_env(env_id, env_kwargs)
+    probe: Any = make_env(env_id, env_kwargs)
     threshold = getattr(probe.unwrapped.task, "distance_threshold", None)
     probe.close()
     task, conditions, raw = evaluate_policies(

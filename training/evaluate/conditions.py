@@ -63,7 +63,7 @@ def _old_reach_summary(block: dict[str, Any], episodes: Any) -> dict[str, Any]:
 
 
 def _old_reach_condition(cond: dict[str, Any], episodes: Any) -> dict[str, Any]:
-    out = {k: cond[k] for k in ("initial_state", "horizon") if k in cond}
+    out: dict[str, Any] = {k: cond[k] for k in ("initial_state", "horizon") if k in cond}
     out["policy"] = _old_reach_summary(cond, episodes)
     ik = cond.get("ik", {})
     if all(k in ik for k in _TO_ORACLE):

@@ -93,8 +93,12 @@ def make_callbacks(config: ExperimentConfig, run: RunDir, state: dict[str, Any])
             errors, success, returns = [], [], []
             for start in ev.initial_states:
                 kwargs = {**e.kwargs, "initial_state": start}
+
+                def env_fn(k: dict[str, Any] = kwargs) -> Any:
+                    return make_env(e.id, k, self.horizon)
+
                 rollouts = run_episodes(
-                    lambda k=kwargs: make_env(e.id, k, self.horizon),
+                    env_fn,
                     policy,
                     EpisodeSpecs.from_seeds(ev.n_episodes, ev.seed),
                     self.horizon,

@@ -69,8 +69,8 @@ def oracle_for(env: Any, kind: str = "oracle", **options: Any) -> Any:
     return cls.from_env(env, feedback=feedback, **options)
 
 
-def error_stats(values: np.ndarray, scale: float = 1.0) -> dict[str, float]:
-    """``mean``, ``median``, ``p95``, ``max`` of ``values`` × ``scale``."""
+def error_stats(values: Any, scale: float = 1.0) -> dict[str, float]:
+    """``mean``, ``median``, ``p95``, ``max`` of ``values`` (array-like, (n,)) × ``scale``."""
     v = np.asarray(values, dtype=np.float64) * scale
     return {
         "mean": float(np.mean(v)),
