@@ -275,7 +275,7 @@ def _figures(
             fig_dir / "workspace_errors.png",
             f"{algo} final error over the workspace ({where})",
         ),
-        "policy_vs_oracle": plots.plot_policy_vs_ik(
+        "policy_vs_oracle": plots.plot_policy_vs_oracle(
             pol_mm, orc_mm, fig_dir / "policy_vs_oracle.png", f"per episode ({where})"
         ),
     }

@@ -11,7 +11,7 @@ from training.run.logs import pyplot
 __all__ = [
     "plot_error_histogram",
     "plot_workspace_errors",
-    "plot_policy_vs_ik",
+    "plot_policy_vs_oracle",
     "plot_error_vs_step",
 ]
 
@@ -72,11 +72,14 @@ def plot_workspace_errors(
     return out
 
 
-def plot_policy_vs_ik(policy_mm: np.ndarray, ik_mm: np.ndarray, out: Path, title: str = "") -> Path:
-    """Per-goal final error: policy vs analytic IK (log–log), with the diagonal."""
+def plot_policy_vs_oracle(
+    policy_mm: np.ndarray, oracle_mm: np.ndarray, out: Path, title: str = ""
+) -> Path:
+    """Per-episode final distance (n,) mm: policy vs the task's oracle on the same episodes
+    (log–log), with the diagonal."""
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(5.5, 5))
-    x = np.clip(np.asarray(ik_mm), 1e-3, None)  # below 1 µm drawn at 1 µm
+    x = np.clip(np.asarray(oracle_mm), 1e-3, None)  # below 1 µm drawn at 1 µm
     y = np.clip(np.asarray(policy_mm), 1e-3, None)
     ax.scatter(x, y, s=12, alpha=0.7)
     lo = min(x.min(), y.min()) * 0.8
@@ -86,8 +89,8 @@ def plot_policy_vs_ik(policy_mm: np.ndarray, ik_mm: np.ndarray, out: Path, title
     ax.set_yscale("log")
     ax.set_xlim(lo, hi)
     ax.set_ylim(lo, hi)
-    ax.set_xlabel("analytic IK final error (mm)")
-    ax.set_ylabel("learned policy final error (mm)")
+    ax.set_xlabel("oracle final distance (mm)")
+    ax.set_ylabel("learned policy final distance (mm)")
     ax.set_title(title)
     ax.legend()
     ax.grid(alpha=0.3, which="both")
