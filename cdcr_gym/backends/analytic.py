@@ -80,9 +80,13 @@ class AnalyticBackend(Backend):
 
     def _set(self, tensions: np.ndarray) -> None:
         self._tendon_state = None
+        if self.bending_scale is None:  # the nominal robots: bending and lengths in one product
+            comp, (tip, direction, lengths) = self.model.forward_rows_from_tensions(tensions)
+            self._comp = comp
+            self._readings = Readings(tip.T, direction.T, lengths.T, tensions)
+            return
         comp = self.model.bending_rows_from_tensions(tensions)
-        if self.bending_scale is not None:
-            comp *= self.bending_scale
+        comp *= self.bending_scale
         self._comp = comp
         self._readings = self._shape(tensions, comp, self.length_scale)
 
