@@ -86,18 +86,15 @@ def fill_robot_state(
     length_slice: slice,
     readings: Readings,
     scale: RobotStateScale,
+    work: np.ndarray,
 ) -> None:
     """Write the ``tensions`` and ``cable_lengths`` fields of ``readings`` into the field-major
-    observation buffer ``out`` (size, N)."""
-    np.multiply(
-        readings.tensions.T, scale.inv_max_tension, out=out[tension_slice], casting="unsafe"
-    )
-    np.multiply(
-        readings.cable_lengths.T - scale.run_lengths_col,
-        scale.inv_length_span_col,
-        out=out[length_slice],
-        casting="unsafe",
-    )
+    observation buffer ``out`` (size, N), computed in the float64 scratch ``work`` (C, N)
+    (overwritten) and then copied: a float64 → float32 cast inside a ufunc costs more than a
+    float64 ufunc and a copy."""
+    out[tension_slice] = np.multiply(readings.tensions.T, scale.inv_max_tension, work)
+    lengths = np.subtract(readings.cable_lengths.T, scale.run_lengths_col, work)
+    out[length_slice] = np.multiply(lengths, scale.inv_length_span_col, work)
 
 
 #: A given goal position may lie at most this many robot lengths from the base.
@@ -351,6 +348,10 @@ class GoalTask(Task):
         self.goal_rows[2] = params.length
         self.goal = self.goal_rows.T  # (N, 3) view of the rows
         self._scale = RobotStateScale(params)
+        # float64 scratch rows of the observation fill (field values are computed there and
+        # copied into the float32 buffer; never returned)
+        self._work_xyz = np.empty((3, self.num_envs))
+        self._work_cables = np.empty((params.n_cables, self.num_envs))
         self._specs = {gc: ObservationSpec(self.fields(gc)) for gc in (False, True)}
         self._slices = {gc: spec.slices for gc, spec in self._specs.items()}
 
@@ -384,7 +385,9 @@ class GoalTask(Task):
     def observe(self, readings: Readings, out: np.ndarray, goal_conditioned: bool) -> None:
         s = self._slices[goal_conditioned]
         self.fill_position(out, s, readings, goal_conditioned)
-        fill_robot_state(out, s["tensions"], s["cable_lengths"], readings, self._scale)
+        fill_robot_state(
+            out, s["tensions"], s["cable_lengths"], readings, self._scale, self._work_cables
+        )
         self.observe_extra(readings, out, s, goal_conditioned)
 
     def fill_position(
@@ -394,10 +397,10 @@ class GoalTask(Task):
         tip = readings.tip.T
         out[s["tip"]] = tip
         if not goal_conditioned:
-            error = self.goal_rows - tip
-            out[s[self.goal_name]] = self.goal_rows
-            out[s["error"]] = error
-            np.tanh(error * _INV_ERROR_SCALE, out=out[s["error_tanh"]], casting="unsafe")
+            goal, work = self.goal_rows, self._work_xyz  # (work: float64 scratch, see bind)
+            out[s[self.goal_name]] = goal
+            out[s["error"]] = error = np.subtract(goal, tip, work)
+            out[s["error_tanh"]] = np.tanh(np.multiply(error, _INV_ERROR_SCALE, work), work)
 
     def observe_extra(
         self, readings: Readings, out: np.ndarray, s: dict[str, slice], goal_conditioned: bool
