@@ -211,14 +211,17 @@ class AnalyticBackend(Backend):
 
     def equilibrium(self, tensions: np.ndarray) -> Readings:
         t = validation.per_cable(tensions, "tensions", self.n_cables, 0.0, self.params.max_tension)
+        if t.ndim == 2:  # (M, C): the rows' transposes are the readings
+            _, (tip, direction, lengths) = self.model.forward_rows_from_tensions(t)
+            return Readings(tip.T, direction.T, lengths.T, t)
         flat = t.reshape(-1, self.n_cables)
-        r = self._shape(flat, self.model.bending_rows_from_tensions(flat))
+        _, (tip, direction, lengths) = self.model.forward_rows_from_tensions(flat)
         batch = t.shape[:-1]
         return Readings(
-            r.tip.reshape(batch + (3,)),
-            r.tip_direction.reshape(batch + (3,)),
-            r.cable_lengths.reshape(t.shape),
-            r.tensions.reshape(t.shape),
+            tip.T.reshape(batch + (3,)),
+            direction.T.reshape(batch + (3,)),
+            lengths.T.reshape(t.shape),
+            t,
         )
 
     @property
