@@ -86,14 +86,15 @@ def fill_robot_state(
     length_slice: slice,
     readings: Readings,
     scale: RobotStateScale,
+    work: tuple[np.ndarray, np.ndarray],
 ) -> None:
     """Write the ``tensions`` and ``cable_lengths`` fields of ``readings`` into the field-major
-    observation buffer ``out`` (size, N). (Computed in float64 and copied: a float64 → float32
-    cast inside a ufunc costs more than a float64 ufunc and a copy.)"""
-    out[tension_slice] = readings.tensions.T * scale.inv_max_tension
-    out[length_slice] = (readings.cable_lengths.T - scale.run_lengths_col) * (
-        scale.inv_length_span_col
-    )
+    observation buffer ``out`` (size, N), computed in the two float64 scratch arrays ``work``
+    (C, N) (overwritten) and copied (see :meth:`GoalTask.bind`)."""
+    a, b = work
+    out[tension_slice] = np.multiply(readings.tensions.T, scale.inv_max_tension, a)
+    lengths = np.subtract(readings.cable_lengths.T, scale.run_lengths_col, b)
+    out[length_slice] = np.multiply(lengths, scale.inv_length_span_col, a)
 
 
 #: A given goal position may lie at most this many robot lengths from the base.
@@ -165,11 +166,21 @@ def check_goal_pair(achieved: Any, desired: Any, size: int) -> tuple[np.ndarray,
     return out[0], out[1]
 
 
-def goal_distance(achieved_goal: np.ndarray, desired_goal: np.ndarray) -> np.ndarray:
+def goal_distance(
+    achieved_goal: np.ndarray,
+    desired_goal: np.ndarray,
+    work: tuple[np.ndarray, np.ndarray] | None = None,
+) -> np.ndarray:
     """Euclidean distance (m) between points (..., 3), over the last axis, in float64 (shape
-    (...)): the one distance of every goal task (reward, success, ``info``, HER)."""
-    e = np.subtract(achieved_goal, desired_goal, dtype=np.float64)
-    e = e * e  # (not in place: an in-place ufunc costs ~2.5 calls on a few elements)
+    (...)): the one distance of every goal task (reward, success, ``info``, HER). ``work``:
+    two float64 scratch arrays of the points' broadcast shape (overwritten) for the
+    intermediate results of a caller that computes it every step (see :meth:`GoalTask.bind`)."""
+    if work is None:
+        e = np.subtract(achieved_goal, desired_goal, dtype=np.float64)
+        e = e * e
+    else:
+        e = np.subtract(achieved_goal, desired_goal, work[0])
+        e = np.multiply(e, e, work[1])
     return np.sqrt(e[..., 0] + e[..., 1] + e[..., 2])
 
 
@@ -347,6 +358,13 @@ class GoalTask(Task):
         self.goal_rows[2] = params.length
         self.goal = self.goal_rows.T  # (N, 3) view of the rows
         self._scale = RobotStateScale(params)
+        # float64 scratch for the per-step intermediate results (never returned): each ufunc
+        # writes into one not aliasing its inputs. In-place ufuncs cost ~2.5 calls each at
+        # N = 1; fresh temporaries cost page faults at large N.
+        n, c = self.num_envs, params.n_cables
+        self._work = (np.empty((3, n)), np.empty((3, n)))
+        self._work_points = (self._work[0].T, self._work[1].T)  # (N, 3) views
+        self._work_cables = (np.empty((c, n)), np.empty((c, n)))
         self._specs = {gc: ObservationSpec(self.fields(gc)) for gc in (False, True)}
         self._slices = {gc: spec.slices for gc, spec in self._specs.items()}
 
@@ -380,7 +398,9 @@ class GoalTask(Task):
     def observe(self, readings: Readings, out: np.ndarray, goal_conditioned: bool) -> None:
         s = self._slices[goal_conditioned]
         self.fill_position(out, s, readings, goal_conditioned)
-        fill_robot_state(out, s["tensions"], s["cable_lengths"], readings, self._scale)
+        fill_robot_state(
+            out, s["tensions"], s["cable_lengths"], readings, self._scale, self._work_cables
+        )
         self.observe_extra(readings, out, s, goal_conditioned)
 
     def fill_position(
@@ -390,10 +410,10 @@ class GoalTask(Task):
         tip = readings.tip.T
         out[s["tip"]] = tip
         if not goal_conditioned:
-            goal = self.goal_rows
+            goal, (a, b) = self.goal_rows, self._work  # float64 scratch (bind), then copied
             out[s[self.goal_name]] = goal
-            out[s["error"]] = error = goal - tip
-            out[s["error_tanh"]] = np.tanh(error * _INV_ERROR_SCALE)  # (float64, then copied)
+            out[s["error"]] = error = np.subtract(goal, tip, a)
+            out[s["error_tanh"]] = np.tanh(np.multiply(error, _INV_ERROR_SCALE, b), a)
 
     def observe_extra(
         self, readings: Readings, out: np.ndarray, s: dict[str, slice], goal_conditioned: bool
@@ -435,7 +455,7 @@ class GoalTask(Task):
         return self.reward_from_distance(goal_distance(achieved_goal, desired_goal))
 
     def evaluate(self, readings: Readings) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
-        distance = goal_distance(readings.tip, self.goal)
+        distance = goal_distance(readings.tip, self.goal, self._work_points)
         success = distance <= self.distance_threshold
         reward = self.reward_from_distance(distance)
         info = {"distance": distance, "is_success": success, self.goal_name: self.goal.copy()}
