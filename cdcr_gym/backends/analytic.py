@@ -211,9 +211,6 @@ class AnalyticBackend(Backend):
 
     def equilibrium(self, tensions: np.ndarray) -> Readings:
         t = validation.per_cable(tensions, "tensions", self.n_cables, 0.0, self.params.max_tension)
-        if t.ndim == 2:  # (M, C): the rows' transposes are the readings
-            _, (tip, direction, lengths) = self.model.forward_rows_from_tensions(t)
-            return Readings(tip.T, direction.T, lengths.T, t)
         flat = t.reshape(-1, self.n_cables)
         _, (tip, direction, lengths) = self.model.forward_rows_from_tensions(flat)
         batch = t.shape[:-1]
