@@ -97,6 +97,9 @@ def fill_robot_state(
     out[length_slice] = np.multiply(lengths, scale.inv_length_span_col, a)
 
 
+#: GoalTask attributes that are per-step scratch (reallocated after unpickling).
+_SCRATCH = ("_work", "_work_points", "_work_cables")
+
 #: A given goal position may lie at most this many robot lengths from the base.
 GOAL_REACH = 10.0
 
@@ -344,13 +347,15 @@ class GoalTask(Task):
         numpy pickles the two arrays separately, which would cut the link (a reset writing
         ``goal`` would then leave ``goal_rows`` stale)."""
         state = self.__dict__.copy()
-        state.pop("goal", None)
+        for key in ("goal", *_SCRATCH):  # (scratch: reallocated, not pickled)
+            state.pop(key, None)
         return state
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
         if "goal_rows" in state:
             self.goal = self.goal_rows.T
+            self._allocate_scratch()
 
     def bind(self, params: RobotParams, num_envs: int) -> None:
         super().bind(params, num_envs)
@@ -358,15 +363,18 @@ class GoalTask(Task):
         self.goal_rows[2] = params.length
         self.goal = self.goal_rows.T  # (N, 3) view of the rows
         self._scale = RobotStateScale(params)
-        # float64 scratch for the per-step intermediate results (never returned): each ufunc
-        # writes into one not aliasing its inputs. In-place ufuncs cost ~2.5 calls each at
-        # N = 1; fresh temporaries cost page faults at large N.
-        n, c = self.num_envs, params.n_cables
+        self._allocate_scratch()
+        self._specs = {gc: ObservationSpec(self.fields(gc)) for gc in (False, True)}
+        self._slices = {gc: spec.slices for gc, spec in self._specs.items()}
+
+    def _allocate_scratch(self) -> None:
+        """Float64 scratch pairs for the per-step intermediate results (never returned): each
+        ufunc writes into one not aliasing its inputs. In-place ufuncs cost ~2.5 calls each at
+        N = 1; fresh temporaries cost page faults at large N."""
+        n, c = self.num_envs, self.params.n_cables
         self._work = (np.empty((3, n)), np.empty((3, n)))
         self._work_points = (self._work[0].T, self._work[1].T)  # (N, 3) views
         self._work_cables = (np.empty((c, n)), np.empty((c, n)))
-        self._specs = {gc: ObservationSpec(self.fields(gc)) for gc in (False, True)}
-        self._slices = {gc: spec.slices for gc, spec in self._specs.items()}
 
     # -- observation ----------------------------------------------------------------------------
     def position_fields(self) -> dict[str, Field]:
