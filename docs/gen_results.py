@@ -1,6 +1,7 @@
 """Write docs/results.md from the committed result JSONs: the benchmark
-(docs/figures/benchmark/results.json), the backends' dynamics (experiments/dynamics/check.json)
-and the real-robot calibration (docs/figures/calibration/ftdcr_v4_ccka/report.json, ablation.json).
+(docs/figures/benchmark/results.json), the env speed (docs/figures/benchmark/speed.json), the
+backends' dynamics (experiments/dynamics/check.json) and the real-robot calibration
+(docs/figures/calibration/ftdcr_v4_ccka/report.json, ablation.json).
 
     python docs/gen_results.py            # rewrites docs/results.md
     python docs/gen_results.py --check    # exit 1 if docs/results.md differs from the output
@@ -18,6 +19,7 @@ from pathlib import Path
 
 DOCS = Path(__file__).resolve().parent
 RESULTS = DOCS / "figures" / "benchmark" / "results.json"
+SPEED = DOCS / "figures" / "benchmark" / "speed.json"
 PAGE = DOCS / "results.md"
 DYNAMICS = DOCS.parent / "experiments" / "dynamics" / "check.json"
 CALIBRATION = DOCS / "figures" / "calibration" / "ftdcr_v4_ccka"
@@ -139,6 +141,36 @@ def render(result: dict) -> str:
     return "\n".join(lines)
 
 
+def _rate(value: float) -> str:
+    return f"{value / 1e6:.2f} M" if value >= 1e6 else f"{value / 1e3:.1f} k"
+
+
+def render_speed(record: dict) -> str:
+    """The env's speed: the single env and the batched env against ``Pendulum-v1``."""
+    r = record["result"]
+    lines = [
+        "## Speed: single env and batched env",
+        "",
+        "Env-steps/s of `CCKAReach-v0` (episode resets included), each timed alternately with",
+        "`Pendulum-v1` through `gymnasium.make` in the same process; the ratio to Pendulum is",
+        "what carries over to another machine, the absolute rates are this machine's",
+        f"({record['cpu_count']} CPU cores, medians of {record['rounds']} rounds). Produced by",
+        f"`{record['command']}`.",
+        "",
+        "| env | env-steps/s | per `Pendulum-v1` step rate |",
+        "|---|---|---|",
+        f"| `Pendulum-v1` (`gymnasium.make`) | {_rate(r['pendulum'])} | 1 |",
+        f"| single `CCKAReach-v0` (`gymnasium.make`) | {_rate(r['single'])} | {r['ratio']:.3f} |",
+    ]
+    sizes = sorted(int(k.split("_")[1]) for k in r if k.startswith("batched_") and k[-1].isdigit())
+    for n in sizes:
+        lines.append(
+            f"| batched `CCKAReach-v0`, {n:,} envs (`gymnasium.make_vec`) | "
+            f"{_rate(r[f'batched_{n}'])} | {r[f'batched_{n}_per_pendulum']:.0f} |"
+        )
+    return "\n".join(lines + [""])
+
+
 def render_dynamics(check: dict) -> str:
     """The backends' first two bending frequencies against the beam reference."""
     lines = [
@@ -206,6 +238,7 @@ def render_calibration(report: dict, ablation: dict) -> str:
 def render_page() -> str:
     """The whole page from the committed JSONs."""
     text = render(json.loads(RESULTS.read_text(encoding="utf-8")))
+    text += "\n" + render_speed(json.loads(SPEED.read_text(encoding="utf-8")))
     text += "\n" + render_dynamics(json.loads(DYNAMICS.read_text(encoding="utf-8")))
     report = json.loads((CALIBRATION / "report.json").read_text(encoding="utf-8"))
     ablation = json.loads((CALIBRATION / "ablation.json").read_text(encoding="utf-8"))

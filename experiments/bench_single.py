@@ -4,7 +4,7 @@ shared, loaded machine where absolute rates are not). Optionally the batched env
 
 Usage::
 
-    python -m experiments.bench_single [--rounds 9] [--steps 4000]
+    python -m experiments.bench_single [--rounds 9] [--steps 4000] [--output speed.json]
     python -m experiments.bench_single --against /tmp/base --rounds 5 [--batched 64 16384]
         [--batched-repeats 3]
 
@@ -12,6 +12,9 @@ Usage::
 in subprocesses, round by round, and prints the medians of both and of their per-round ratios:
 the single-env/Pendulum ratio of each checkout, and with ``--batched`` the batched env's
 env-steps/s at the given sizes (this/baseline per round).
+
+``--output FILE`` writes the result (and the command that produced it) as JSON: the source of
+the speed table of ``docs/results.md`` (``docs/figures/benchmark/speed.json``).
 """
 
 from __future__ import annotations
@@ -170,13 +173,28 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--against", metavar="CHECKOUT", help="alternate with this checkout")
     parser.add_argument("--json", action="store_true", help="print one JSON line")
+    parser.add_argument("--output", metavar="FILE", help="also write the result as JSON here")
     args = parser.parse_args(argv)
+    if args.output and args.against:
+        parser.error("--output writes this checkout's result: not with --against")
     if args.against:
         _alternate(args.against, args.rounds, args.batched, args.steps, args.batched_repeats)
         return 0
     result = single_ratio(args.rounds, args.steps)
     result.update(batched_rates(args.batched, repeats=args.batched_repeats))
     print(json.dumps(result) if args.json else _line(result), flush=True)
+    if args.output:
+        command = "python -m experiments.bench_single " + " ".join(
+            sys.argv[1:] if argv is None else argv
+        )
+        record = {
+            "command": command,
+            "cpu_count": os.cpu_count(),
+            "rounds": args.rounds,
+            "steps": args.steps,
+            "result": result,
+        }
+        Path(args.output).write_text(json.dumps(record, indent=1) + "\n", encoding="utf-8")
     return 0
 
 

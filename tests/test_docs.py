@@ -175,6 +175,8 @@ def test_results_page_is_the_generator_output():
     report = json.loads((module.CALIBRATION / "report.json").read_text(encoding="utf-8"))
     assert f"{report['validation']['rmse_aligned_mm']:.2f} mm" in page
     assert "## Dynamics: bending frequencies" in page
+    speed = json.loads(module.SPEED.read_text(encoding="utf-8"))
+    assert "## Speed: single env and batched env" in page and speed["command"] in page
 
 
 def test_every_docs_page_is_reachable():

@@ -80,9 +80,13 @@ class AnalyticBackend(Backend):
 
     def _set(self, tensions: np.ndarray) -> None:
         self._tendon_state = None
+        if self.bending_scale is None:  # the nominal robots: bending and lengths in one product
+            comp, (tip, direction, lengths) = self.model.forward_rows_from_tensions(tensions)
+            self._comp = comp
+            self._readings = Readings(tip.T, direction.T, lengths.T, tensions)
+            return
         comp = self.model.bending_rows_from_tensions(tensions)
-        if self.bending_scale is not None:
-            comp *= self.bending_scale
+        comp *= self.bending_scale
         self._comp = comp
         self._readings = self._shape(tensions, comp, self.length_scale)
 
@@ -208,13 +212,13 @@ class AnalyticBackend(Backend):
     def equilibrium(self, tensions: np.ndarray) -> Readings:
         t = validation.per_cable(tensions, "tensions", self.n_cables, 0.0, self.params.max_tension)
         flat = t.reshape(-1, self.n_cables)
-        r = self._shape(flat, self.model.bending_rows_from_tensions(flat))
+        _, (tip, direction, lengths) = self.model.forward_rows_from_tensions(flat)
         batch = t.shape[:-1]
         return Readings(
-            r.tip.reshape(batch + (3,)),
-            r.tip_direction.reshape(batch + (3,)),
-            r.cable_lengths.reshape(t.shape),
-            r.tensions.reshape(t.shape),
+            tip.T.reshape(batch + (3,)),
+            direction.T.reshape(batch + (3,)),
+            lengths.T.reshape(t.shape),
+            t,
         )
 
     @property

@@ -108,6 +108,13 @@ class PCCModel:
         self._straight_column = self.straight_lengths[:, None]
         #: Section lengths (m) as 0-d arrays (the kernel's operands, see ``_ONE``).
         self._section_length_list = [np.array(x) for x in self.section_lengths.tolist()]
+        self._half_lengths = 0.5 * self.section_lengths  # (S,): a 0-d batch's
+        self._half_length_column = self._half_lengths[:, None]  # (S, 1): a batch of rows'
+        # tensions (M, C) -> rows (2S + C, M): the bending components, then the cable-length
+        # changes (one product for both: both are linear in the tensions)
+        self._tension_rows = np.ascontiguousarray(
+            np.concatenate([self._bending_rows, self._lengths_map @ self._bending_rows])
+        )
         self._tiled: dict[int, np.ndarray] = {}
         self.disk_fractions = tuple(
             np.arange(1, s.n_disks + 1, dtype=np.float64) / s.n_disks for s in params.sections
@@ -215,9 +222,9 @@ class PCCModel:
         if w.shape[-2:] != (S, 2):
             raise ValueError(f"w must have shape (..., {S}, 2), got {w.shape}")
         batch = w.shape[:-2]
-        out = _tip_and_direction(
-            np.moveaxis(w, (-2, -1), (0, 1)), self._section_length_list, np.empty((6,) + batch)
-        )
+        rows = np.moveaxis(w, (-2, -1), (0, 1)).reshape((2 * S,) + batch)
+        half = self._half_lengths.reshape((S,) + (1,) * len(batch))
+        out = _tip_and_direction(rows, self._section_length_list, half, np.empty((6,) + batch))
         both = np.moveaxis(out, 0, -1)
         return both[..., :3], both[..., 3:]
 
@@ -247,13 +254,26 @@ class PCCModel:
         :meth:`lengths_from_bending` (the same kernel): ``.T`` of the results gives (M, ·)
         arrays (Fortran-ordered views).
         """
-        m = comp.shape[1]
         both = _tip_and_direction(
-            comp.reshape(self.n_sections, 2, m), self._section_length_list, np.empty((6, m))
+            comp, self._section_length_list, self._half_length_column, np.empty((6, comp.shape[1]))
         )
-        lengths = self._lengths_map @ comp
-        lengths += self._straight_column
+        lengths = self._lengths_map @ comp + self._straight_column
         return both[:3], both[3:], lengths
+
+    def forward_rows_from_tensions(
+        self, tensions: np.ndarray
+    ) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """The bending component rows (2S, M) (rad) held by ``tensions`` (M, C) (N; any memory
+        layout, finite: the caller validates) and their :meth:`forward_rows` (tip (3, M) m,
+        tip direction (3, M), cable lengths (C, M) m): the same results, with the bending and
+        the length changes from one matrix product. Fresh arrays."""
+        rows = self._tension_rows @ tensions.T
+        split = 2 * self.n_sections
+        comp, lengths = rows[:split], rows[split:] + self._straight_column
+        both = _tip_and_direction(
+            comp, self._section_length_list, self._half_length_column, np.empty((6, rows.shape[1]))
+        )
+        return comp, (both[:3], both[3:], lengths)
 
     def section_frames(self, w) -> np.ndarray:
         """Homogeneous frames (..., S+1, 4, 4) in R0: the base frame, then every section's end.
@@ -339,24 +359,25 @@ class PCCModel:
 
 # Constants of the kernels as 0-d float64 arrays: the same values and bits as Python floats,
 # and cheaper operands for numpy on small arrays (no Python-scalar conversion per operation).
-_ONE, _HALF, _QUARTER, _TINY = (np.array(c) for c in (1.0, 0.5, 0.25, 1e-300))
+_ONE, _TWO, _HALF, _TINY = (np.array(c) for c in (1.0, 2.0, 0.5, 1e-300))
 
 
-def _arc_profile(wx, wy):
-    """(f, g, h) = ((1 − cos θ)/θ², sin θ/θ, cos θ) of the bending components (wx, wy) (float64
-    arrays), θ = |w|: exact and finite at θ = 0, from tan(θ/4) (no cancellation;
-    tan(1e-300)/1e-300 == 1.0). Two transcendental functions (sqrt, tan)."""
-    th2 = wx * wx + wy * wy
-    x = np.sqrt(th2) * _QUARTER  # θ/4
-    safe = x + _TINY  # == x unless x < 1e-284
-    p = np.tan(safe) / safe  # tan(θ/4)/(θ/4)
-    t = p * x
-    t = t * t  # tan²(θ/4)
-    den = t + _ONE
-    p = p / den  # sin(θ/2)/(θ/2)
-    g = (_ONE - t) * p / den  # sin θ/θ = q·cos(θ/2)
-    f = p * p * _HALF  # (1 − cos θ)/θ² = q²/2
-    return f, g, _ONE - f * th2
+def _arc_profile(wx, wy, half_ell):
+    """(fℓ, g, h) = (ℓ·(1 − cos θ)/θ², sin θ/θ, cos θ) of the bending components (wx, wy)
+    (float64 arrays (S, *batch)), θ = |w|, with ``half_ell`` the section lengths / 2 (m),
+    broadcasting against them. Exact and finite at θ = 0 (tan(1e-300)/1e-300 == 1.0).
+
+    From u = tan(θ/2) and r = u/(θ/2): sin θ/θ = r/(1 + u²), (1 − cos θ)/θ² = r·(sin θ/θ)/2
+    and cos θ = 2/(1 + u²) − 1 (exact identities for every θ; no cancellation near 0). One
+    transcendental function besides the square root, and few numpy calls (each call, not
+    each element, is what costs at small batches; fresh results, not in-place operations,
+    which cost ~2.5 calls each on a few elements)."""
+    y = np.sqrt(wx * wx + wy * wy) * _HALF + _TINY  # θ/2 (+ 1e-300: the same unless < 1e-284)
+    u = np.tan(y)
+    r = u / y  # tan(θ/2)/(θ/2)
+    den = u * u + _ONE  # 1 + u²
+    g = r / den  # sin θ/θ
+    return r * g * half_ell, g, _TWO / den - _ONE  # ℓ·(1 − cos θ)/θ², sin θ/θ, cos θ
 
 
 def _rotate(wx, wy, f, g, h, v0, v1, v2):
@@ -367,25 +388,29 @@ def _rotate(wx, wy, f, g, h, v0, v1, v2):
     return v0 * h + wx * gv3 - wy * fd, v1 * h + wy * gv3 + wx * fd, v2 * h - g * c
 
 
-def _tip_and_direction(w: np.ndarray, ell: list[np.ndarray], out: np.ndarray) -> np.ndarray:
-    """Tip (m) and unit tip tangent of the bending components ``w`` (S, 2, *batch) (rad) of S
-    sections of lengths ``ell`` (m), composed from the distal section to the base, written into
-    ``out`` (6, *batch): rows tip x, y, z, then tangent x, y, z. Returns ``out``."""
-    f, g, h = _arc_profile(w[:, 0], w[:, 1])  # each (S, *batch)
+def _tip_and_direction(
+    w: np.ndarray, ell: list[np.ndarray], half_ell: np.ndarray, out: np.ndarray
+) -> np.ndarray:
+    """Tip (m) and unit tip tangent of the bending components ``w`` (2S, *batch) (rad; rows
+    wx_0, wy_0, wx_1, …) of S sections of lengths ``ell`` (m, 0-d arrays; ``half_ell`` the
+    halves, shape (S,) + (1,)·len(batch)), composed from the distal section to the base,
+    written into ``out`` (6, *batch): rows tip x, y, z, then tangent x, y, z. Returns ``out``."""
+    fl, g, h = _arc_profile(w[0::2], w[1::2], half_ell)  # each (S, *batch)
     last = len(ell) - 1
-    wl = w[last]
-    np.multiply(wl, f[last] * ell[last], out=out[0:2])
-    np.multiply(g[last], ell[last], out=out[2:3])  # (slices: also for a 0-d batch)
-    np.multiply(wl, g[last], out=out[3:5])
+    wl, gl = w[2 * last : 2 * last + 2], g[last]
+    np.multiply(wl, fl[last], out[0:2])
+    np.multiply(gl, ell[last], out[2:3])  # (slices: also for a 0-d batch)
+    np.multiply(wl, gl, out[3:5])
     out[5:6] = h[last]
     if last == 0:
         return out
     p0, p1, p2, d0, d1, d2 = out
     for j in range(last - 1, -1, -1):
-        wx, wy, fj, gj, hj = w[j, 0], w[j, 1], f[j], g[j], h[j]
+        wx, wy, gj, hj = w[2 * j], w[2 * j + 1], g[j], h[j]
+        fj = fl[j] / ell[j]
         p0, p1, p2 = _rotate(wx, wy, fj, gj, hj, p0, p1, p2)
-        p0 = p0 + fj * wx * ell[j]
-        p1 = p1 + fj * wy * ell[j]
+        p0 = p0 + fl[j] * wx
+        p1 = p1 + fl[j] * wy
         p2 = p2 + gj * ell[j]
         d0, d1, d2 = _rotate(wx, wy, fj, gj, hj, d0, d1, d2)
     out[0], out[1], out[2], out[3], out[4], out[5] = p0, p1, p2, d0, d1, d2

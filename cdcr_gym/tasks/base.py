@@ -86,19 +86,19 @@ def fill_robot_state(
     length_slice: slice,
     readings: Readings,
     scale: RobotStateScale,
+    work: tuple[np.ndarray, np.ndarray],
 ) -> None:
     """Write the ``tensions`` and ``cable_lengths`` fields of ``readings`` into the field-major
-    observation buffer ``out`` (size, N)."""
-    np.multiply(
-        readings.tensions.T, scale.inv_max_tension, out=out[tension_slice], casting="unsafe"
-    )
-    np.multiply(
-        readings.cable_lengths.T - scale.run_lengths_col,
-        scale.inv_length_span_col,
-        out=out[length_slice],
-        casting="unsafe",
-    )
+    observation buffer ``out`` (size, N), computed in the two float64 scratch arrays ``work``
+    (C, N) (overwritten) and copied (see :meth:`GoalTask.bind`)."""
+    a, b = work
+    out[tension_slice] = np.multiply(readings.tensions.T, scale.inv_max_tension, a)
+    lengths = np.subtract(readings.cable_lengths.T, scale.run_lengths_col, b)
+    out[length_slice] = np.multiply(lengths, scale.inv_length_span_col, a)
 
+
+#: GoalTask attributes that are per-step scratch (reallocated after unpickling).
+_SCRATCH = ("_work", "_work_points", "_work_cables")
 
 #: A given goal position may lie at most this many robot lengths from the base.
 GOAL_REACH = 10.0
@@ -169,11 +169,21 @@ def check_goal_pair(achieved: Any, desired: Any, size: int) -> tuple[np.ndarray,
     return out[0], out[1]
 
 
-def goal_distance(achieved_goal: np.ndarray, desired_goal: np.ndarray) -> np.ndarray:
+def goal_distance(
+    achieved_goal: np.ndarray,
+    desired_goal: np.ndarray,
+    work: tuple[np.ndarray, np.ndarray] | None = None,
+) -> np.ndarray:
     """Euclidean distance (m) between points (..., 3), over the last axis, in float64 (shape
-    (...)): the one distance of every goal task (reward, success, ``info``, HER)."""
-    e = np.subtract(achieved_goal, desired_goal, dtype=np.float64)
-    e *= e
+    (...)): the one distance of every goal task (reward, success, ``info``, HER). ``work``:
+    two float64 scratch arrays of the points' broadcast shape (overwritten) for the
+    intermediate results of a caller that computes it every step (see :meth:`GoalTask.bind`)."""
+    if work is None:
+        e = np.subtract(achieved_goal, desired_goal, dtype=np.float64)
+        e = e * e
+    else:
+        e = np.subtract(achieved_goal, desired_goal, work[0])
+        e = np.multiply(e, e, work[1])
     return np.sqrt(e[..., 0] + e[..., 1] + e[..., 2])
 
 
@@ -337,13 +347,15 @@ class GoalTask(Task):
         numpy pickles the two arrays separately, which would cut the link (a reset writing
         ``goal`` would then leave ``goal_rows`` stale)."""
         state = self.__dict__.copy()
-        state.pop("goal", None)
+        for key in ("goal", *_SCRATCH):  # (scratch: reallocated, not pickled)
+            state.pop(key, None)
         return state
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
         if "goal_rows" in state:
             self.goal = self.goal_rows.T
+            self._allocate_scratch()
 
     def bind(self, params: RobotParams, num_envs: int) -> None:
         super().bind(params, num_envs)
@@ -351,8 +363,18 @@ class GoalTask(Task):
         self.goal_rows[2] = params.length
         self.goal = self.goal_rows.T  # (N, 3) view of the rows
         self._scale = RobotStateScale(params)
+        self._allocate_scratch()
         self._specs = {gc: ObservationSpec(self.fields(gc)) for gc in (False, True)}
         self._slices = {gc: spec.slices for gc, spec in self._specs.items()}
+
+    def _allocate_scratch(self) -> None:
+        """Float64 scratch pairs for the per-step intermediate results (never returned): each
+        ufunc writes into one not aliasing its inputs. In-place ufuncs cost ~2.5 calls each at
+        N = 1; fresh temporaries cost page faults at large N."""
+        n, c = self.num_envs, self.params.n_cables
+        self._work = (np.empty((3, n)), np.empty((3, n)))
+        self._work_points = (self._work[0].T, self._work[1].T)  # (N, 3) views
+        self._work_cables = (np.empty((c, n)), np.empty((c, n)))
 
     # -- observation ----------------------------------------------------------------------------
     def position_fields(self) -> dict[str, Field]:
@@ -384,7 +406,9 @@ class GoalTask(Task):
     def observe(self, readings: Readings, out: np.ndarray, goal_conditioned: bool) -> None:
         s = self._slices[goal_conditioned]
         self.fill_position(out, s, readings, goal_conditioned)
-        fill_robot_state(out, s["tensions"], s["cable_lengths"], readings, self._scale)
+        fill_robot_state(
+            out, s["tensions"], s["cable_lengths"], readings, self._scale, self._work_cables
+        )
         self.observe_extra(readings, out, s, goal_conditioned)
 
     def fill_position(
@@ -394,10 +418,10 @@ class GoalTask(Task):
         tip = readings.tip.T
         out[s["tip"]] = tip
         if not goal_conditioned:
-            error = self.goal_rows - tip
-            out[s[self.goal_name]] = self.goal_rows
-            out[s["error"]] = error
-            np.tanh(error * _INV_ERROR_SCALE, out=out[s["error_tanh"]], casting="unsafe")
+            goal, (a, b) = self.goal_rows, self._work  # float64 scratch (bind), then copied
+            out[s[self.goal_name]] = goal
+            out[s["error"]] = error = np.subtract(goal, tip, a)
+            out[s["error_tanh"]] = np.tanh(np.multiply(error, _INV_ERROR_SCALE, b), a)
 
     def observe_extra(
         self, readings: Readings, out: np.ndarray, s: dict[str, slice], goal_conditioned: bool
@@ -439,7 +463,7 @@ class GoalTask(Task):
         return self.reward_from_distance(goal_distance(achieved_goal, desired_goal))
 
     def evaluate(self, readings: Readings) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
-        distance = goal_distance(readings.tip, self.goal)
+        distance = goal_distance(readings.tip, self.goal, self._work_points)
         success = distance <= self.distance_threshold
         reward = self.reward_from_distance(distance)
         info = {"distance": distance, "is_success": success, self.goal_name: self.goal.copy()}

@@ -344,3 +344,39 @@ def test_field_major_kernels_match_the_public_api(name):
         rtol=0.0,
         atol=1e-15,
     )
+
+
+@pytest.mark.parametrize("name", sorted(ROBOTS))
+def test_tension_rows_match_bending_then_forward(name):
+    """forward_rows_from_tensions (bending and length changes from one product) gives the
+    bending rows and forward_rows of bending_rows_from_tensions, straight robot included."""
+    model = PCCModel(ROBOTS[name])
+    t = np.random.default_rng(3).uniform(0.0, model.params.max_tension, (6, model.n_cables))
+    t[0] = 0.0
+    comp, rows = model.forward_rows_from_tensions(t)
+    want_comp = model.bending_rows_from_tensions(t)
+    np.testing.assert_allclose(comp, want_comp, rtol=0.0, atol=1e-15)
+    for got, want in zip(rows, model.forward_rows(want_comp)):
+        np.testing.assert_allclose(got, want, rtol=0.0, atol=1e-15)
+    np.testing.assert_array_equal(rows[2][:, 0], model.straight_lengths)
+
+
+def test_one_section_kernel_against_the_closed_form_arc_up_to_two_pi():
+    """Tip and tangent of one arc (θ, φ) for θ from 0 (and 1e-300) through π to 1.9π against
+    p = ℓ(2 sin²(θ/2)/θ (cos φ, sin φ), sin θ/θ), t = (sin θ cos φ, sin θ sin φ, cos θ)."""
+    model = PCCModel(RobotParams())
+    ell = model.section_lengths[0]
+    theta = np.array([0.0, 1e-300, 1e-9, 1e-4, 0.5, np.pi - 1e-9, np.pi, np.pi + 1e-9, 5.9])
+    phi = np.linspace(-3.0, 3.0, theta.size)
+    w = (theta[:, None] * np.stack([np.cos(phi), np.sin(phi)], -1))[:, None, :]
+    tip, direction = model.tip_and_direction_from_bending(w)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        radial = np.where(theta > 0, 2.0 * np.sin(theta / 2) ** 2 / theta, 0.0)
+        axial = np.where(theta > 0, np.sin(theta) / theta, 1.0)
+    want_tip = ell * np.stack([radial * np.cos(phi), radial * np.sin(phi), axial], -1)
+    want_dir = np.stack(
+        [np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)], -1
+    )
+    np.testing.assert_allclose(tip, want_tip, rtol=0.0, atol=1e-15)
+    np.testing.assert_allclose(direction, want_dir, rtol=0.0, atol=1e-15)
+    assert np.isfinite(tip).all() and np.isfinite(direction).all()

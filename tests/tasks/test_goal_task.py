@@ -109,3 +109,28 @@ def test_every_goal_task_takes_its_defaults_from_one_place(task):
     if "reward_type" in params:
         assert params["reward_type"].default == defaults.REWARD_TYPE
     assert task().distance_threshold == defaults.DISTANCE_THRESHOLD
+
+
+@pytest.mark.parametrize("name", ["CCKAReach-v0", "CCKATrack-v0", "CCKAPose-v0", "CCKAObstacle-v0"])
+def test_a_pickled_task_reallocates_its_scratch_and_observes_the_same(name):
+    """The per-step float64 scratch is not pickled (nor needed in an older pickle's state): an
+    unpickled task observes and evaluates exactly like the original."""
+    import pickle
+
+    env = gym.make(f"cdcr_gym/{name}")
+    env.reset(seed=3)
+    env.step(np.full(env.action_space.shape, 0.7, dtype=np.float32))
+    core = env.unwrapped.core
+    task = core.task
+    state = task.__getstate__()
+    assert not {"_work", "_work_points", "_work_cables"} & set(state)
+    copy = pickle.loads(pickle.dumps(task))
+    size = task.observation_spec(False).size
+    want, got = np.empty((size, 1), np.float32), np.empty((size, 1), np.float32)
+    task.observe(core.readings, want, False)
+    copy.observe(core.readings, got, False)
+    np.testing.assert_array_equal(got, want)
+    (r1, s1, i1), (r2, s2, i2) = task.evaluate(core.readings), copy.evaluate(core.readings)
+    np.testing.assert_array_equal(r1, r2)
+    np.testing.assert_array_equal(s1, s2)
+    np.testing.assert_array_equal(i1["distance"], i2["distance"])
