@@ -108,9 +108,9 @@ class MuJoCoBackend(ObstacleScene, TendonDrives, StabilityLimits, StaticSolve, B
             stiffness-proportional and MuJoCo's Euler integrator treats it implicitly: long
             random-tension runs stay stable up to h = 0.1 s at ζ = 0.7 and 0.04 s at ζ = 0.3
             (``docs/mujoco_backend.md``). h changes the transient, never the settled state.
-            Refused (``ValueError``) beyond :meth:`stable_timestep` (β·min(1, 1/2 + ζ),
-            β = 2ζ/ω₁: 0.072 s at the default ζ = 0.7; a low ``damping_ratio`` needs a short
-            step).
+            Refused (``ValueError``) beyond :meth:`stable_timestep` (h <= β·min(1, 1/2 +
+            β·ω₁/2) for the β that delivers ζ: 0.15 s at the default ζ = 0.7); a low
+            ``damping_ratio`` needs a short step (``damping.py``).
         base_orientation: unit quaternion (x, y, z, w) of R0 in the world (default
             ``(0.0, 0.0, 0.0, 1.0)``: upright).
         tip_payload: point mass (kg, >= 0) at the tip disk centre (default 0.0). Rejected
@@ -286,7 +286,7 @@ class MuJoCoBackend(ObstacleScene, TendonDrives, StabilityLimits, StaticSolve, B
         mj.mj_forward(model, data)
         mass = np.zeros((model.nv, model.nv))
         mj.mj_fullM(model, data, mass)
-        #: ω₁ and ω_max (rad/s) of the straight chain; β = 2ζ/ω₁ (s), D = β·K.
+        #: ω₁ and ω_max (rad/s) of the straight chain without gravity.
         self.first_mode_frequency, self.highest_mode_frequency = bending_modes(
             mass, self._stiffness
         )
