@@ -88,16 +88,17 @@ def first_mode(
     and κ = vᵀKv/vᵀMv (the share of the joint stiffness K, which sets the damping D = β·K).
 
     ``mass`` (n, n) kg·m², ``stiffness`` (n,) N·m/rad (diagonal K), ``gravity_stiffness``
-    (n, n) N·m/rad (−∂τ_gravity/∂q, symmetrised here; ``None``: no gravity)."""
+    (n, n) N·m/rad (−∂τ_gravity/∂q, symmetrised here; ``None``: no gravity). If gravity makes
+    the straight pose unstable (a payload that bends the robot over), the straight-pose modes
+    say nothing about the bent robot's: gravity is then left out."""
     k = np.diag(np.asarray(stiffness, float))
     total = k if gravity_stiffness is None else k + 0.5 * (gravity_stiffness + gravity_stiffness.T)
     w2, v = scipy.linalg.eigh(total, mass)
-    keep = np.flatnonzero(w2 > 0.0)
-    if keep.size == 0:
-        raise ValueError("the robot has no stable mode under gravity (it buckles)")
-    vec = v[:, keep[0]]
+    if w2[0] <= 0.0:
+        w2, v = scipy.linalg.eigh(k, mass)
+    vec = v[:, 0]
     modal_mass = float(vec @ mass @ vec)
-    return float(w2[keep[0]]), float(vec @ k @ vec) / modal_mass
+    return float(w2[0]), float(vec @ k @ vec) / modal_mass
 
 
 def _zeta(beta: float, w2: float, kappa: float, h: float, scheme: str) -> float:
