@@ -19,9 +19,9 @@ the tip moves by much more than the measurement noise; releasing a pulled cable 
 simplest (the "released tip" of ``docs/dynamics.md``).
 
 Model: the tip's deflection s(t) along the main direction of its motion (the first principal
-axis of the positions at t >= 0) after the step is fitted with the free response of one damped
-mode, s(t) = c + e^(−ζω₁t)·(a·C(t) + b·S(t)), with C, S = cos(ω_d t), sin(ω_d t)/ω_d
-(ω_d = ω₁√(1−ζ²)), = 1, t (ζ = 1) or cosh, sinh/… (ζ > 1): a second-order model of the first
+axis of the positions at t >= 0) from ``FIT_START`` = 0.1 s after the step is fitted with the
+free response of one damped mode, s(t) = c + e^(−ζω₁t)·(a·C(t) + b·S(t)), with
+C, S = cos(ω_d t), sin(ω_d t)/ω_d (ω_d = ω₁√(1−ζ²)), = 1, t (ζ = 1) or cosh, sinh/… (ζ > 1): a second-order model of the first
 mode, valid for both physics backends because their damping is stiffness-proportional (D = β·K,
 ``docs/dynamics.md``): mode k has ζ_k = ζ₁·ω_k/ω₁ (≈ 6·ζ₁ for the second mode), so after a
 step the higher modes are gone within a small part of the first mode's decay, and the backends
