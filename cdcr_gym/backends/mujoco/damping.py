@@ -72,14 +72,20 @@ def _first_mode(backend: Any, model: Any) -> tuple[float, float, float, np.ndarr
     """(ω₁ rad/s of the straight chain without gravity, ω₁g² 1/s² and κ 1/s² of its first
     mode with ``model``'s gravity, joint stiffness K (nv,) N·m/rad) of ``model``."""
     mj, data = backend._mj, backend._scratch
-    mj.mj_resetData(model, data)
-    mj.mj_forward(model, data)
-    mass = np.zeros((model.nv, model.nv))
-    mj.mj_fullM(model, data, mass)
-    mass[np.diag_indices(model.nv)] -= model.dof_armature  # the links' own inertia
-    k = np.array(model.jnt_stiffness[model.dof_jntid])
-    omega1, _ = bending_modes(mass, k)
-    w2, kappa = first_mode(mass, k, gravity_stiffness(mj, model, data))
+    # the links' own inertia: without the armature (h·D with solid obstacles), exactly, so
+    # that β does not depend on the model's previous damping (bit-identical re-seeding)
+    armature = np.array(model.dof_armature)
+    model.dof_armature[:] = 0.0
+    try:
+        mj.mj_resetData(model, data)
+        mj.mj_forward(model, data)
+        mass = np.zeros((model.nv, model.nv))
+        mj.mj_fullM(model, data, mass)
+        k = np.array(model.jnt_stiffness[model.dof_jntid])
+        omega1, _ = bending_modes(mass, k)
+        w2, kappa = first_mode(mass, k, gravity_stiffness(mj, model, data))
+    finally:
+        model.dof_armature[:] = armature
     return omega1, w2, kappa, k
 
 
