@@ -317,10 +317,13 @@ def test_obstacle_compute_reward_checks_goal_shapes():
     [
         ({"links_per_span": 60}, r"links_per_span must be in \[1, 55\].*got 60"),
         ({"links_per_span": 10**9}, r"links_per_span must be in \[1, 55\]"),
-        ({"damping_ratio": 0.05}, r"physics_timestep=0.02 s is too long for damping_ratio=0.05"),
+        (
+            {"damping_ratio": 0.05},
+            r"damping_ratio=0.05 is below .* at physics_timestep=0.02 s.*physics_timestep <= 0.0025",
+        ),
         (
             {"physics_timestep": 0.2, "control_timestep": 0.2},
-            r"physics_timestep=0.2 s is too long.*stable up to 0.0724 s",
+            r"damping_ratio=0.7 is below .* at physics_timestep=0.2 s.*physics_timestep <= 0.1 s",
         ),
         ({"integrator": "RK4"}, r"physics_timestep=0.02 s is too long.*integrator='RK4'"),
     ],
@@ -338,7 +341,12 @@ def test_mujoco_accepts_the_limits_and_they_run():
     b.apply_tensions(np.array([[80.0, 0.0, 0.0]]))
     b.close()
     probe = MuJoCoBackend(damping_ratio=0.7)
-    assert probe.stable_timestep() == pytest.approx(2 * 0.7 / probe.first_mode_frequency)
+    limit = probe.stable_timestep()  # the longest step whose β for ζ = 0.7 is stable
+    MuJoCoBackend(damping_ratio=0.7, physics_timestep=0.98 * limit, control_timestep=0.98 * limit)
+    with pytest.raises(ValueError, match="damping_ratio=0.7 is below"):
+        MuJoCoBackend(
+            damping_ratio=0.7, physics_timestep=1.02 * limit, control_timestep=1.02 * limit
+        )
     zeta = 0.05
     h = MuJoCoBackend(damping_ratio=zeta, physics_timestep=0.002).stable_timestep()
     n = int(0.02 / h) + 1

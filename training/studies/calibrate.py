@@ -213,6 +213,14 @@ def build_parser() -> argparse.ArgumentParser:
         choices=("bullet", "mujoco"),
         help="physics backend that generates and fits the study's data (default: mujoco)",
     )
+    p.add_argument(
+        "--damping-step",
+        type=Path,
+        metavar="STEP.csv",
+        help="fit the damping ratio ζ and first-mode frequency to a recorded step response "
+        "(columns t, x, y, z; step at t = 0) instead; prints damping_ratio for the backends "
+        "and writes OUT/damping.json if --out is given",
+    )
     return p
 
 
@@ -247,6 +255,14 @@ def main(argv: list[str] | None = None) -> int:
     if args.ablation_table is not None:
         try:
             ablation_table(args.ablation_table)
+        except ValueError as exc:
+            parser.error(str(exc))
+        return 0
+    if args.damping_step is not None:
+        from cdcr_gym.calibration.damping import run_step_fit
+
+        try:
+            run_step_fit(args.damping_step, args.out, command)
         except ValueError as exc:
             parser.error(str(exc))
         return 0

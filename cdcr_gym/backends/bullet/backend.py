@@ -37,7 +37,6 @@ Tendon displacements (:meth:`BulletBackend.apply_displacements`, SPEC §8)
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -53,6 +52,7 @@ from cdcr_gym.backends.base import (
     drive_tensions,
 )
 from cdcr_gym.backends.bullet.client import Connection, copy_refused
+from cdcr_gym.backends.bullet.damping import backend_damping_time, gravity_stiffness
 from cdcr_gym.backends.bullet.integrator import ImplicitIntegrator
 from cdcr_gym.backends.bullet.multibody import MAX_JOINTS, build_multibody
 from cdcr_gym.model.discrete import (
@@ -103,8 +103,10 @@ class BulletBackend(Backend):
         tip_payload: point mass (kg, >= 0) at the tip disk centre (default 0.0).
         gui: open the pybullet GUI instead of a headless client (default ``False``); needs a
             display (else ``RuntimeError``). pybullet allows one GUI client per process.
-        damping_ratio: damping ratio ζ > 0 of the first bending mode (default 0.7); the joint
-            damping is D = (2ζ/ω₁)·K. Larger values settle the first mode without overshoot
+        damping_ratio: damping ratio ζ > 0 of the first bending mode (default 0.7), as
+            measured from the decay of a released tip; the joint damping is D = β·K with
+            β ≈ 2ζ/ω₁, corrected for gravity and for the step's own damping (``damping.py``).
+            Refused (``ValueError``) below that own damping (0.096 at 10 ms). Larger values settle the first mode without overshoot
             but slow the higher modes (rate ω₁/(2ζ)).
         friction_coefficient: cable–disk friction μ in [0, 1] (default 0.0: frictionless,
             bit-identical to the model without friction). With μ > 0 every cable carries the
@@ -243,8 +245,11 @@ class BulletBackend(Backend):
             self.first_mode_frequency, self.highest_mode_frequency = bending_modes(
                 mass0, self.chain.stiffness
             )
-            #: Stiffness-proportional damping time β = 2ζ/ω₁ (s): D = β·K.
-            self.damping_time = 2.0 * self.damping_ratio / self.first_mode_frequency
+            self._mass0 = mass0
+            self._gravity_stiffness = gravity_stiffness(self.chain)
+            #: Stiffness-proportional damping time β ≈ 2ζ/ω₁ (s), D = β·K, that delivers ζ on
+            #: the first mode as stepped, with gravity (``damping.py``).
+            self.damping_time = backend_damping_time(self)
             self._integrator = ImplicitIntegrator(
                 pb,
                 self._client,
@@ -670,11 +675,9 @@ class BulletBackend(Backend):
             self._integrator.set_gravity_in_base(self._tilted_gravity if on else None)
         if "youngs_modulus" in values:
             e = float(values["youngs_modulus"][0])
-            ratio = e / self.params.youngs_modulus
-            self.chain.stiffness = self._nominal_stiffness * ratio
-            # ω₁ ∝ √K: keep the damping ratio ζ of the first mode
-            beta = self.damping_time / math.sqrt(ratio)
-            self._integrator.set_stiffness(self.chain.stiffness, beta)
+            self.chain.stiffness = self._nominal_stiffness * (e / self.params.youngs_modulus)
+        if "youngs_modulus" in values or "gravity" in values:  # keep ζ of the first mode
+            self._integrator.set_stiffness(self.chain.stiffness, backend_damping_time(self))
 
     @property
     def segment_tensions(self) -> np.ndarray:

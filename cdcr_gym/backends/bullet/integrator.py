@@ -44,9 +44,10 @@ Cable–disk friction
 
 Damping
     Per-joint, stiffness-proportional (Kelvin–Voigt material damping of the rod): D = β·K with
-    β = 2ζ/ω₁, where ω₁ is the first bending mode of the linearised chain at the straight pose
-    (generalized eigenproblem K·v = ω²·M·v) and ζ = ``damping_ratio``. Higher modes are
-    over-damped and relax at ≈ 1/β = ω₁/(2ζ).
+    β ≈ 2ζ/ω₁, where ω₁ is the first bending mode of the linearised chain at the straight pose
+    (generalized eigenproblem K·v = ω²·M·v) and ζ = ``damping_ratio``; the backend corrects β
+    for gravity and for this step's own damping (``damping.py``), so that the first mode as
+    stepped has ζ. Higher modes are over-damped and relax at ≈ 1/β = ω₁/(2ζ).
 """
 
 from __future__ import annotations

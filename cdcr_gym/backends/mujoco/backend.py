@@ -45,6 +45,7 @@ from cdcr_gym.backends.base import (
     SimulationDivergedError,
 )
 from cdcr_gym.backends.mujoco import friction as mj_friction
+from cdcr_gym.backends.mujoco.damping import tune_damping
 from cdcr_gym.backends.mujoco.drives import RELEASED, TendonDrives
 from cdcr_gym.backends.mujoco.limits import StabilityLimits
 from cdcr_gym.backends.mujoco.mjcf import JOINTS, MJCFModel, build_mjcf
@@ -107,16 +108,18 @@ class MuJoCoBackend(ObstacleScene, TendonDrives, StabilityLimits, StaticSolve, B
             stiffness-proportional and MuJoCo's Euler integrator treats it implicitly: long
             random-tension runs stay stable up to h = 0.1 s at ζ = 0.7 and 0.04 s at ζ = 0.3
             (``docs/mujoco_backend.md``). h changes the transient, never the settled state.
-            Refused (``ValueError``) beyond :meth:`stable_timestep` (β·min(1, 1/2 + ζ),
-            β = 2ζ/ω₁: 0.072 s at the default ζ = 0.7; a low ``damping_ratio`` needs a short
-            step).
+            Refused (``ValueError``) beyond :meth:`stable_timestep` (h <= β·min(1, 1/2 +
+            β·ω₁/2) for the β that delivers ζ: 0.15 s at the default ζ = 0.7); a low
+            ``damping_ratio`` needs a short step (``damping.py``).
         base_orientation: unit quaternion (x, y, z, w) of R0 in the world (default
             ``(0.0, 0.0, 0.0, 1.0)``: upright).
         tip_payload: point mass (kg, >= 0) at the tip disk centre (default 0.0). Rejected
             (``ValueError``) under gravity if the robot cannot hold it at the extreme shapes
             (``cdcr_gym.model.statics.check_tip_payload``, the check bullet makes).
-        damping_ratio: damping ratio ζ > 0 of the first bending mode (default 0.7): D = β·K,
-            β = 2ζ/ω₁.
+        damping_ratio: damping ratio ζ > 0 of the first bending mode (default 0.7), as
+            measured from the decay of a released tip: D = β·K with β ≈ 2ζ/ω₁, corrected for
+            gravity and for the damping MuJoCo's step removes (``damping.py``). Refused
+            (``ValueError``) below the minimum the timestep delivers stably (0.24 at 20 ms).
         friction_coefficient: cable–disk capstan μ in [0, 1] (default 0.0: frictionless, the
             plain MuJoCo path, bit-identical to a model without friction). μ > 0: every cable
             segment carries the capstan tension of ``cdcr_gym.model.friction`` (as on bullet),
@@ -283,12 +286,13 @@ class MuJoCoBackend(ObstacleScene, TendonDrives, StabilityLimits, StaticSolve, B
         mj.mj_forward(model, data)
         mass = np.zeros((model.nv, model.nv))
         mj.mj_fullM(model, data, mass)
-        #: ω₁ and ω_max (rad/s) of the straight chain; β = 2ζ/ω₁ (s), D = β·K.
+        #: ω₁ and ω_max (rad/s) of the straight chain without gravity.
         self.first_mode_frequency, self.highest_mode_frequency = bending_modes(
             mass, self._stiffness
         )
-        self.damping_time = 2.0 * self.damping_ratio / self.first_mode_frequency
-        model.dof_damping[:] = self.damping_time * self._stiffness
+        self._scratch = data
+        #: β (s), D = β·K: the first mode as stepped has ``damping_ratio`` (``damping.py``).
+        self.damping_time = tune_damping(self, model)
         self._contacts_active = obstacles > 0 and self.solid_obstacles
         if self._contacts_active:
             model.geom_solimp[:] = CONTACT_SOLIMP
@@ -665,7 +669,7 @@ class MuJoCoBackend(ObstacleScene, TendonDrives, StabilityLimits, StaticSolve, B
             if "gravity" in values:
                 on = bool(values["gravity"][j] > 0.5)
                 self._own_model(i).opt.gravity[:] = self.gravity_in_base if on else 0.0
-            if "youngs_modulus" in values or "tip_payload" in values:
+            if values.keys() & {"youngs_modulus", "tip_payload", "gravity"}:
                 model = self._own_model(i)
                 if "youngs_modulus" in values:
                     ratio = float(values["youngs_modulus"][j]) / self.params.youngs_modulus
@@ -675,11 +679,9 @@ class MuJoCoBackend(ObstacleScene, TendonDrives, StabilityLimits, StaticSolve, B
                 self._tune_damping(model)
 
     def _tune_damping(self, model: Any) -> None:
-        """D = β·K with β = 2ζ/ω₁ of ``model``'s own first bending mode (its stiffness and
-        masses), so that every randomised robot keeps the damping ratio ζ."""
-        first, _ = self._modes(model)
-        k = model.jnt_stiffness[model.dof_jntid]
-        model.dof_damping[:] = 2.0 * self.damping_ratio / first * k
+        """D = β·K with the β that gives ``model``'s own first bending mode (its stiffness,
+        masses and gravity) the damping ratio ζ as stepped (``damping.py``)."""
+        tune_damping(self, model)
         self._set_contact_inertia(model)
 
     def _set_contact_inertia(self, model: Any) -> None:

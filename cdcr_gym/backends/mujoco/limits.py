@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from cdcr_gym.backends.base import MAX_JOINT_ANGLE, MAX_JOINT_RATE, SimulationDivergedError
+from cdcr_gym.backends.mujoco.damping import stable_timestep
 from cdcr_gym.model.discrete import bending_modes
 from cdcr_gym.model.statics import check_tip_payload
 
@@ -26,18 +27,15 @@ class StabilityLimits:
 
     def stable_timestep(self: Any, model: Any = None) -> float:
         """The longest ``physics_timestep`` (s) accepted for ``model`` (default: the nominal
-        one): with D = β·K (β = 2ζ/ω₁) the Euler step is linearly stable for h < 2β in every
-        mode (damping implicit, stiffness explicit); the cables' load (a follower force) and
-        the joints' nonlinearity take part of that, most at low ζ, so h <= β·min(1, 1/2 + ζ)
-        is accepted (measured: bang-bang extreme tensions for 400 steps stay stable there on
-        the paper robot, ball and Cardan joints, ζ from 0.01 to 1.5; they diverge near 2β).
-        RK4 treats the damping explicitly: h <= 2.5/(β·ω_max²) and 2.5/ω_max."""
-        model = self.model if model is None else model
-        first, highest = self._modes(model)
-        beta = 2.0 * self.damping_ratio / first
-        if self.integrator == "RK4":
-            return min(2.5 / (beta * highest**2), 2.5 / highest)
-        return beta * min(1.0, 0.5 + self.damping_ratio)
+        one): with D = β·K the Euler step is linearly stable for h < 2β in every mode (damping
+        implicit, stiffness explicit); the cables' load (a follower force) and the joints'
+        nonlinearity take part of that, most at low ζ, so h <= β·min(1, 1/2 + β·ω₁/2) is
+        accepted (measured: bang-bang extreme tensions for 400 steps stay stable there on the
+        paper robot, ball and Cardan joints, ζ from 0.01 to 1.5; they diverge near 2β). β is
+        the one that delivers ``damping_ratio`` at h (``damping.tune_damping``), so this is
+        the longest h whose β passes. RK4 treats the damping explicitly: h <= 2.5/(β·ω_max²)
+        and 2.5/ω_max."""
+        return stable_timestep(self, self.model if model is None else model)
 
     def _modes(self: Any, model: Any) -> tuple[float, float]:
         """ω₁ and ω_max (rad/s) of ``model``'s straight chain (its stiffness and masses)."""
