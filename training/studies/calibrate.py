@@ -183,6 +183,21 @@ def build_parser() -> argparse.ArgumentParser:
         "an alias sets every parameter it covers), repeatable",
     )
     p.add_argument(
+        "--start-from",
+        type=Path,
+        default=None,
+        metavar="PARAMS.yaml",
+        help="start values of the fitted parameters from a fit's params.yaml (its "
+        "calibration.fitted; warm start, e.g. a physics fit from the CCKA fit); --start wins",
+    )
+    p.add_argument(
+        "--max-gap",
+        type=float,
+        default=1.0,
+        help="physics replay of displacement data: longest gap (s) between rows simulated "
+        "(longer pauses are shortened to it)",
+    )
+    p.add_argument(
         "--ramp-steps", type=positive_int, default=25, help="physics replay: ramp steps per row"
     )
     p.add_argument(
@@ -223,6 +238,19 @@ def _check_writable(out: Path) -> None:
         check_writable_directory(out, "--out")
     except ConfigError as exc:
         raise ValueError(str(exc)) from None
+
+
+def _start_from(path: Path, robot, fit: str) -> dict[str, float]:
+    """The values of ``path``'s calibration.fitted among the parameters of ``fit``."""
+    from cdcr_gym.calibration.parameters import expand_names
+    from cdcr_gym.model.params_yaml import load_yaml
+
+    data = load_yaml(path)
+    fitted = (data.get("calibration") or {}).get("fitted") if isinstance(data, dict) else None
+    if not isinstance(fitted, dict):
+        raise ValueError(f"--start-from {str(path)!r}: no calibration.fitted mapping")
+    wanted = set(expand_names(fit, robot))
+    return {k: float(v) for k, v in fitted.items() if k in wanted}
 
 
 def _robot(text: str):
@@ -271,6 +299,10 @@ def main(argv: list[str] | None = None) -> int:
         validate = read_csv(args.validate, args.format, robot, drive) if args.validate else None
         kwargs = _backend_args(args.backend_arg, args.backend)
         start = _start(args.start)
+        if args.start_from is not None:
+            start = {**_start_from(args.start_from, robot, args.fit), **start}
+        if not (math.isfinite(args.max_gap) and args.max_gap > 0):
+            raise ValueError(f"--max-gap must be > 0 s, got {args.max_gap!r}")
         if not (math.isfinite(args.stiffness_scale) and args.stiffness_scale > 0):
             raise ValueError(f"--stiffness-scale must be > 0, got {args.stiffness_scale!r}")
         result = calibrate(
@@ -288,6 +320,7 @@ def main(argv: list[str] | None = None) -> int:
             validate=validate,
             slack=not args.linear_law,
             stiffness_scale=args.stiffness_scale,
+            replay_options={"max_gap": args.max_gap},
         )
     except ValueError as exc:
         parser.error(str(exc))
