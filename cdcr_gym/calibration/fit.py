@@ -158,7 +158,7 @@ def calibrate(
     validate: Measurements | None = None,
     slack: bool = True,
     stiffness_scale: float = 1.0,
-    replay_options: dict[str, float] | None = None,
+    replay_options: dict[str, Any] | None = None,
 ) -> CalibrationResult:
     """Fit the parameters ``fit`` of the robot ``params`` to the measurements ``data``.
 
@@ -296,9 +296,7 @@ def calibrate(
     else:
         model = BackendReplay(data, base, cls, fixed, ramp_steps, settle_steps)
         model.name = backend
-    specs = parameter_specs(
-        names, base, start_values, bend_limit=not (use_drive or physics_drive)
-    )
+    specs = parameter_specs(names, base, start_values, bend_limit=not (use_drive or physics_drive))
     x0 = np.array([s.to_x(start_values[s.name]) for s in specs])
     lo, hi = (np.array(b) for b in zip(*(s.bounds_x() for s in specs)))
     x0 = np.clip(x0, lo + 1e-6, hi - 1e-6)  # trf starts strictly inside the bounds

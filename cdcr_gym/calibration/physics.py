@@ -125,6 +125,8 @@ class PhysicsReplay:
         backend_kwargs: fixed keyword arguments of the backend (``gravity``,
             ``control_timestep``, ``physics_timestep``, ``threads``, ...).
         first_hold, max_gap, default_gap: the timing (s, module docstring).
+        slack: False: the linear drive law T0 + k·(d − s) without the clamp at 0 (MuJoCo, an
+            ablation; the drives' damping then stays on every tendon).
         gate_damping: MuJoCo: the drives' damping on the (nearly) taut tendons only
             (``TendonDrives.gate_damping``: a slack tendon's damping makes the robot lag the
             commands by ~0.5 s, a simulation artefact the real robot does not have).
@@ -146,6 +148,7 @@ class PhysicsReplay:
         max_gap: float = 1.0,
         default_gap: float = 0.5,
         gate_damping: bool = True,
+        slack: bool = True,
     ) -> None:
         from cdcr_gym.calibration.simulate import backend_class
 
@@ -181,7 +184,11 @@ class PhysicsReplay:
         self.timing = ReplayTiming()
         self.batched = getattr(self.cls, "__name__", "") == "MuJoCoBackend"
         #: MuJoCo: the drives' damping only on (nearly) taut tendons (``TendonDrives.gate_damping``)
-        self.gate_damping = bool(gate_damping)
+        self.gate_damping = bool(gate_damping) and bool(slack)
+        #: False (MuJoCo, an ablation): the linear drive law, tendons push when slack
+        self.slack = bool(slack)
+        if not self.slack and not self.batched:
+            raise ValueError("slack=False (the linear drive law) needs the MuJoCo backend")
 
     # -- values → robots ------------------------------------------------------------------------
     def drive_of(self, values: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
@@ -202,8 +209,10 @@ class PhysicsReplay:
         )
         return (
             float(values.get("youngs_modulus", self.base.youngs_modulus)),
-            float(values.get("friction_coefficient", self.fixed.get("friction_coefficient", 0.0))),
-            float(values.get("tip_payload", self.fixed.get("tip_payload", 0.0))),
+            float(
+                values.get("friction_coefficient", self.fixed.get("friction_coefficient") or 0.0)
+            ),
+            float(values.get("tip_payload", self.fixed.get("tip_payload") or 0.0)),
             tuple(k.tolist()),
             tuple(t0.tolist()),
             extra,
@@ -290,6 +299,10 @@ class PhysicsReplay:
             backend.set_drive_parameters(
                 idx, np.stack([k for k, _ in drives]), np.stack([t for _, t in drives])
             )
+            if not self.slack:
+                for i in range(n):  # the drives may push up to max_tension: the linear law
+                    model = backend._own_model(i)
+                    model.actuator_forcerange[backend._drive_slice, 1] = params.max_tension
             t1 = time.perf_counter()
             tips, dirs, moved = self._drive_loop(backend, n)
         finally:
@@ -346,7 +359,7 @@ class PhysicsReplay:
         robots among them simulated together; and the largest last-step tip motion (m)."""
         keys = [self._key(v) for v in batch]
         unique: dict[tuple, int] = {}
-        robots = []
+        robots: list[dict[str, float]] = []
         for key, v in zip(keys, batch):
             if key not in unique:
                 unique[key] = len(robots)

@@ -3,10 +3,10 @@ CCKA model, the batched Jacobian, and a synthetic recovery through ``calibrate``
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
-
-from pathlib import Path
 
 from cdcr_gym.calibration import Measurements, calibrate, read_csv
 from cdcr_gym.calibration.drive import TendonDrive
