@@ -272,7 +272,7 @@ class PhysicsReplay:
         kw = dict(self.fixed)
         kw.pop("friction_coefficient", None)
         kw.pop("tip_payload", None)
-        params = replace(self.base, youngs_modulus=self.base.youngs_modulus)
+        params = self.base
         backend = self.cls(params=params, num_robots=n, **kw)
         try:
             idx = np.arange(n)
