@@ -132,3 +132,17 @@ def test_physics_displacement_fit_refuses_geometry_names():
     data = _data(_rows(5))
     with pytest.raises(ValueError, match="cable_angle_2.*geometry"):
         calibrate(data, V4, "cable_angle_2", "mujoco", drive=V4_DRIVE)
+
+
+def test_friction_and_payload_columns_in_the_batched_replay():
+    """μ and payload as robots of the batched model (the friction path steps every robot in
+    Python): each equals its robot replayed alone and moves the tips."""
+    data = _data(_rows(4, seed=7), timestamps=np.arange(4) * 0.5)
+    replay = PhysicsReplay(data, V4, V4_DRIVE, "mujoco", {"gravity": True, **FAST}, first_hold=1.0)
+    sets = [{}, {"friction_coefficient": 0.1}, {"tip_payload": 0.005}]
+    tips, _, _ = replay.batch(sets)
+    for b, v in enumerate(sets):
+        alone, _, _ = replay.batch([v])
+        np.testing.assert_allclose(tips[b], alone[0], atol=1e-7, err_msg=str(v))
+    for b in (1, 2):
+        assert np.abs(tips[b] - tips[0]).max() > 1e-5, sets[b]
