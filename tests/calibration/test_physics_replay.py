@@ -159,3 +159,27 @@ def test_friction_and_payload_columns_in_the_batched_replay():
         np.testing.assert_allclose(tips[b], alone[0], atol=1e-7, err_msg=str(v))
     for b in (1, 2):
         assert np.abs(tips[b] - tips[0]).max() > 1e-5, sets[b]
+
+
+def test_bullet_displacement_fit_recovers_pretension_and_base_offset():
+    """pybullet (no batched model: one backend per robot) through the same fit."""
+    pytest.importorskip("pybullet")
+    d = _rows(4, seed=5)
+    timing = {"first_hold": 0.5}
+    template = _data(d, timestamps=np.arange(4) * 0.5)
+    truth = {"base_x": 1e-3, "tendon_pretension": 1.0}
+    replay = PhysicsReplay(template, V4, V4_DRIVE, "bullet", {"gravity": True}, **timing)
+    tip = replay(truth).tip
+    data = _data(d, tip, np.arange(4) * 0.5)
+    res = calibrate(
+        data,
+        V4,
+        "base_x,T0",
+        "bullet",
+        {"gravity": True},
+        drive=V4_DRIVE,
+        replay_options=timing,
+        max_nfev=4,
+    )
+    assert abs(res.values["base_x"] - 1e-3) < 0.05e-3, res.values
+    assert abs(res.values["tendon_pretension"] - 1.0) < 0.05, res.values
