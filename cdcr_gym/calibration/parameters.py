@@ -308,7 +308,7 @@ def resolve_names(
         if backend_class is not None and drive_only(n):
             raise ValueError(
                 f"parameter {n!r} belongs to the CCKA drive model; fit it with --backend ccka "
-                f"(the {backend_name or 'physics'} backend has no tendon drive yet)"
+                f"(the {backend_name or 'physics'} backend fits it on displacement data only)"
             )
         if n in PHYSICS_ONLY and not accepts(backend_class, PHYSICS_ONLY[n]):
             label = backend_name or "analytic"

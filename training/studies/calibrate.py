@@ -3,6 +3,8 @@
     cdcr-gym calibrate DATA.csv --robot paper --backend bullet --fit E,mu,payload --out DIR
     cdcr-gym calibrate train.csv --robot ftdcr_v4 --backend ccka --validate val.csv \
         --fit base_frame,marker,k_tendons,T0_tendons,cable_angles --out DIR
+    cdcr-gym calibrate train.csv --robot DIR/params.yaml --start-from DIR/params.yaml \
+        --backend mujoco --validate val.csv --fit base_frame,marker,E,payload --out DIR2
 
 writes ``DIR/params.yaml`` (the fitted robot, which every env reads:
 ``gym.make(id, params="DIR/params.yaml")``, and the fitted backend arguments), ``DIR/report.md``
@@ -148,7 +150,7 @@ def build_parser() -> argparse.ArgumentParser:
         choices=("analytic", "ccka", "bullet", "mujoco"),
         help="model to fit: ccka (= analytic: CCKA/PCC, fast, no gravity/friction; tension or "
         "displacement data) or a physics backend replayed through the rows in order "
-        "(tension data only) (default: analytic)",
+        "(tension data; displacement data with their recorded timing) (default: analytic)",
     )
     p.add_argument(
         "--fit",
