@@ -43,6 +43,7 @@ from cdcr_gym.calibration.parameters import (
     pin_ill_posed,
     resolve_names,
 )
+from cdcr_gym.calibration.physics import PhysicsReplay
 from cdcr_gym.calibration.simulate import (
     AnalyticReplay,
     BackendReplay,
@@ -157,6 +158,7 @@ def calibrate(
     validate: Measurements | None = None,
     slack: bool = True,
     stiffness_scale: float = 1.0,
+    replay_options: dict[str, Any] | None = None,
 ) -> CalibrationResult:
     """Fit the parameters ``fit`` of the robot ``params`` to the measurements ``data``.
 
@@ -181,6 +183,12 @@ def calibrate(
         validate: held-out measurements, replayed with the fitted values after the fit (they
             never enter it).
         slack, stiffness_scale: the CCKA drive law's ablations (linear law; k multiplied).
+        replay_options: the physics displacement replay's timing (``first_hold``,
+            ``max_gap``, ``default_gap``, s: :class:`~cdcr_gym.calibration.physics.PhysicsReplay`).
+
+    Physics backends on displacement data: :class:`~cdcr_gym.calibration.physics.PhysicsReplay`
+    (the rows in order with their recorded timing); its Jacobian is one batched replay of
+    the perturbed robots.
 
     Backends: "analytic" and "ccka" are the same CCKA model; with displacement data, or any
     name of the drive model (base frame, lengths, tendon drive), it is
@@ -195,15 +203,22 @@ def calibrate(
     """
     base, notes = _fit_base(params, data)
     cls = backend_class(backend)
-    names = resolve_names(list(fit) if not isinstance(fit, str) else fit, base, cls, backend)
+    physics_drive = cls is not None and data.displacements is not None
+    names = resolve_names(
+        list(fit) if not isinstance(fit, str) else fit,
+        base,
+        cls,
+        backend,
+        displacement=physics_drive,
+    )
     names, pin_notes = pin_ill_posed(names, base)
     notes += pin_notes
     if drive is None:
         drive = TendonDrive.of(base)
-    if cls is not None and data.displacements is not None:
+    if physics_drive and drive is None:
         raise ValueError(
-            f"the {backend} backend cannot replay displacement data yet (no tendon drive in "
-            "the physics backends); use --backend ccka"
+            "displacement data need the robot's tendon drive (stiffness, pretension): give a "
+            "params YAML with calibration.tendons or a robot with tendon_stiffness"
         )
     if validate is not None and validate.n_cables != data.n_cables:
         raise ValueError(
@@ -267,8 +282,12 @@ def calibrate(
         or not slack
         or stiffness_scale != 1.0
     )
-    model: AnalyticReplay | BackendReplay | DriveReplay
-    if use_drive:
+    model: AnalyticReplay | BackendReplay | DriveReplay | PhysicsReplay
+    if physics_drive:
+        assert drive is not None  # checked above
+        model = PhysicsReplay(data, base, drive, cls, fixed, **(replay_options or {}))
+        model.name = backend
+    elif use_drive:
         if fixed:
             raise ValueError(f"the ccka backend takes no backend arguments, got {sorted(fixed)}")
         model = DriveReplay(data, base, drive, slack=slack, stiffness_scale=stiffness_scale)
@@ -277,7 +296,7 @@ def calibrate(
     else:
         model = BackendReplay(data, base, cls, fixed, ramp_steps, settle_steps)
         model.name = backend
-    specs = parameter_specs(names, base, start_values, bend_limit=not use_drive)
+    specs = parameter_specs(names, base, start_values, bend_limit=not (use_drive or physics_drive))
     x0 = np.array([s.to_x(start_values[s.name]) for s in specs])
     lo, hi = (np.array(b) for b in zip(*(s.bounds_x() for s in specs)))
     x0 = np.clip(x0, lo + 1e-6, hi - 1e-6)  # trf starts strictly inside the bounds
@@ -296,7 +315,27 @@ def calibrate(
         return r
 
     jac: Any = "2-point"
-    if isinstance(model, DriveReplay):
+    if isinstance(model, PhysicsReplay):
+        physics_model = model
+
+        def jac(x: np.ndarray) -> np.ndarray:
+            # forward differences, every column a robot of one batched replay (the frame
+            # columns share the unperturbed robot)
+            h = 1e-3 * np.maximum(1.0, np.abs(x))
+            h = np.where(x + h > hi, -h, h)
+            batch = [values_of(x)]
+            for k in range(len(x)):
+                xk = x.copy()
+                xk[k] += h[k]
+                batch.append(values_of(xk))
+            tips, dirs, _ = physics_model.batch(batch)
+            res = [_residuals(Prediction(tips[b], dirs[b]), data) for b in range(len(batch))]
+            count[0] += len(x)
+            if progress is not None:
+                progress(f"  jacobian: {physics_model.timing.history[-1]}")
+            return np.stack([(res[k + 1] - res[0]) / h[k] for k in range(len(x))], axis=1)
+
+    elif isinstance(model, DriveReplay):
         drive_model = model
 
         def jac(x: np.ndarray) -> np.ndarray:
@@ -333,6 +372,8 @@ def calibrate(
         replay = (
             DriveReplay(validate, base, drive, slack=slack, stiffness_scale=stiffness_scale)
             if isinstance(model, DriveReplay)
+            else PhysicsReplay(validate, base, drive, cls, fixed, **(replay_options or {}))
+            if isinstance(model, PhysicsReplay) and drive is not None
             else AnalyticReplay(validate, base, fixed)
             if cls is None
             else BackendReplay(validate, base, cls, fixed, ramp_steps, settle_steps)

@@ -265,7 +265,12 @@ def accepts(backend_class: Any, keyword: str) -> bool:
 
 
 def resolve_names(
-    names: str | list[str], params: RobotParams, backend_class: Any = None, backend_name: str = ""
+    names: str | list[str],
+    params: RobotParams,
+    backend_class: Any = None,
+    backend_name: str = "",
+    *,
+    displacement: bool = False,
 ) -> list[str]:
     """The canonical parameter names of a ``--fit`` list (comma-separated string or list).
 
@@ -289,10 +294,21 @@ def resolve_names(
                 )
             covered[key] = n
     for n in out:
+        if backend_class is not None and displacement:
+            from cdcr_gym.calibration.physics import physics_name
+
+            if not physics_name(n):
+                raise ValueError(
+                    f"parameter {n!r} cannot be fitted by the {backend_name or 'physics'} "
+                    "backend's displacement replay (it keeps the robot's geometry: start from a "
+                    "--backend ccka fit's params.yaml that holds the fitted lengths, radii and "
+                    "tendon angles)"
+                )
+            continue
         if backend_class is not None and drive_only(n):
             raise ValueError(
                 f"parameter {n!r} belongs to the CCKA drive model; fit it with --backend ccka "
-                f"(the {backend_name or 'physics'} backend has no tendon drive yet)"
+                f"(the {backend_name or 'physics'} backend fits it on displacement data only)"
             )
         if n in PHYSICS_ONLY and not accepts(backend_class, PHYSICS_ONLY[n]):
             label = backend_name or "analytic"

@@ -277,7 +277,13 @@ def report_markdown(result: CalibrationResult, command: str = "", figure: str = 
     if result.notes or result.unsettled > 1e-6:
         out += ["## Notes", ""]
         out += [f"- {n}" for n in result.notes]
-        if result.unsettled > 1e-6:
+        if result.unsettled > 1e-6 and result.data.displacements is not None:
+            out.append(
+                f"- the replayed robot moved by up to {result.unsettled * 1e3:.3g} mm in the "
+                "control step before a row's time: the replay follows the recorded timing, "
+                "so a row taken during a fast motion is read while moving (as on the robot)"
+            )
+        elif result.unsettled > 1e-6:
             out.append(
                 f"- the physics replay was still moving by {result.unsettled * 1e3:.3g} mm per "
                 "control step at some rows: raise --settle-steps"

@@ -3,6 +3,8 @@
     cdcr-gym calibrate DATA.csv --robot paper --backend bullet --fit E,mu,payload --out DIR
     cdcr-gym calibrate train.csv --robot ftdcr_v4 --backend ccka --validate val.csv \
         --fit base_frame,marker,k_tendons,T0_tendons,cable_angles --out DIR
+    cdcr-gym calibrate train.csv --robot DIR/params.yaml --start-from DIR/params.yaml \
+        --backend mujoco --validate val.csv --fit base_frame,marker,E,payload --out DIR2
 
 writes ``DIR/params.yaml`` (the fitted robot, which every env reads:
 ``gym.make(id, params="DIR/params.yaml")``, and the fitted backend arguments), ``DIR/report.md``
@@ -148,7 +150,7 @@ def build_parser() -> argparse.ArgumentParser:
         choices=("analytic", "ccka", "bullet", "mujoco"),
         help="model to fit: ccka (= analytic: CCKA/PCC, fast, no gravity/friction; tension or "
         "displacement data) or a physics backend replayed through the rows in order "
-        "(tension data only) (default: analytic)",
+        "(tension data; displacement data with their recorded timing) (default: analytic)",
     )
     p.add_argument(
         "--fit",
@@ -181,6 +183,21 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="NAME=VALUE",
         help="start value of a fitted parameter in SI units (the names and aliases of --fit; "
         "an alias sets every parameter it covers), repeatable",
+    )
+    p.add_argument(
+        "--start-from",
+        type=Path,
+        default=None,
+        metavar="PARAMS.yaml",
+        help="start values of the fitted parameters from a fit's params.yaml (its "
+        "calibration.fitted; warm start, e.g. a physics fit from the CCKA fit); --start wins",
+    )
+    p.add_argument(
+        "--max-gap",
+        type=float,
+        default=1.0,
+        help="physics replay of displacement data: longest gap (s) between rows simulated "
+        "(longer pauses are shortened to it)",
     )
     p.add_argument(
         "--ramp-steps", type=positive_int, default=25, help="physics replay: ramp steps per row"
@@ -231,6 +248,19 @@ def _check_writable(out: Path) -> None:
         check_writable_directory(out, "--out")
     except ConfigError as exc:
         raise ValueError(str(exc)) from None
+
+
+def _start_from(path: Path, robot, fit: str) -> dict[str, float]:
+    """The values of ``path``'s calibration.fitted among the parameters of ``fit``."""
+    from cdcr_gym.calibration.parameters import expand_names
+    from cdcr_gym.model.params_yaml import load_yaml
+
+    data = load_yaml(path)
+    fitted = (data.get("calibration") or {}).get("fitted") if isinstance(data, dict) else None
+    if not isinstance(fitted, dict):
+        raise ValueError(f"--start-from {str(path)!r}: no calibration.fitted mapping")
+    wanted = set(expand_names(fit, robot))
+    return {k: float(v) for k, v in fitted.items() if k in wanted}
 
 
 def _robot(text: str):
@@ -287,6 +317,10 @@ def main(argv: list[str] | None = None) -> int:
         validate = read_csv(args.validate, args.format, robot, drive) if args.validate else None
         kwargs = _backend_args(args.backend_arg, args.backend)
         start = _start(args.start)
+        if args.start_from is not None:
+            start = {**_start_from(args.start_from, robot, args.fit), **start}
+        if not (math.isfinite(args.max_gap) and args.max_gap > 0):
+            raise ValueError(f"--max-gap must be > 0 s, got {args.max_gap!r}")
         if not (math.isfinite(args.stiffness_scale) and args.stiffness_scale > 0):
             raise ValueError(f"--stiffness-scale must be > 0, got {args.stiffness_scale!r}")
         result = calibrate(
@@ -304,6 +338,7 @@ def main(argv: list[str] | None = None) -> int:
             validate=validate,
             slack=not args.linear_law,
             stiffness_scale=args.stiffness_scale,
+            replay_options={"max_gap": args.max_gap},
         )
     except ValueError as exc:
         parser.error(str(exc))

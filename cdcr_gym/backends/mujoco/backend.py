@@ -552,7 +552,7 @@ class MuJoCoBackend(ObstacleScene, TendonDrives, StabilityLimits, StaticSolve, B
                 if displacements is None:
                     data.ctrl[:n_pull] = t[i]
                 else:
-                    t[i] = self._drive_law(displacements[i], self._lengths[i])[0]
+                    t[i] = self._drive_law(displacements[i], self._lengths[i], i)[0]
                 if self._mu[i] > 0.0:
                     self.slip[i] = mj_friction.implicit_slip_step(
                         self._mj,

@@ -24,12 +24,24 @@ __all__ = ["RELEASED", "TendonDrives"]
 
 #: The drives' control while released: far below any slack point, so the force is exactly 0.
 RELEASED = -1.0e3
+#: Slack (m) within which a gated drive keeps its damping (:attr:`TendonDrives.gate_damping`).
+DAMPING_MARGIN = 1.0e-3
 
 
 class TendonDrives:
     """The displacement-drive part of :class:`~cdcr_gym.backends.mujoco.backend.MuJoCoBackend`."""
 
     _drive_state: DriveState | None
+    #: False (default): every drive's tendon carries the damping γ·k. True: only the drives
+    #: that are taut or within ``DAMPING_MARGIN`` + this step's command change of taut (at the
+    #: start of each control step) carry it; the slack ones none. The damping is needed only
+    #: by the stiff taut-drive modes; on a slack tendon it resists the robot's motion with
+    #: nothing to balance it but the rod's bending stiffness, so the shapes in which tendons
+    #: go slack settle with a time constant of ~γ·Σk/K_rod (0.3–0.6 s on ftdcr_v4). Measured
+    #: on 60 rows of the ftdcr_v4 measurements replayed 0.6 s apart (gravity off): mean tip
+    #: distance to the quasi-static CCKA shape 3.5 mm ungated, 0.19 mm gated. Each robot then
+    #: gets its own MjModel.
+    gate_damping: bool = False
 
     def enable_displacement_control(self: Any) -> None:
         """Build the displacement drives (module docstring) now rather than at the first
@@ -95,13 +107,52 @@ class TendonDrives:
 
     def _set_drive_damping(self: Any, on: bool) -> None:
         """The drives' tendon damping γ·k (γ = physics timestep, module docstring) on every
-        model, or 0."""
-        damping = self.physics_timestep * np.asarray(self.params.cable_stiffness) if on else 0.0
-        seen: set[int] = set()
-        for model in [self.model, *self._models]:
-            if id(model) not in seen:
-                seen.add(id(model))
-                model.tendon_damping[self._cable_ids] = damping
+        model, or 0; a robot with its own drives (:meth:`set_drive_parameters`) gets its k."""
+        h = self.physics_timestep
+        nominal = np.asarray(self.params.cable_stiffness, dtype=np.float64)
+        self.model.tendon_damping[self._cable_ids] = h * nominal if on else 0.0
+        k = np.broadcast_to(self._drive_constants[0], (self.num_robots, nominal.size))
+        for i, model in enumerate(self._models):
+            if model is not self.model:
+                model.tendon_damping[self._cable_ids] = h * k[i] if on else 0.0
+
+    def set_drive_parameters(
+        self: Any, index: Any, stiffness: np.ndarray, pretension: np.ndarray
+    ) -> None:
+        """Give robots ``index`` (n,) their own drive law: tendon stiffness ``stiffness`` (n, C)
+        N/m and pretension ``pretension`` (n, C) N (the law of the module docstring with these
+        k and T0; the drives' damping γ·k follows k). Each such robot gets its own MjModel
+        (a calibration's batched finite differences: one robot per perturbed parameter).
+        Builds the drives first if needed; a later rebuild (friction switched on by
+        :meth:`set_randomized`, obstacles) resets them: call this last.
+
+        Raises:
+            ValueError: naming ``stiffness`` / ``pretension`` for a wrong shape, a
+                non-finite or non-positive k, or a negative or non-finite T0.
+        """
+        self._check_open()
+        idx = np.asarray(index, dtype=int).reshape(-1)
+        c = self.params.n_cables
+        k = validation.real_array(stiffness, "stiffness", (idx.size, c))
+        t0 = validation.real_array(pretension, "pretension", (idx.size, c))
+        if np.any(k <= 0.0):
+            raise ValueError(f"stiffness must be > 0 N/m, got {k.tolist()}")
+        if np.any(t0 < 0.0):
+            raise ValueError(f"pretension must be >= 0 N, got {t0.tolist()}")
+        if not self._drives:
+            self.enable_displacement_control()
+        k_all, t_all, t_max = self._drive_constants
+        k_all = np.array(np.broadcast_to(k_all, (self.num_robots, c)))
+        t_all = np.array(np.broadcast_to(t_all, (self.num_robots, c)))
+        h = self.physics_timestep
+        for j, i in enumerate(idx.tolist()):
+            model = self._own_model(i)
+            model.actuator_gainprm[self._drive_slice, 0] = -k[j]
+            model.actuator_biasprm[self._drive_slice, 0] = k[j] * self._straight - t0[j]
+            model.actuator_biasprm[self._drive_slice, 1] = -k[j]
+            model.tendon_damping[self._cable_ids] = h * k[j] if self._driving else 0.0
+            k_all[i], t_all[i] = k[j], t0[j]
+        self._drive_constants = (k_all, t_all, t_max)
 
     def _release_drives(self: Any) -> None:
         """Tension commands: the drives' force clamped to exactly 0, their damping off."""
@@ -113,11 +164,14 @@ class TendonDrives:
         self._drive_state = None
 
     def _drive_law(
-        self: Any, displacements: np.ndarray, lengths: np.ndarray
+        self: Any, displacements: np.ndarray, lengths: np.ndarray, robot: int = 0
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(tensions, slack, saturated) of the drives' law at tendon lengths ``lengths`` m
-        (``backends.base.drive_tensions`` with finite k, inlined: it runs every step)."""
+        (``backends.base.drive_tensions`` with finite k, inlined: it runs every step); rows
+        (N, C) of every robot, or (C,) of robot ``robot``."""
         k, t0, t_max = self._drive_constants
+        if k.ndim == 2 and displacements.ndim == 1:  # one robot's row (friction path)
+            k, t0 = k[robot], t0[robot]
         raw = t0 + k * (displacements - (self._straight - lengths))
         return np.clip(raw, 0.0, t_max), raw <= 0.0, raw > t_max
 
@@ -148,6 +202,8 @@ class TendonDrives:
         if not self._driving:
             self._set_drive_damping(True)
             self._driving = True
+        if self.gate_damping:
+            self._gate_drive_damping(d)
         self._displacements = d
         self.time += self.control_timestep
         n_pull, drive = self._n_pull, self._drive_slice
@@ -171,6 +227,21 @@ class TendonDrives:
         tensions, slack, saturated = self._drive_law(d, self._lengths)
         self._tensions = tensions
         self._drive_state = DriveState(d.copy(), slack, saturated)
+
+    def _gate_drive_damping(self: Any, d: np.ndarray) -> None:
+        """The drives' damping γ·k on the tendons taut or nearly taut under command ``d``
+        (N, C) m at the current lengths, 0 on the others (:attr:`gate_damping`)."""
+        k, t0, _ = self._drive_constants
+        n, c = d.shape
+        k = np.broadcast_to(k, (n, c))
+        t0 = np.broadcast_to(t0, (n, c))
+        raw = t0 + k * (d - (self._straight - self._lengths))
+        margin = DAMPING_MARGIN + np.abs(d - self._displacements)
+        damped = raw > -k * margin
+        h = self.physics_timestep
+        for i in range(n):
+            model = self._own_model(i)
+            model.tendon_damping[self._cable_ids] = np.where(damped[i], h * k[i], 0.0)
 
     @property
     def drive_state(self: Any) -> DriveState | None:
