@@ -7,7 +7,6 @@ from typing import Any
 
 import numpy as np
 
-from cdcr_gym.params import RobotParams
 from training.run.checkpoints import save_checkpoint, save_model_dir
 from training.run.config import (
     ExperimentConfig,
@@ -21,6 +20,7 @@ from training.run.rollout import (
     concat_specs,
     make_env,
     make_specs,
+    robot_of,
     run_episodes,
 )
 from training.run.rundir import RunDir
@@ -87,9 +87,7 @@ def make_callbacks(config: ExperimentConfig, run: RunDir, state: dict[str, Any])
             super().__init__()
             ev = config.eval
             self.next_at = (state["start_steps"] // ev.freq + 1) * ev.freq
-            params = config.env.kwargs.get("params")
-            if isinstance(params, dict):
-                params = RobotParams(**params)
+            params = robot_of(config.env.kwargs.get("params"))
             self.specs = concat_specs(
                 [make_specs(ev.n_episodes, ev.seed, s, params) for s in ev.initial_states]
             )

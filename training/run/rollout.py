@@ -113,7 +113,7 @@ def make_specs(
     """Goals and starting tensions of ``n`` episodes, drawn with reset seeds seed + i."""
     env = CDCREnv(AnalyticBackend(params), initial_state=initial_state)
     goals = np.empty((n, 3))
-    starts = np.empty((n, 3))
+    starts = np.empty((n, env.params.n_cables))
     for i in range(n):
         _, info = env.reset(seed=seed + i)
         goals[i] = info["goal"]
@@ -130,6 +130,16 @@ def concat_specs(parts: list[EpisodeSpecs]) -> EpisodeSpecs:
         "+".join(p.initial_state for p in parts),
         parts[0].seed,
     )
+
+
+def robot_of(params: Any) -> Any:
+    """The robot of an ``env.kwargs.params`` entry: a mapping of RobotParams fields, or the
+    path of a YAML file (a ``cdcr-gym calibrate`` params.yaml), or None (the env's default)."""
+    if isinstance(params, dict):
+        return RobotParams(**params)
+    if isinstance(params, str):
+        return RobotParams.from_yaml(params)
+    return params
 
 
 def make_env(
