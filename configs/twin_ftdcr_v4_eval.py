@@ -47,11 +47,30 @@ ENV_KEYS = ("action_mode", "displacement_step", "tension_step", "distance_thresh
 
 
 def make_twin(env_id: str, params: str, run_kwargs: dict[str, Any], initial_state: str) -> Any:
-    """The twin env of ``params`` with the run's action settings."""
+    """The twin env of ``params`` with the run's action settings and, on a physics backend,
+    the fit's backend arguments (the analytic CCKA backend takes none)."""
     kw = {k: run_kwargs[k] for k in ENV_KEYS if k in run_kwargs}
-    return gym.make(
-        env_id, params=params, initial_state=initial_state, **kw, **backend_kwargs_from_yaml(params)
-    )
+    if "CCKA" not in env_id:
+        kw.update(backend_kwargs_from_yaml(params))
+    return gym.make(env_id, params=params, initial_state=initial_state, **kw)
+
+
+def memoise_targets(ik: AnalyticIKController) -> AnalyticIKController:
+    """``ik`` with its IK solution cached per goal (an episode's goal is fixed: the numerical
+    IK of a 3-section robot need not be re-solved every step; the same results, faster)."""
+    solve = ik.targets
+    cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+
+    def targets(goal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        key = np.ascontiguousarray(goal, dtype=np.float64).tobytes()
+        if key not in cache:
+            if len(cache) > 64:
+                cache.clear()
+            cache[key] = solve(goal)
+        return cache[key]
+
+    ik.targets = targets  # type: ignore[method-assign]
+    return ik
 
 
 def run_episode(env: Any, act: Any, seed: int) -> tuple[float, np.ndarray]:
@@ -109,7 +128,7 @@ def main(argv: list[str] | None = None) -> int:
         controllers = dict(policies)
         if args.oracles:
             for name, fb in (("closed-loop IK", True), ("open-loop IK", False)):
-                ik = AnalyticIKController.from_env(env, feedback=fb)
+                ik = memoise_targets(AnalyticIKController.from_env(env, feedback=fb))
                 controllers[name] = lambda o, c=ik: c.action(o)
         goals[state] = []
         for i in range(args.episodes):
