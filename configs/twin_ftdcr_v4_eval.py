@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -175,6 +176,8 @@ def main(argv: list[str] | None = None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     out_json.write_text(json.dumps(result, indent=1) + "\n")
     _plot(result, args.out / f"eval_{args.tag}.png")
+    command = "python configs/twin_ftdcr_v4_eval.py " + " ".join(argv or sys.argv[1:])
+    (args.out / f"eval_{args.tag}.md").write_text(markdown(result, command))
     for name, r in result["controllers"].items():
         a = r["all"]
         print(
@@ -182,6 +185,33 @@ def main(argv: list[str] | None = None) -> int:
             f"<=5 mm {a['success_5mm']:.1%}  <=1 mm {a['within_1mm']:.1%}"
         )
     return 0
+
+
+def markdown(result: dict[str, Any], command: str = "") -> str:
+    """The result as a Markdown table: per controller, all episodes and per starting state."""
+    n = result["episodes_per_start"]
+    out = [
+        f"# FTDCR v4 twin: {result['env_id']}",
+        "",
+        f"Robot `{result['params']}`, {result['env_kwargs']}; {n} goals per starting state "
+        f"(reset seeds {result['seed']}…{result['seed'] + n - 1}), 100 steps; final tip error.",
+        "",
+    ]
+    if command:
+        out += ["```", command, "```", ""]
+    out += [
+        "| controller | start | median (mm) | p95 (mm) | mean (mm) | max (mm) | ≤ 5 mm | ≤ 1 mm |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for name, r in result["controllers"].items():
+        for part in ("all", "straight", "random"):
+            a = r[part]
+            out.append(
+                f"| {name} | {part} | {a['median_mm']:.3f} | {a['p95_mm']:.3f} | "
+                f"{a['mean_mm']:.3f} | {a['max_mm']:.3f} | {a['success_5mm']:.0%} | "
+                f"{a['within_1mm']:.0%} |"
+            )
+    return "\n".join(out) + "\n"
 
 
 def _plot(result: dict[str, Any], path: Path) -> None:
