@@ -126,3 +126,15 @@ def test_env_sets_the_goal_range_in_displacement_modes(mode: str) -> None:
         assert np.isfinite(info["goal"]).all()
     finally:
         env.close()
+
+
+def test_training_accepts_a_params_yaml_path_and_nine_cable_specs() -> None:
+    from training.run.rollout import make_specs, robot_of
+
+    fitted, _ = load_fitted(FIT)
+    assert robot_of(str(FIT)) == fitted
+    specs = make_specs(3, 7, "random", robot_of(str(FIT)))
+    assert specs.goals.shape == (3, 3) and specs.initial_tensions.shape == (3, 9)
+    assert np.all((specs.initial_tensions >= 0.0) & (specs.initial_tensions <= fitted.max_tension))
+    with pytest.raises(ValueError, match="no_such_file"):
+        robot_of("no_such_file.yaml")
