@@ -113,6 +113,9 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     if args.episodes < 1:
         raise ValueError(f"--episodes must be >= 1, got {args.episodes}")
+    import torch
+
+    torch.set_num_threads(1)  # tiny MLPs: one thread is fastest (and shares the machine)
     t0 = time.perf_counter()
     run_kwargs = dict(load_config(args.config).env.kwargs)
     policies = {}
