@@ -148,6 +148,8 @@ class EnvCore:
         self.task = task
         self.actuation = actuation
         task.bind(self.params, n)
+        if actuation.commands_displacements:  # goals the drives can hold
+            task.goal_displacement_range = actuation.displacement_range
         states = [initial_state] * n if isinstance(initial_state, str) else list(initial_state)
         if len(states) != n:
             raise ValueError(

@@ -22,6 +22,7 @@ from gymnasium import spaces
 from cdcr_gym import defaults, validation
 from cdcr_gym.backends.base import Backend, Readings
 from cdcr_gym.model.params import RobotParams
+from cdcr_gym.model.workspace import sample_tensions_each
 from cdcr_gym.tasks.observation import Field, ObservationSpec
 
 __all__ = [
@@ -202,11 +203,50 @@ class Task(abc.ABC):
 
     params: RobotParams
     num_envs: int
+    #: The drives' ``(d_min, d_max)`` (m) when the env commands tendon displacements (set by
+    #: the env core in a displacement action mode), else None: :meth:`sample_goal_readings`
+    #: then draws goals the drives can hold.
+    goal_displacement_range: tuple[float, float] | None = None
 
     def bind(self, params: RobotParams, num_envs: int) -> None:
         """Attach the task to a robot and a number of envs (allocates the goal arrays)."""
         self.params = params
         self.num_envs = int(num_envs)
+
+    def sample_goal_readings(self, rngs: list[np.random.Generator], backend: Backend) -> Readings:
+        """Readings of one reachable goal shape per generator in ``rngs`` (M = len(rngs)).
+
+        Tensions are drawn by ``model.workspace.sample_tensions_each`` and the shape is the
+        backend's static equilibrium under them (``Backend.equilibrium``). In a displacement
+        action mode (:attr:`goal_displacement_range` set) the goal must also be one the drives
+        can hold: the displacements that hold those tensions at that shape,
+        d = s + (T − T0)/k (s the backend's shortenings; a slack tendon at its slack point),
+        are clipped to ``displacement_range``, and a shape whose d was clipped is replaced by
+        the drives' equilibrium under the clipped d (``Backend.displacement_equilibrium``).
+        So every goal is the equilibrium of a displacement command within the range.
+        """
+        r = backend.equilibrium(sample_tensions_each(rngs, self.params))
+        if self.goal_displacement_range is None:
+            return r
+        low, high = self.goal_displacement_range
+        p = self.params
+        k, t0 = np.asarray(p.cable_stiffness), np.asarray(p.cable_pretension)
+        shortening = backend.straight_cable_lengths - r.cable_lengths
+        with np.errstate(divide="ignore", invalid="ignore"):
+            give = np.where(np.isinf(k), 0.0, (r.tensions - t0) / k)
+        d = shortening + give
+        out = (d < low) | (d > high)
+        rows = np.flatnonzero(out.any(axis=1))
+        if rows.size == 0:
+            return r
+        held = backend.displacement_equilibrium(np.clip(d[rows], low, high))
+        fields = {}
+        for name, value in r._asdict().items():
+            if isinstance(value, np.ndarray) and value.ndim >= 1 and len(value) == len(rngs):
+                value = value.copy()
+                value[rows] = getattr(held, name)
+            fields[name] = value
+        return type(r)(**fields)
 
     @abc.abstractmethod
     def observation_spec(self, goal_conditioned: bool) -> ObservationSpec:

@@ -10,7 +10,6 @@ from gymnasium import spaces
 from cdcr_gym import defaults, validation
 from cdcr_gym.backends.base import Backend, Readings
 from cdcr_gym.model.ik import solve_pose_ik
-from cdcr_gym.model.workspace import sample_tensions_each
 from cdcr_gym.tasks.base import (
     REWARD_TYPES,
     GoalTask,
@@ -152,7 +151,7 @@ class Pose(GoalTask):
         goal: np.ndarray | None = None,
     ) -> None:
         if goal is None:
-            r = backend.equilibrium(sample_tensions_each(rngs, self.params))
+            r = self.sample_goal_readings(rngs, backend)
             position, direction = r.tip, r.tip_direction
         else:
             goal = self.check_goal(goal, idx.size)

@@ -7,7 +7,6 @@ import numpy as np
 from cdcr_gym import defaults, validation
 from cdcr_gym.backends.base import Backend
 from cdcr_gym.model.ik import solve_ik
-from cdcr_gym.model.workspace import sample_tensions_each
 from cdcr_gym.tasks.base import ERROR_SCALE, REWARD_TYPES, GoalTask
 
 __all__ = ["Reach", "ERROR_SCALE"]
@@ -19,7 +18,9 @@ class Reach(GoalTask):
     **Goal**: a point (m, in R0) drawn each episode from the backend's own reachable set: a
     shape is drawn by ``model.workspace.sample_tensions`` (one section: area-uniform on the
     tension-reachable surface; several: see that function) and the goal is the tip of the
-    backend's static equilibrium under those tensions (``Backend.equilibrium``). A goal given
+    backend's static equilibrium under those tensions (``Backend.equilibrium``); in a
+    displacement action mode, the equilibrium of a displacement command within the drives'
+    range (``Task.sample_goal_readings``). A goal given
     in ``reset(options={"goal": ...})`` is projected onto the reachable set of the model (the
     nearest tip within the tension limits, ``model.ik.solve_ik``); it must be finite and within
     10 robot lengths of the base (``ValueError`` otherwise: a goal that far is a mistake).
@@ -57,7 +58,7 @@ class Reach(GoalTask):
         goal: np.ndarray | None = None,
     ) -> None:
         if goal is None:
-            goals = backend.equilibrium(sample_tensions_each(rngs, self.params)).tip
+            goals = self.sample_goal_readings(rngs, backend).tip
         else:
             goals = solve_ik(self.check_goal(goal, idx.size), self.params).tip
         self.goal[idx] = goals

@@ -118,7 +118,8 @@ def test_short_physics_fit_recovers_pretension_and_base_offset():
 def test_physics_fit_recovers_e_or_k_pretension_and_base_frame(known):
     """E, k and T0 scaled together leave the shapes nearly unchanged (gravity alone tells them
     apart; with all three free E is pinned), so one of E and k is known (the nominal) and the
-    other is recovered within 3 %, T0 within 0.1 N, the base offsets within 0.1 mm."""
+    other is recovered (E within 2 %, k within 5 %), T0 within 5 %, the base offsets within
+    0.3 mm: the recovery targets of the calibration's specification."""
     truth = {
         "youngs_modulus": 0.85 * V4.youngs_modulus,
         "tendon_stiffness": 8000.0,
@@ -134,12 +135,12 @@ def test_physics_fit_recovers_e_or_k_pretension_and_base_frame(known):
     free = [n for n in truth if n != known]
     res = _synthetic_fit(40, free, truth)
     v = res.values
-    for n in ("youngs_modulus", "tendon_stiffness"):
+    for n, rel in (("youngs_modulus", 0.02), ("tendon_stiffness", 0.05)):
         if n in v:
-            assert abs(v[n] / truth[n] - 1) < 0.03, (n, v)
-    assert abs(v["tendon_pretension"] - 1.5) < 0.1, v
+            assert abs(v[n] / truth[n] - 1) < rel, (n, v)
+    assert abs(v["tendon_pretension"] / 1.5 - 1) < 0.05, v
     for n in ("base_x", "base_z"):
-        assert abs(v[n] - truth[n]) < 0.1e-3, (n, v)
+        assert abs(v[n] - truth[n]) < 0.3e-3, (n, v)
 
 
 def test_physics_displacement_fit_refuses_geometry_names():

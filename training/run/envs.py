@@ -13,13 +13,12 @@ import gymnasium as gym
 
 import cdcr_gym  # noqa: F401
 from cdcr_gym import MAX_EPISODE_STEPS
-from cdcr_gym.params import RobotParams
 from cdcr_gym.registration import BATCHED
 from training.run.config import (
     ConfigError,
     ExperimentConfig,
 )
-from training.run.rollout import algo_class, make_env
+from training.run.rollout import algo_class, make_env, robot_of
 
 
 # -- environments -------------------------------------------------------------------------------
@@ -155,13 +154,14 @@ def check_env_config(config: ExperimentConfig) -> None:
     ]
     for key, kwargs in cases:
         params = kwargs.get("params")
-        if params is not None and not isinstance(params, dict):
+        if params is not None and not isinstance(params, (dict, str)):
             raise ConfigError(
-                f"{key}.params must be a mapping of RobotParams fields, got {params!r}"
+                f"{key}.params must be a mapping of RobotParams fields or the path of a "
+                f"params YAML file, got {params!r}"
             )
-        if isinstance(params, dict):
+        if params is not None:
             try:
-                RobotParams(**params)
+                robot_of(params)
             except (TypeError, ValueError) as exc:
                 raise ConfigError(f"{key}.params: {exc}") from None
         try:

@@ -101,6 +101,16 @@ class Rollouts:
         return self.distances[:, -1]
 
 
+def robot_of(params: Any) -> Any:
+    """The robot of an ``env.kwargs.params`` entry: a mapping of RobotParams fields, or the
+    path of a YAML file (a ``cdcr-gym calibrate`` params.yaml), or None (the env's default)."""
+    if isinstance(params, dict):
+        return RobotParams(**params)
+    if isinstance(params, str):
+        return RobotParams.from_yaml(params)
+    return params
+
+
 def make_env(
     env_id: str,
     env_kwargs: dict[str, Any] | None = None,
