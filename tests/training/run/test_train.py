@@ -166,29 +166,38 @@ def test_evaluate_loads_the_model_the_config_names(tmp_path: Path) -> None:
 
 
 # -- smoke runs ---------------------------------------------------------------------------------
-EVAL_KEYS = {"success_rate", "within_1mm", "error_mm", "ik", "conditions", "headline_condition"}
+EVAL_KEYS = {"task", "policy", "oracle", "random", "conditions", "headline_condition"}
+SUMMARY_KEYS = {
+    "task",
+    "episodes",
+    "success_rate",
+    "within_1mm",
+    "mean_return",
+    "final_distance_mm",
+}
 STAT_KEYS = {"mean", "median", "p95", "max"}
 
 
 def _check_eval_json(path: Path, conditions: set[str]) -> dict:
+    """The one report shape: a summary per policy at the headline condition and per condition."""
     data = json.loads(path.read_text())
     assert EVAL_KEYS <= data.keys()
-    assert set(data["error_mm"]) == STAT_KEYS
-    ik = data["ik"]
-    assert {
-        "success_rate",
-        "error_mm",
-        "cable_length_distance_mm",
-        "tension_distance_n",
-    } <= ik.keys()
-    assert set(ik["error_mm"]) == STAT_KEYS
-    assert set(ik["cable_length_distance_mm"]) == STAT_KEYS
-    assert set(ik["tension_distance_n"]) == STAT_KEYS
-    assert 0.0 <= data["success_rate"] <= 1.0
+    assert data["task"] == "Reach"
+    for who in ("policy", "oracle", "random"):
+        assert SUMMARY_KEYS <= data[who].keys(), who
+        assert set(data[who]["final_distance_mm"]) == STAT_KEYS
+        assert 0.0 <= data[who]["success_rate"] <= 1.0
+    to_oracle = data["policy"]["to_oracle"]
+    assert {"cable_length_distance_mm", "tension_distance_n"} <= to_oracle.keys()
+    assert set(to_oracle["cable_length_distance_mm"]) == STAT_KEYS
+    assert set(to_oracle["tension_distance_n"]) == STAT_KEYS
     assert set(data["conditions"]) == conditions
+    for cond in data["conditions"].values():
+        assert {"initial_state", "horizon", "policy", "oracle", "random"} <= cond.keys()
     # On the analytic backend the IK oracle reaches every goal.
     if data["env_id"].endswith("CCKAReach-v0"):
-        assert ik["success_rate"] == 1.0 and ik["error_mm"]["max"] < 1e-3
+        oracle = data["oracle"]
+        assert oracle["success_rate"] == 1.0 and oracle["final_distance_mm"]["max"] < 1e-3
     return data
 
 
@@ -236,8 +245,10 @@ def test_train_and_evaluate_default_config_smoke(tmp_path: Path) -> None:
         run / "eval.json",
         {"straight_100steps", "straight_200steps", "random_100steps", "random_200steps"},
     )
-    assert "max_error_after_train_horizon_mm" in data["conditions"]["straight_200steps"]
-    for fig in ("error_histogram.png", "workspace_errors.png", "policy_vs_ik.png"):
+    assert (
+        "max_distance_after_train_horizon_mm" in data["conditions"]["straight_200steps"]["policy"]
+    )
+    for fig in ("error_histogram.png", "workspace_errors.png", "policy_vs_oracle.png"):
         assert (run / "eval" / fig).stat().st_size > 0
     assert "success" in result.stdout  # the printed table
 

@@ -237,7 +237,8 @@ def test_off_policy_resume_with_replay_buffer_is_bit_identical(tmp_path: Path, d
     )
     assert result.returncode == 0, result.stderr[-3000:]
     evaluation = json.loads((run / "eval.json").read_text())
-    assert 0.0 <= evaluation["success_rate"] <= 1.0 and evaluation["error_mm"]["max"] > 0
+    policy = evaluation["policy"]
+    assert 0.0 <= policy["success_rate"] <= 1.0 and policy["final_distance_mm"]["max"] > 0
 
 
 def _interrupt(tmp_path: Path, n_signals: int) -> tuple[int, str, Path]:
