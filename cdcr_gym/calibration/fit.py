@@ -315,41 +315,26 @@ def calibrate(
         return r
 
     jac: Any = "2-point"
-    if isinstance(model, PhysicsReplay):
-        physics_model = model
+    if isinstance(model, (PhysicsReplay, DriveReplay)):
+        batched_model = model
+        # forward differences, every column a robot of one batched evaluation (a physics replay's
+        # frame-only columns share the unperturbed robot); relative step 1e-3 for a simulation,
+        # 1e-6 for the quasi-static solve
+        rel_step = 1e-3 if isinstance(model, PhysicsReplay) else 1e-6
 
         def jac(x: np.ndarray) -> np.ndarray:
-            # forward differences, every column a robot of one batched replay (the frame
-            # columns share the unperturbed robot)
-            h = 1e-3 * np.maximum(1.0, np.abs(x))
+            h = rel_step * np.maximum(1.0, np.abs(x))
             h = np.where(x + h > hi, -h, h)
             batch = [values_of(x)]
             for k in range(len(x)):
                 xk = x.copy()
                 xk[k] += h[k]
                 batch.append(values_of(xk))
-            tips, dirs, _ = physics_model.batch(batch)
+            tips, dirs = batched_model.batch(batch)[:2]
             res = [_residuals(Prediction(tips[b], dirs[b]), data) for b in range(len(batch))]
             count[0] += len(x)
-            if progress is not None:
-                progress(f"  jacobian: {physics_model.timing.history[-1]}")
-            return np.stack([(res[k + 1] - res[0]) / h[k] for k in range(len(x))], axis=1)
-
-    elif isinstance(model, DriveReplay):
-        drive_model = model
-
-        def jac(x: np.ndarray) -> np.ndarray:
-            # forward differences, every column in one batched solve
-            h = 1e-6 * np.maximum(1.0, np.abs(x))
-            h = np.where(x + h > hi, -h, h)
-            batch = [values_of(x)]
-            for k in range(len(x)):
-                xk = x.copy()
-                xk[k] += h[k]
-                batch.append(values_of(xk))
-            tips, dirs = drive_model.batch(batch)
-            res = [_residuals(Prediction(tips[b], dirs[b]), data) for b in range(len(batch))]
-            count[0] += len(x)
+            if progress is not None and isinstance(batched_model, PhysicsReplay):
+                progress(f"  jacobian: {batched_model.timing.history[-1]}")
             return np.stack([(res[k + 1] - res[0]) / h[k] for k in range(len(x))], axis=1)
 
     t0 = time.perf_counter()
