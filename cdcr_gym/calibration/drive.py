@@ -12,10 +12,12 @@ linear law, an ablation) and the rod balances the tendon moments: ``EI·κ_j = �
 (``EI·u = Gᵀ·T``).
 
 ``Λ·(EI·u − Gᵀ·T(u))`` is the gradient of a strictly convex energy (the rod's bending energy plus
-each tendon's spring energy ``(1/2k)·clip(…)²``), so the equilibrium is unique; it is found by a
-semismooth Newton iteration on ``F(u) = EI·u − Gᵀ·T(u)`` with the active set (taut, unsaturated
-tendons) updated every step and a residual backtracking, from the straight robot. The law is
-piecewise linear, so once the active set is right the step is exact (machine precision).
+each tendon's spring energy ``(1/2k)·clip(…)²``), so the equilibrium is unique. Eliminating u
+(``u = Gᵀ·T/EI``, so ``s = M·T`` with the shortening matrix ``M = G·Λ·Gᵀ/EI``, symmetric PSD)
+leaves the tendon law's box-constrained QP in T, solved exactly (active sets, machine precision)
+by :func:`cdcr_gym.model.tendons.solve_tendon_law`: the same solver as the robots' displacement
+statics (:func:`cdcr_gym.model.tendons.solve_displacement_statics`), each parameter set with its
+own M.
 
 Geometry of a prediction: ``tip = R_base·(Σ_j R_1…R_{j−1}·p_j + R_1…R_S·(0, 0, marker)) + t_base``
 with p_j, R_j the arc of section j (``p_j = ℓ_j·((1−cosθ)/θ²·w, sinθ/θ)``, w = κ_j ℓ_j, θ = |w|;
@@ -98,7 +100,7 @@ class DriveState:
         slack: (B, M, C) bool, tendons carrying nothing.
         saturated: (B, M, C) bool, tendons at ``max_tension``.
         shortening: (B, M, C) geometric shortenings s_i, m.
-        iterations: Newton iterations used.
+        iterations: solver iterations used (the largest over the batch).
     """
 
     curvature: np.ndarray
@@ -110,66 +112,56 @@ class DriveState:
 
 
 def solve_drive(
-    geom: DriveGeometry, displacements: np.ndarray, max_iter: int = 60, tol: float = 1e-10
+    geom: DriveGeometry, displacements: np.ndarray, max_iter: int = 100, tol: float = 1e-12
 ) -> DriveState:
     """The equilibrium (module docstring) of every robot of ``geom`` under every row of
     ``displacements`` (M, C) m (positive = pulled in).
 
+    The tensions solve the tendon law against each robot's shortening matrix
+    ``M = G·Λ·Gᵀ/EI`` (s = M·T) with :func:`cdcr_gym.model.tendons.solve_tendon_law` (the
+    solver of the robots' displacement statics); the curvatures follow as ``u = Gᵀ·T/EI``.
+    ``slack=False`` (the linear law, no clip at zero) is the same problem for ``T_max − T``
+    with no upper bound (a plain linear solve without a tension cap).
+
     Raises:
         ValueError: for a displacement array of the wrong shape or with non-finite values.
     """
+    from cdcr_gym.model.tendons import solve_tendon_law
+
     d = np.asarray(displacements, dtype=np.float64)
     c = geom.section_of.shape[0]
     if d.ndim != 2 or d.shape[1] != c or not np.isfinite(d).all():
         raise ValueError(f"displacements must be finite (M, {c}) m, got shape {d.shape}")
     g, lam = geom.coupling()  # (B, C, 2S), (B, 2S)
     b, n = lam.shape
+    rows = d.shape[0]
     a = g * lam[:, None, :]  # s = a @ u  (B, C, 2S)
-    k = geom.stiffness[:, None, :]  # (B, 1, C)
-    t0 = geom.pretension[:, None, :]
-    ei = geom.ei[:, None, None]
-    u = np.zeros((b, d.shape[0], n))
-    eye = np.eye(n)
     gt = np.swapaxes(g, 1, 2)  # (B, 2S, C)
-
-    def law(u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        s = np.einsum("bcn,bmn->bmc", a, u)
-        raw = t0 + k * (d[None] - s)
-        if geom.slack:
-            t = np.clip(raw, 0.0, geom.max_tension)
-            active = (raw > 0.0) & (raw < geom.max_tension)
-        else:
-            t = np.minimum(raw, geom.max_tension)
-            active = raw < geom.max_tension
-        return t, active, s
-
-    def residual(u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        t, active, s = law(u)
-        return ei * u - np.einsum("bnc,bmc->bmn", gt, t), t, active, s
-
-    f, t, active, s = residual(u)
-    iterations = 0
-    for it in range(1, max_iter + 1):
-        iterations = it
-        # J = EI·I + Gᵀ·diag(k·active)·G·Λ
-        w = k * active  # (B, M, C)
-        jac = ei[..., None] * eye + np.einsum("bnc,bmc,bcp->bmnp", gt, w, a)
-        step = np.linalg.solve(jac, -f[..., None])[..., 0]
-        norm0 = np.linalg.norm(f, axis=-1)
-        alpha = np.ones(f.shape[:2])
-        for _ in range(12):
-            trial = u + alpha[..., None] * step
-            f1, t1, act1, s1 = residual(trial)
-            worse = np.linalg.norm(f1, axis=-1) > norm0 * (1.0 - 1e-4 * alpha) + 1e-300
-            if not worse.any():
-                break
-            alpha = np.where(worse, 0.5 * alpha, alpha)
-        u, f, t, active, s = trial, f1, t1, act1, s1
-        if float(np.max(np.abs(f) / ei, initial=0.0)) < tol:  # curvature error, 1/m
-            break
-    raw = t0 + k * (d[None] - s)
+    ei = geom.ei[:, None, None]
+    shortening_matrix = np.einsum("bcn,bnp->bcp", a, gt) / ei  # (B, C, C): s = M·T
+    m_rows = np.repeat(shortening_matrix, rows, axis=0)  # (B·M, C, C)
+    k = np.repeat(geom.stiffness, rows, axis=0)
+    t0 = np.repeat(geom.pretension, rows, axis=0)
+    dd = np.tile(d, (b, 1))
+    limit = geom.max_tension
+    if geom.slack:
+        t, iterations = solve_tendon_law(m_rows, dd, k, np.maximum(t0, 0.0), limit, tol, max_iter)
+    elif np.isfinite(limit):
+        # T' = T_max − T ≥ 0 obeys the law with T0' = 0, d' = (T_max − T0)/k − d + M·T_max
+        # and no cap: T' = max(0, k·(d' − M·T')), i.e. T = min(T0 + k·(d − M·T), T_max)
+        shift = (limit - t0) / k - dd + np.einsum("nij,j->ni", m_rows, np.full(c, limit))
+        t_prime, iterations = solve_tendon_law(m_rows, shift, k, 0.0, None, tol, max_iter)
+        t = limit - t_prime
+    else:
+        h = m_rows + np.einsum("ni,ij->nij", 1.0 / k, np.eye(c))
+        t = np.linalg.solve(h, (dd + t0 / k)[..., None])[..., 0]
+        iterations = 1
+    t = t.reshape(b, rows, c)
+    u = np.einsum("bnc,bmc->bmn", gt, t) / ei
+    s = np.einsum("bcn,bmn->bmc", a, u)
+    raw = geom.pretension[:, None, :] + geom.stiffness[:, None, :] * (d[None] - s)
     return DriveState(
-        curvature=u.reshape(b, d.shape[0], n // 2, 2),
+        curvature=u.reshape(b, rows, n // 2, 2),
         tensions=t,
         slack=raw <= 0.0 if geom.slack else np.zeros_like(raw, dtype=bool),
         saturated=raw >= geom.max_tension,

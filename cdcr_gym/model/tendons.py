@@ -55,6 +55,7 @@ __all__ = [
     "tendon_tensions",
     "shortening_matrix",
     "solve_displacement_statics",
+    "solve_tendon_law",
 ]
 
 
@@ -292,96 +293,12 @@ def _primal_active_set(h, q, upper, start, anchor, scale, max_iter):
     return x, done, iterations
 
 
-def solve_displacement_statics(
-    model: PCCModel,
-    displacements,
-    stiffness,
-    pretension,
-    max_tension=None,
-    tol: float = 1e-12,
-    max_iter: int = 100,
-    initial_tensions=None,
-    bending_scale=None,
-    length_scale=None,
-) -> TendonState:
-    """The quasi-static PCC shape under tendon displacement commands.
-
-    Solves T = clip(T0 + k·(d − s(w(T))), 0, max_tension) together with the frictionless
-    pure-moment statics w = w(T) of ``model`` (see the module docstring), exactly: the result's
-    tensions satisfy the law at the result's shape to ``tol`` (relative).
-
-    Args:
-        model: the robot's :class:`PCCModel` (S sections, C cables).
-        displacements: commands d (..., C) (m, positive = pulled in at the drive).
-        stiffness: k (N/m) > 0, a scalar, (C,) or (..., C); ``np.inf`` (all cables) = the
-            inextensible limit (shape from the commands by least squares, as
-            :meth:`PCCModel.bending_from_lengths` with lengths L_straight − d).
-        pretension: T0 (N) ≥ 0 at d = 0 on the straight robot; scalar, (C,) or (..., C).
-        max_tension: tension limit (N); None = the robot's ``params.max_tension``; ``np.inf``
-            for none.
-        tol: relative tolerance of the final complementarity check.
-        max_iter: iteration budget (the primal active-set fallback may take up to max_iter·C).
-        initial_tensions: optional warm start (..., C) (N), e.g. the previous step's tensions.
-        bending_scale: optional per-robot factor (...) > 0 on the bending under given tensions
-            (a robot whose cable radius r and modulus E differ from ``model``'s: (r/r₀)(E₀/E)).
-        length_scale: optional per-robot factor (...) > 0 on the cable-length changes of a
-            shape (r/r₀). The shortening matrix of such a robot is bending_scale·length_scale·M.
-
-    Returns:
-        :class:`TendonState` with leading shape that of the broadcast arguments.
-
-    Raises:
-        ValueError: naming the argument, for NaN/inf commands, k ≤ 0 or NaN, T0 < 0, a wrong
-            last axis, or stiffness mixing finite and infinite values.
-        TendonSolveError: if the iteration fails to converge (a bug: the problem is convex).
-    """
-    if not isinstance(model, PCCModel):
-        raise ValueError(f"model must be a PCCModel, got {model!r}")
-    C, S = model.n_cables, model.n_sections
-    d = _array("displacements", displacements)
-    if d.ndim == 0 or d.shape[-1] != C:
-        raise ValueError(f"displacements must have shape (..., {C}), got {d.shape}")
-    k = _stiffness(stiffness, C)
-    t0 = _pretension(pretension, C)
-    limit = _max_tension(model.params.max_tension if max_tension is None else max_tension)
-    if not (isinstance(tol, (int, float)) and 0.0 < tol < 1.0):
-        raise ValueError(f"tol must be in (0, 1), got {tol!r}")
-    if isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or max_iter < 1:
-        raise ValueError(f"max_iter must be an integer >= 1, got {max_iter!r}")
-    inextensible = np.isinf(k)
-    if inextensible.any() and not inextensible.all():
-        raise ValueError(
-            f"stiffness must be all finite or all np.inf (inextensible), got {stiffness!r}"
-        )
-    singular = bool(inextensible.any())
-    try:
-        batch = np.broadcast_shapes(d.shape, k.shape, t0.shape)
-    except ValueError:
-        raise ValueError(
-            f"displacements {d.shape}, stiffness {k.shape} and pretension {t0.shape} do not "
-            f"broadcast"
-        ) from None
-    n = math.prod(batch[:-1])
-    d2 = np.broadcast_to(d, batch).reshape(n, C)
-    t02 = np.broadcast_to(t0, batch).reshape(n, C)
-    bs = _robot_scale("bending_scale", bending_scale, batch[:-1], n)
-    ls = _robot_scale("length_scale", length_scale, batch[:-1], n)
-    m = shortening_matrix(model)
-    h = np.einsum("n,ij->nij", bs * ls, m)
-    mean_diag = float(np.mean(np.diag(m))) * float(np.mean(bs * ls))
-    if singular:
-        # the shape whose length changes are −d (least squares), and its shortenings
-        w_star = ((-d2) @ model.lengths_to_bending) / ls[:, None]
-        q = -((w_star * ls[:, None]) @ model.bending_to_lengths)
-        c_scale = 1.0 / np.diagonal(h, axis1=1, axis2=2)
-        scale = mean_diag
-    else:
-        k2 = np.broadcast_to(k, batch).reshape(n, C)
-        idx = np.arange(C)
-        h[:, idx, idx] += 1.0 / k2
-        q = d2 + t02 / k2
-        c_scale = k2
-        scale = mean_diag + float(np.mean(1.0 / k2))
+def _box_qp(h, q, t02, c_scale, scale, limit, singular, initial_tensions, batch, max_iter, tol, d2):
+    """The tensions T (N, C) of the box-constrained QP min ½TᵀHT − qᵀT over 0 ≤ T ≤ limit
+    (the law's complementarity problem, module docstring) for rows of H (N, C, C), q (N, C):
+    two primal-dual steps, then the primal active-set method; checked against the law.
+    Returns (T, iterations); TendonSolveError if a row did not converge."""
+    n, C = q.shape
     upper = np.full((n, C), limit)
 
     # start: the warm start, or the unconstrained solution, then the law's sets
@@ -478,6 +395,103 @@ def solve_displacement_statics(
             f"of {n} robots (first: displacements {d2[row].tolist()}, residual "
             f"{float(np.max(residual[row])):.3g} N); raise max_iter or tol"
         )
+    return t, iterations
+
+
+def solve_displacement_statics(
+    model: PCCModel,
+    displacements,
+    stiffness,
+    pretension,
+    max_tension=None,
+    tol: float = 1e-12,
+    max_iter: int = 100,
+    initial_tensions=None,
+    bending_scale=None,
+    length_scale=None,
+) -> TendonState:
+    """The quasi-static PCC shape under tendon displacement commands.
+
+    Solves T = clip(T0 + k·(d − s(w(T))), 0, max_tension) together with the frictionless
+    pure-moment statics w = w(T) of ``model`` (see the module docstring), exactly: the result's
+    tensions satisfy the law at the result's shape to ``tol`` (relative).
+
+    Args:
+        model: the robot's :class:`PCCModel` (S sections, C cables).
+        displacements: commands d (..., C) (m, positive = pulled in at the drive).
+        stiffness: k (N/m) > 0, a scalar, (C,) or (..., C); ``np.inf`` (all cables) = the
+            inextensible limit (shape from the commands by least squares, as
+            :meth:`PCCModel.bending_from_lengths` with lengths L_straight − d).
+        pretension: T0 (N) ≥ 0 at d = 0 on the straight robot; scalar, (C,) or (..., C).
+        max_tension: tension limit (N); None = the robot's ``params.max_tension``; ``np.inf``
+            for none.
+        tol: relative tolerance of the final complementarity check.
+        max_iter: iteration budget (the primal active-set fallback may take up to max_iter·C).
+        initial_tensions: optional warm start (..., C) (N), e.g. the previous step's tensions.
+        bending_scale: optional per-robot factor (...) > 0 on the bending under given tensions
+            (a robot whose cable radius r and modulus E differ from ``model``'s: (r/r₀)(E₀/E)).
+        length_scale: optional per-robot factor (...) > 0 on the cable-length changes of a
+            shape (r/r₀). The shortening matrix of such a robot is bending_scale·length_scale·M.
+
+    Returns:
+        :class:`TendonState` with leading shape that of the broadcast arguments.
+
+    Raises:
+        ValueError: naming the argument, for NaN/inf commands, k ≤ 0 or NaN, T0 < 0, a wrong
+            last axis, or stiffness mixing finite and infinite values.
+        TendonSolveError: if the iteration fails to converge (a bug: the problem is convex).
+    """
+    if not isinstance(model, PCCModel):
+        raise ValueError(f"model must be a PCCModel, got {model!r}")
+    C, S = model.n_cables, model.n_sections
+    d = _array("displacements", displacements)
+    if d.ndim == 0 or d.shape[-1] != C:
+        raise ValueError(f"displacements must have shape (..., {C}), got {d.shape}")
+    k = _stiffness(stiffness, C)
+    t0 = _pretension(pretension, C)
+    limit = _max_tension(model.params.max_tension if max_tension is None else max_tension)
+    if not (isinstance(tol, (int, float)) and 0.0 < tol < 1.0):
+        raise ValueError(f"tol must be in (0, 1), got {tol!r}")
+    if isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or max_iter < 1:
+        raise ValueError(f"max_iter must be an integer >= 1, got {max_iter!r}")
+    inextensible = np.isinf(k)
+    if inextensible.any() and not inextensible.all():
+        raise ValueError(
+            f"stiffness must be all finite or all np.inf (inextensible), got {stiffness!r}"
+        )
+    singular = bool(inextensible.any())
+    try:
+        batch = np.broadcast_shapes(d.shape, k.shape, t0.shape)
+    except ValueError:
+        raise ValueError(
+            f"displacements {d.shape}, stiffness {k.shape} and pretension {t0.shape} do not "
+            f"broadcast"
+        ) from None
+    n = math.prod(batch[:-1])
+    d2 = np.broadcast_to(d, batch).reshape(n, C)
+    t02 = np.broadcast_to(t0, batch).reshape(n, C)
+    bs = _robot_scale("bending_scale", bending_scale, batch[:-1], n)
+    ls = _robot_scale("length_scale", length_scale, batch[:-1], n)
+    m = shortening_matrix(model)
+    h = np.einsum("n,ij->nij", bs * ls, m)
+    mean_diag = float(np.mean(np.diag(m))) * float(np.mean(bs * ls))
+    if singular:
+        # the shape whose length changes are −d (least squares), and its shortenings
+        w_star = ((-d2) @ model.lengths_to_bending) / ls[:, None]
+        q = -((w_star * ls[:, None]) @ model.bending_to_lengths)
+        c_scale = 1.0 / np.diagonal(h, axis1=1, axis2=2)
+        scale = mean_diag
+    else:
+        k2 = np.broadcast_to(k, batch).reshape(n, C)
+        idx = np.arange(C)
+        h[:, idx, idx] += 1.0 / k2
+        q = d2 + t02 / k2
+        c_scale = k2
+        scale = mean_diag + float(np.mean(1.0 / k2))
+    t, iterations = _box_qp(
+        h, q, t02, c_scale, scale, limit, singular, initial_tensions, batch, max_iter, tol, d2
+    )
+    upper = np.full((n, C), limit)
     slack = t <= 0.0
     saturated = t >= upper
     w_flat = (t @ model.tension_to_bending) * bs[:, None]
@@ -495,3 +509,64 @@ def solve_displacement_statics(
         shortening=shortening.reshape(batch),
         iterations=int(iterations),
     )
+
+
+def solve_tendon_law(
+    shortening_matrices,
+    displacements,
+    stiffness,
+    pretension,
+    max_tension=None,
+    tol: float = 1e-12,
+    max_iter: int = 100,
+) -> tuple[np.ndarray, int]:
+    """The tensions of N robots, each with its own shortening matrix, under the compliant law
+    T = clip(T0 + k·(d − T @ M), 0, max_tension) (finite k; the solver of
+    :func:`solve_displacement_statics`, for robots whose geometry differs beyond a scale, e.g.
+    the parameter sets of a calibration).
+
+    Args:
+        shortening_matrices: M (N, C, C) (m/N), symmetric positive semi-definite, s = T @ M.
+        displacements: commands d (N, C) (m, positive = pulled in).
+        stiffness: k (N/m) > 0 and finite, a scalar, (C,) or (N, C).
+        pretension: T0 (N) ≥ 0, a scalar, (C,) or (N, C).
+        max_tension: tension limit (N); None or ``np.inf``: none.
+        tol, max_iter: as :func:`solve_displacement_statics`.
+
+    Returns:
+        ``(tensions (N, C) N, iterations)``; slack/saturated tendons are those at 0 / the limit.
+
+    Raises:
+        ValueError: naming the argument for wrong shapes, non-finite values, k ≤ 0 or inf,
+            T0 < 0.
+        TendonSolveError: if the iteration fails to converge (a bug: the problem is convex).
+    """
+    m = _array("shortening_matrices", shortening_matrices)
+    if m.ndim != 3 or m.shape[1] != m.shape[2]:
+        raise ValueError(f"shortening_matrices must have shape (N, C, C), got {m.shape}")
+    n, C = m.shape[0], m.shape[1]
+    d = _array("displacements", displacements)
+    if d.shape != (n, C):
+        raise ValueError(f"displacements must have shape ({n}, {C}), got {d.shape}")
+    k = _stiffness(stiffness, C)
+    if np.any(np.isinf(k)):
+        raise ValueError(f"stiffness must be finite here (N/m), got {stiffness!r}")
+    t0 = _pretension(pretension, C)
+    limit = _max_tension(max_tension)
+    if not (isinstance(tol, (int, float)) and 0.0 < tol < 1.0):
+        raise ValueError(f"tol must be in (0, 1), got {tol!r}")
+    if isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or max_iter < 1:
+        raise ValueError(f"max_iter must be an integer >= 1, got {max_iter!r}")
+    try:
+        k2 = np.broadcast_to(k, (n, C))
+        t02 = np.broadcast_to(t0, (n, C))
+    except ValueError:
+        raise ValueError(
+            f"stiffness {k.shape} and pretension {t0.shape} must broadcast to ({n}, {C})"
+        ) from None
+    h = 0.5 * (m + np.swapaxes(m, 1, 2))
+    idx = np.arange(C)
+    h[:, idx, idx] += 1.0 / k2
+    q = d + t02 / k2
+    scale = float(np.mean(np.diagonal(m, axis1=1, axis2=2))) + float(np.mean(1.0 / k2))
+    return _box_qp(h, q, t02, k2, scale, limit, False, None, (n, C), max_iter, tol, d)

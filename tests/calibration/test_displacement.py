@@ -106,6 +106,62 @@ def test_drive_solver_matches_the_model_solver():
     assert ours.slack.any() and (~ours.slack).any()
 
 
+@pytest.mark.parametrize(
+    ("slack", "cap"), [(True, np.inf), (True, 4.0), (False, np.inf), (False, 4.0)]
+)
+def test_drive_solver_is_the_equilibrium_of_each_robot(slack, cap):
+    """Robots of different geometry in one batch: every row satisfies the drive law and the
+    moment balance EI·u = Gᵀ·T (module docstring of calibration.drive) to round-off."""
+    rng = np.random.default_rng(1)
+    batch = [
+        {
+            "length_s2": 0.07,
+            "cable_radius_s1": 0.005,
+            "section_angle_s3": 0.2,
+            "youngs_modulus": 4e10,
+            "tendon_pretension": 1.5,
+        },
+        {"tendon_stiffness_4": 3000.0, "cable_angle_2": -0.1},
+        {},
+    ]
+    geom = drive_geometry(V4, V4_DRIVE, batch, slack=slack)
+    geom.max_tension = cap
+    d = rng.uniform(-0.008, 0.008, (40, 9))
+    st = solve_drive(geom, d)
+    g, lam = geom.coupling()
+    u = st.curvature.reshape(len(batch), 40, -1)
+    s = np.einsum("bcn,bmn->bmc", g * lam[:, None, :], u)
+    raw = geom.pretension[:, None, :] + geom.stiffness[:, None, :] * (d[None] - s)
+    law = np.clip(raw, 0.0 if slack else -np.inf, cap)
+    np.testing.assert_allclose(st.tensions, law, atol=1e-9)
+    balance = geom.ei[:, None, None] * u - np.einsum("bcn,bmc->bmn", g, st.tensions)
+    assert np.max(np.abs(balance)) < 1e-12
+    np.testing.assert_allclose(st.shortening, s, atol=1e-15)
+    if slack:  # slack tendons exist and carry exactly nothing
+        assert st.slack.any() and np.all(st.tensions[st.slack] == 0.0)
+    else:  # the linear law pushes
+        assert np.any(st.tensions < 0.0)
+    if np.isfinite(cap):
+        assert st.saturated.any() and np.all(st.tensions <= cap)
+
+
+def test_tendon_law_solver_rejects_bad_input():
+    from cdcr_gym.model.tendons import solve_tendon_law
+
+    m = np.eye(3)[None] * 1e-5
+    with pytest.raises(ValueError, match="shortening_matrices"):
+        solve_tendon_law(np.eye(3), np.zeros((1, 3)), 1.0, 0.0)
+    with pytest.raises(ValueError, match="displacements"):
+        solve_tendon_law(m, np.zeros((2, 3)), 1.0, 0.0)
+    with pytest.raises(ValueError, match="stiffness"):
+        solve_tendon_law(m, np.zeros((1, 3)), np.inf, 0.0)
+    with pytest.raises(ValueError, match="pretension"):
+        solve_tendon_law(m, np.zeros((1, 3)), 1.0, -1.0)
+    t, _ = solve_tendon_law(m, np.array([[0.001, -0.001, 0.0]]), 1000.0, 0.5)
+    # decoupled tendons: T = (T0 + k·d)/(1 + k·m) when taut; the second one is slack
+    np.testing.assert_allclose(t, [[1.5 / 1.01, 0.0, 0.5 / 1.01]], rtol=1e-12)
+
+
 def test_forward_tips_one_section_is_the_arc_formula():
     from cdcr_gym import kinematics as K
 
