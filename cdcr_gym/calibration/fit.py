@@ -182,7 +182,8 @@ def calibrate(
             carries, :meth:`TendonDrive.of`).
         validate: held-out measurements, replayed with the fitted values after the fit (they
             never enter it).
-        slack, stiffness_scale: the CCKA drive law's ablations (linear law; k multiplied).
+        slack, stiffness_scale: the drive law's ablations (linear law; k multiplied), for the
+            CCKA model and the MuJoCo displacement replay.
         replay_options: the physics displacement replay's timing (``first_hold``,
             ``max_gap``, ``default_gap``, s: :class:`~cdcr_gym.calibration.physics.PhysicsReplay`).
 
@@ -285,7 +286,16 @@ def calibrate(
     model: AnalyticReplay | BackendReplay | DriveReplay | PhysicsReplay
     if physics_drive:
         assert drive is not None  # checked above
-        model = PhysicsReplay(data, base, drive, cls, fixed, **(replay_options or {}))
+        model = PhysicsReplay(
+            data,
+            base,
+            drive,
+            cls,
+            fixed,
+            slack=slack,
+            stiffness_scale=stiffness_scale,
+            **(replay_options or {}),
+        )
         model.name = backend
     elif use_drive:
         if fixed:
@@ -357,7 +367,16 @@ def calibrate(
         replay = (
             DriveReplay(validate, base, drive, slack=slack, stiffness_scale=stiffness_scale)
             if isinstance(model, DriveReplay)
-            else PhysicsReplay(validate, base, drive, cls, fixed, **(replay_options or {}))
+            else PhysicsReplay(
+                validate,
+                base,
+                drive,
+                cls,
+                fixed,
+                slack=slack,
+                stiffness_scale=stiffness_scale,
+                **(replay_options or {}),
+            )
             if isinstance(model, PhysicsReplay) and drive is not None
             else AnalyticReplay(validate, base, fixed)
             if cls is None

@@ -127,6 +127,7 @@ class PhysicsReplay:
         first_hold, max_gap, default_gap: the timing (s, module docstring).
         slack: False: the linear drive law T0 + k·(d − s) without the clamp at 0 (MuJoCo, an
             ablation; the drives' damping then stays on every tendon).
+        stiffness_scale: multiplies every tendon stiffness k (an ablation: stiff tendons).
         gate_damping: MuJoCo: the drives' damping on the (nearly) taut tendons only
             (``TendonDrives.gate_damping``: a slack tendon's damping makes the robot lag the
             commands by ~0.5 s, a simulation artefact the real robot does not have).
@@ -149,6 +150,7 @@ class PhysicsReplay:
         default_gap: float = 0.5,
         gate_damping: bool = True,
         slack: bool = True,
+        stiffness_scale: float = 1.0,
     ) -> None:
         from cdcr_gym.calibration.simulate import backend_class
 
@@ -187,6 +189,10 @@ class PhysicsReplay:
         self.gate_damping = bool(gate_damping) and bool(slack)
         #: False (MuJoCo, an ablation): the linear drive law, tendons push when slack
         self.slack = bool(slack)
+        if not (np.isfinite(stiffness_scale) and stiffness_scale > 0):
+            raise ValueError(f"stiffness_scale must be > 0, got {stiffness_scale!r}")
+        #: multiplies every tendon stiffness (an ablation: the stiff-tendon limit)
+        self.stiffness_scale = float(stiffness_scale)
         if not self.slack and not self.batched:
             raise ValueError("slack=False (the linear drive law) needs the MuJoCo backend")
 
@@ -195,7 +201,7 @@ class PhysicsReplay:
         """k (C,) N/m and T0 (C,) N of ``values`` (the drive's where not fitted)."""
         from cdcr_gym.calibration.simulate import drive_geometry
 
-        g = drive_geometry(self.base, self.drive, [values])
+        g = drive_geometry(self.base, self.drive, [values], stiffness_scale=self.stiffness_scale)
         return g.stiffness[0], np.maximum(g.pretension[0], 0.0)
 
     def _key(self, values: dict[str, float]) -> tuple:
