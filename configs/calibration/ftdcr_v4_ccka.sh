@@ -1,9 +1,15 @@
 #!/usr/bin/env bash
 # The CCKA calibration of the FTDCR v4 robot on its real measurements, and the ablation.
-# Writes docs/figures/calibration/ftdcr_v4_ccka/ (report.json, report.md, residuals.png,
-# params.yaml) and ablation/<name>/ beside it, then ablation.md. About 6 min on 2 cores.
+# 1. docs/figures/calibration/ftdcr_v4_ccka/ (report.json, report.md, residuals.png, params.yaml;
+#    the robot of the calibrated twin, configs/twin_ftdcr_v4_reach.yaml) and ablation/<name>/
+#    beside it, then ablation.md;
+# 2. docs/figures/calibration/ftdcr_v4_ccka_selected/: the parameter set chosen on train.csv alone
+#    by ftdcr_v4_ccka_selection.py (selection.md there), the MuJoCo fit's warm start
+#    (ftdcr_v4_mujoco.sh), and its ablation.
+# About 5 min on 2 shared cores.
 set -euo pipefail
 OUT=${1:-docs/figures/calibration/ftdcr_v4_ccka}
+SELECTED=${2:-docs/figures/calibration/ftdcr_v4_ccka_selected}
 DATA=data/real/ftdcr_v4
 FIT=base_frame,marker,k_tendons,T0_tendons,cable_angles
 run() { python -m training.studies.calibrate "$DATA/train.csv" --robot ftdcr_v4 --backend ccka \
@@ -13,3 +19,10 @@ run --fit base_frame,marker,T0_tendons,cable_angles --stiffness-scale 1000 --out
 run --fit "$FIT" --linear-law --out "$OUT/ablation/no_slack"
 run --fit marker,k_tendons,T0_tendons,cable_angles --out "$OUT/ablation/no_base_frame"
 python -m training.studies.calibrate --ablation-table "$OUT"
+
+SEL=base_frame,marker,E,k_tendons,cable_angles
+run --fit "$SEL" --out "$SELECTED"
+run --fit base_frame,marker,E,cable_angles --stiffness-scale 1000 --out "$SELECTED/ablation/rigid_tendons"
+run --fit "$SEL" --linear-law --out "$SELECTED/ablation/no_slack"
+run --fit marker,E,k_tendons,cable_angles --out "$SELECTED/ablation/no_base_frame"
+python -m training.studies.calibrate --ablation-table "$SELECTED"

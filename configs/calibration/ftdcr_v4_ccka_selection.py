@@ -14,7 +14,7 @@ all of train.csv and replayed on val.csv (reported for every candidate, selected
 the held-out error per pattern family (``same``, ``scurve``, ``spiral``) and along X, Y, Z.
 
 Writes OUT_DIR/selection.json and OUT_DIR/selection.md (default
-docs/figures/calibration/ftdcr_v4_ccka).
+docs/figures/calibration/ftdcr_v4_ccka_selected).
 """
 
 from __future__ import annotations
@@ -172,4 +172,8 @@ def main(out: Path) -> None:
 
 
 if __name__ == "__main__":
-    main(Path(sys.argv[1]) if len(sys.argv) > 1 else Path("docs/figures/calibration/ftdcr_v4_ccka"))
+    main(
+        Path(sys.argv[1])
+        if len(sys.argv) > 1
+        else Path("docs/figures/calibration/ftdcr_v4_ccka_selected")
+    )

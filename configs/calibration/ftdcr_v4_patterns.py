@@ -1,0 +1,123 @@
+"""Where the fitted models of the FTDCR v4 robot miss on the held-out rows: the error per motion
+pattern family (``same``, ``scurve``, ``spiral``), along X, Y, Z, and against the tip's
+deflection from the straight pose.
+
+Usage (after ftdcr_v4_ccka.sh and ftdcr_v4_mujoco.sh):
+    python configs/calibration/ftdcr_v4_patterns.py [OUT_FILE_STEM]
+
+Replays val.csv with the CCKA fit (docs/figures/calibration/ftdcr_v4_ccka/params.yaml) and the
+MuJoCo fits (ftdcr_v4_mujoco_frictionless/, ftdcr_v4_mujoco/: the rows in order with their
+recorded timing, as the fit). Aligned errors: the whole set's mean offset removed (as the
+headline number), then split by family or by deflection (the distance of the measured tip from
+the model's straight-pose tip, mm). Writes OUT_FILE_STEM.json and .md (default
+docs/figures/calibration/ftdcr_v4_patterns).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from cdcr_gym.calibration import Measurements, read_csv
+from cdcr_gym.calibration.drive import TendonDrive
+from cdcr_gym.calibration.physics import PhysicsReplay
+from cdcr_gym.calibration.report import load_fitted
+from cdcr_gym.calibration.simulate import DriveReplay
+from cdcr_gym.model.params_yaml import load_yaml
+
+sys.path.insert(0, str(Path(__file__).parent))
+from ftdcr_v4_ccka_selection import family  # noqa: E402
+
+DATA = Path("data/real/ftdcr_v4")
+FIG = Path("docs/figures/calibration")
+FITS = {
+    "CCKA (ftdcr_v4_ccka)": FIG / "ftdcr_v4_ccka",
+    "CCKA, selected set": FIG / "ftdcr_v4_ccka_selected",
+    "MuJoCo, frictionless": FIG / "ftdcr_v4_mujoco_frictionless",
+    "MuJoCo, friction fitted": FIG / "ftdcr_v4_mujoco",
+}
+BINS_MM = (0.0, 20.0, 40.0, 60.0, np.inf)
+
+
+def predict(folder: Path) -> tuple[np.ndarray, np.ndarray, Measurements]:
+    """Held-out tips (M, 3) m of the fit in ``folder``, its straight-pose tip (3,) m, the data."""
+    doc = load_yaml(folder / "params.yaml")
+    cal = doc["calibration"]
+    robot, backend = load_fitted(folder / "params.yaml")
+    drive = TendonDrive.of(robot)
+    if drive is None:
+        raise ValueError(f"{folder}/params.yaml: no calibration.tendons")
+    val = read_csv(DATA / "val.csv", robot=robot, drive=drive)
+    values = {k: float(v) for k, v in cal["fitted"].items()}
+    zero = Measurements(None, np.zeros((1, 3)), None, None, displacements=np.zeros((1, 9)))
+    frame = {k: v for k, v in values.items() if k.startswith(("base_", "marker"))}
+    straight = DriveReplay(zero, robot, drive)(frame).tip[0]
+    if cal["backend"] == "ccka":
+        return DriveReplay(val, robot, drive)(values).tip, straight, val
+    # the fit's backend arguments (the tilt is in the values: PhysicsReplay turns gravity)
+    kwargs = {k: v for k, v in backend.items() if k != "base_orientation"}
+    return PhysicsReplay(val, robot, drive, "mujoco", kwargs)(values).tip, straight, val
+
+
+def stats(aligned: np.ndarray, plain: np.ndarray) -> dict:
+    return {
+        "rows": int(len(aligned)),
+        "rmse_aligned_mm": float(np.sqrt(np.mean(np.sum(aligned**2, axis=1))) * 1e3),
+        "rmse_aligned_xyz_mm": [float(v) for v in np.sqrt(np.mean(aligned**2, axis=0)) * 1e3],
+        "mean_mm": float(np.mean(np.linalg.norm(plain, axis=1)) * 1e3),
+    }
+
+
+def main(stem: Path) -> None:
+    doc: dict = {}
+    for name, folder in FITS.items():
+        if not (folder / "params.yaml").is_file():
+            continue
+        tip, straight, val = predict(folder)
+        err = tip - val.tip
+        aligned = err - err.mean(axis=0)
+        fam = np.array([family(lab) for lab in val.labels])
+        defl = np.linalg.norm(val.tip - straight, axis=1) * 1e3
+        out: dict = {"all": stats(aligned, err), "family": {}, "deflection_mm": {}}
+        for f in ("same", "scurve", "spiral"):
+            m = fam == f
+            out["family"][f] = stats(aligned[m], err[m])
+        for lo, hi in zip(BINS_MM[:-1], BINS_MM[1:]):
+            m = (defl >= lo) & (defl < hi)
+            if m.any():
+                out["deflection_mm"][f"{lo:g}-{hi:g}"] = stats(aligned[m], err[m])
+        doc[name] = out
+        print(name, json.dumps(out["family"]), flush=True)
+    stem.with_suffix(".json").write_text(json.dumps(doc, indent=1) + "\n")
+    lines = [
+        "# FTDCR v4: held-out error by motion pattern and by deflection",
+        "",
+        "Aligned RMSE (mm; the whole held-out set's mean offset removed) and X / Y / Z.",
+        "",
+        "| model | all | same | scurve | spiral | "
+        + " | ".join(f"deflection {k} mm" for k in next(iter(doc.values()))["deflection_mm"])
+        + " |",
+        "|---|---|---|---|---|" + "---|" * len(next(iter(doc.values()))["deflection_mm"]),
+    ]
+    for name, out in doc.items():
+
+        def cell(s: dict) -> str:
+            xyz = " / ".join(f"{v:.1f}" for v in s["rmse_aligned_xyz_mm"])
+            return f"{s['rmse_aligned_mm']:.2f} ({xyz}; {s['rows']} rows)"
+
+        lines.append(
+            f"| {name} | {cell(out['all'])} | "
+            + " | ".join(cell(out["family"][f]) for f in ("same", "scurve", "spiral"))
+            + " | "
+            + " | ".join(cell(s) for s in out["deflection_mm"].values())
+            + " |"
+        )
+    lines += ["", "Command: `python configs/calibration/ftdcr_v4_patterns.py`", ""]
+    stem.with_suffix(".md").write_text("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main(Path(sys.argv[1]) if len(sys.argv) > 1 else FIG / "ftdcr_v4_patterns")
