@@ -1,0 +1,64 @@
+"""Smoke tests of the FTDCR v4 study scripts under configs/calibration/ (their helpers on a few
+rows; the committed outputs come from the full runs)."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+
+from cdcr_gym.calibration import read_csv
+from cdcr_gym.calibration.drive import TendonDrive
+from cdcr_gym.model.params import RobotParams
+
+ROOT = Path(__file__).resolve().parents[2]
+V4 = RobotParams.preset("ftdcr_v4")
+
+
+def _module(name: str):
+    spec = importlib.util.spec_from_file_location(
+        name, ROOT / "configs" / "calibration" / f"{name}.py"
+    )
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_pattern_families_of_the_v4_labels():
+    sel = _module("ftdcr_v4_ccka_selection")
+    assert sel.family("rep1_pair12_same_dir60_hold") == "pair12_same"
+    assert sel.family("rep1_all3_scurve_dir0") == "scurve"
+    assert sel.family("rep1_tendon4_id2_pull") == "tendon4"
+    assert sel.family("rep1_seg2_circle") == "seg2_circle"
+    val = read_csv(ROOT / "data/real/ftdcr_v4/val.csv", robot=V4, drive=TendonDrive.of(V4))
+    fams = {sel.family(lab) for lab in val.labels}
+    assert fams == {"same", "scurve", "spiral"}
+    # per family: the aligned errors of a constant offset are zero, of a shift in one family not
+    pred = val.tip + 0.003
+    out = sel.per_family(pred, val, V4.length)
+    assert all(r["rmse_aligned_mm"] < 1e-9 for r in out.values())
+    assert sum(r["rows"] for r in out.values()) == len(val)
+    pred = val.tip.copy()
+    m = np.array([sel.family(lab) == "same" for lab in val.labels])
+    pred[m, 0] += 0.002
+    out = sel.per_family(pred, val, V4.length)
+    assert out["same"]["rmse_aligned_xyz_mm"][0] > 1.0 > out["spiral"]["rmse_aligned_xyz_mm"][1]
+
+
+def test_stiffness_sweep_starts_at_the_committed_fit():
+    """E × 1 reproduces the committed CCKA fit's report (train and held-out)."""
+    import json
+
+    pat = _module("ftdcr_v4_patterns")
+    folder = ROOT / "docs/figures/calibration/ftdcr_v4_ccka"
+    rows = pat.stiffness_sweep(folder)
+    rep = json.loads((folder / "report.json").read_text())
+    assert rows[0]["E_factor"] == 1.0
+    np.testing.assert_allclose(
+        rows[0]["train_rmse_aligned_mm"], rep["train"]["rmse_aligned_mm"], rtol=1e-6
+    )
+    np.testing.assert_allclose(
+        rows[0]["val_rmse_aligned_mm"], rep["validation"]["rmse_aligned_mm"], rtol=1e-6
+    )
