@@ -3,14 +3,16 @@ error source removed, scored on the held-out rows (val.csv), beside the pybullet
 fitted robot and the constant-curvature model of the same robot.
 
 Usage (after configs/calibration/ftdcr_v4_mujoco.sh):
-    python configs/calibration/ftdcr_v4_mujoco_ablation.py [OUT_DIR] [--table-only]
+    python configs/calibration/ftdcr_v4_mujoco_ablation.py [OUT_DIR] [--table-only] [--jobs N]
+        [--only rigid_tendons,no_slack,...]
 
 Every variant is a `cdcr-gym calibrate` run on train.csv (MuJoCo, rows in order with their
 recorded timing, gaps capped at 1 s) warm-started from the frictionless MuJoCo fit
 (OUT_DIR_frictionless/params.yaml, stage 1 of ftdcr_v4_mujoco.sh) with ONE thing removed, at
-most MAX_EVALS optimiser steps, two runs at a time. The refits are frictionless (a friction
-replay costs ~5x); the row "no friction" is stage 1 itself and "full" is stage 2 (friction
-fitted). Writes OUT_DIR/ablation/<variant>/ (each run's report) and OUT_DIR/ablation.json,
+most MAX_EVALS optimiser steps, two runs at a time. Each refits the frame, the marker, E and
+the payload (what the removed source can trade against; the per-section pretension stays at the
+stage-1 values). The refits are frictionless (a friction replay costs ~5x); the row "no
+friction" is stage 1 itself and "full" is stage 2 (friction fitted). Writes OUT_DIR/ablation/<variant>/ (each run's report) and OUT_DIR/ablation.json,
 OUT_DIR/ablation.md (default docs/figures/calibration/ftdcr_v4_mujoco).
 """
 
@@ -37,7 +39,6 @@ TIMING = ["--backend-arg", "physics_timestep=0.04", "--backend-arg", "control_ti
 MAX_EVALS = 2
 #: the stiffest tendons MuJoCo integrates stably at the 0.04 s step (x100 diverges)
 RIGID_SCALE = 10.0
-FULL_FIT = "base_frame,marker,E,payload,T0_sections"
 
 #: variant → (what, extra arguments, fitted names)
 VARIANTS = {
@@ -49,17 +50,17 @@ VARIANTS = {
     "no_slack": (
         "no slack: the linear law T = T0 + k(d - s), tendons push",
         ["--linear-law"],
-        FULL_FIT,
+        "base_frame,marker,E,payload",
     ),
     "no_gravity": (
         "no gravity (and so no payload)",
         ["--backend-arg", "gravity=false"],
-        "base_frame,marker,E,T0_sections",
+        "base_frame,marker,E",
     ),
     "no_base_frame": (
         "no base-frame fit (robot base = measurement frame)",
         [],
-        "marker,E,payload,T0_sections",
+        "marker,E,payload",
     ),
 }
 
@@ -247,16 +248,29 @@ def table(out: Path) -> None:
     (out / "ablation.md").write_text("\n".join(lines))
 
 
-def main(out: Path, table_only: bool = False) -> None:
+def main(out: Path, table_only: bool = False, jobs: int = 2, only: list[str] | None = None) -> None:
     if not table_only:
-        with ThreadPoolExecutor(2) as pool:  # two refits at once (2 cores)
-            list(pool.map(lambda n: refit(out, n), VARIANTS))
+        names = only or list(VARIANTS)
+        with ThreadPoolExecutor(jobs) as pool:  # refits at once (2 cores: 2)
+            list(pool.map(lambda n: refit(out, n), names))
     table(out)
 
 
 if __name__ == "__main__":
-    args = [a for a in sys.argv[1:] if a != "--table-only"]
-    main(
-        Path(args[0]) if args else Path("docs/figures/calibration/ftdcr_v4_mujoco"),
-        "--table-only" in sys.argv[1:],
+    import argparse
+
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument(
+        "out", nargs="?", type=Path, default=Path("docs/figures/calibration/ftdcr_v4_mujoco")
     )
+    p.add_argument("--table-only", action="store_true", help="collect the table, no refits")
+    p.add_argument("--jobs", type=int, default=2, help="refits at once (default 2)")
+    p.add_argument("--only", default="", help=f"comma-separated variants of {list(VARIANTS)}")
+    a = p.parse_args()
+    only = [n for n in a.only.split(",") if n]
+    for n in only:
+        if n not in VARIANTS:
+            p.error(f"--only: unknown variant {n!r}; choose from {list(VARIANTS)}")
+    if a.jobs < 1:
+        p.error(f"--jobs must be >= 1, got {a.jobs}")
+    main(a.out, a.table_only, a.jobs, only or None)
