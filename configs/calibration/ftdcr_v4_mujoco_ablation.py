@@ -68,9 +68,10 @@ VARIANTS = {
 PAPER = {"ccka_vs_physics": 0.77, "ccka_vs_measurements": 0.37, "published_mujoco": 4.1}
 
 
-def refit(out: Path, name: str) -> None:
-    """One ablation refit (module docstring)."""
-    stage1 = Path(f"{out}_frictionless") / "params.yaml"
+def refit(out: Path, name: str, start: Path | None = None) -> None:
+    """One ablation refit (module docstring), warm-started from ``start``/params.yaml (default
+    the frictionless fit)."""
+    stage1 = (start or Path(f"{out}_frictionless")) / "params.yaml"
     _, extra, fit = VARIANTS[name]
     cmd = [
         sys.executable,
@@ -248,11 +249,17 @@ def table(out: Path) -> None:
     (out / "ablation.md").write_text("\n".join(lines))
 
 
-def main(out: Path, table_only: bool = False, jobs: int = 2, only: list[str] | None = None) -> None:
+def main(
+    out: Path,
+    table_only: bool = False,
+    jobs: int = 2,
+    only: list[str] | None = None,
+    start: Path | None = None,
+) -> None:
     if not table_only:
         names = only or list(VARIANTS)
         with ThreadPoolExecutor(jobs) as pool:  # refits at once (2 cores: 2)
-            list(pool.map(lambda n: refit(out, n), names))
+            list(pool.map(lambda n: refit(out, n, start), names))
     table(out)
 
 
@@ -266,6 +273,12 @@ if __name__ == "__main__":
     p.add_argument("--table-only", action="store_true", help="collect the table, no refits")
     p.add_argument("--jobs", type=int, default=2, help="refits at once (default 2)")
     p.add_argument("--only", default="", help=f"comma-separated variants of {list(VARIANTS)}")
+    p.add_argument(
+        "--start",
+        type=Path,
+        default=None,
+        help="folder of the fit to warm-start from (default OUT_frictionless)",
+    )
     a = p.parse_args()
     only = [n for n in a.only.split(",") if n]
     for n in only:
@@ -273,4 +286,4 @@ if __name__ == "__main__":
             p.error(f"--only: unknown variant {n!r}; choose from {list(VARIANTS)}")
     if a.jobs < 1:
         p.error(f"--jobs must be >= 1, got {a.jobs}")
-    main(a.out, a.table_only, a.jobs, only or None)
+    main(a.out, a.table_only, a.jobs, only or None, a.start)
