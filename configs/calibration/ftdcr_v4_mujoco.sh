@@ -33,3 +33,6 @@ run --robot "$STAGE1" --fit base_frame,marker,mu --start-from "$STAGE1" \
 SELECTED=docs/figures/calibration/ftdcr_v4_ccka_selected/params.yaml
 run --robot "$SELECTED" --fit "$FIT,T0_sections" --start-from "$SELECTED" --max-evals 5 --quiet \
   --out "${OUT}_selected_start"
+# Comparison: every tendon's pretension refitted under gravity (18 parameters), from the CCKA
+# values, 3 steps -> docs/figures/calibration/ftdcr_v4_mujoco_T0/
+run --robot "$CCKA" --fit "$FIT,T0_tendons" --start-from "$CCKA" --max-evals 3 --out "${OUT}_T0"
