@@ -28,7 +28,7 @@ run --robot "$CCKA" --fit "$FIT" --start-from "${OUT}_stage0/params.yaml" --max-
 STAGE1="${OUT}_frictionless/params.yaml"
 PAYLOAD=$(python -c "import sys, yaml; print(yaml.safe_load(open(sys.argv[1]))['calibration']['fitted']['tip_payload'])" "$STAGE1")
 run --robot "$STAGE1" --fit base_frame,marker,mu --start-from "$STAGE1" \
-  --start friction_coefficient=0.05 --backend-arg tip_payload="$PAYLOAD" --max-evals 2 --quiet \
+  --start friction_coefficient=0.05 --backend-arg tip_payload="$PAYLOAD" --max-evals 2 \
   --out "$OUT"
 SELECTED=docs/figures/calibration/ftdcr_v4_ccka_selected/params.yaml
 run --robot "$SELECTED" --fit "$FIT,T0_sections" --start-from "$SELECTED" --max-evals 5 --quiet \
