@@ -21,9 +21,9 @@ from cdcr_gym.tasks.reach import Reach
 ROOT = Path(__file__).resolve().parents[1]
 FIT = ROOT / "docs" / "figures" / "calibration" / "ftdcr_v4_mujoco" / "params.yaml"
 #: A goal's tip vs the tip after a long physics settle of the same command (m): the settle is
-#: 400 control steps (16 s, ~25 time constants of the slowest slack-tendon mode).
-SETTLE_TOL = 2e-5
-SETTLE_STEPS = 400
+#: 300 control steps (12 s); measured on these goals: <= 2e-14 m after 200 steps, 7e-6 m after 50.
+SETTLE_TOL = 1e-9
+SETTLE_STEPS = 300
 
 
 @pytest.fixture(scope="module")
@@ -37,7 +37,10 @@ def backend() -> MuJoCoBackend:
 def test_fast_static_solve_matches_the_plain_iteration(backend: MuJoCoBackend) -> None:
     p = backend.params
     tensions = np.vstack(
-        [np.zeros(p.n_cables), sample_tensions_each([np.random.default_rng(s) for s in range(4)], p)]
+        [
+            np.zeros(p.n_cables),
+            sample_tensions_each([np.random.default_rng(s) for s in range(4)], p),
+        ]
     )
     fast = backend.equilibrium(tensions)
     data = backend._scratch
@@ -65,12 +68,12 @@ def test_goals_are_where_the_robot_settles_under_in_range_commands(
 ) -> None:
     """Displacement-mode goals (Task.sample_goal_readings): each is the tip of a displacement
     command d within the drives' range (d = s + (T − T0)/k of the goal's shape, clipped); holding
-    that d for 16 s of physics from the straight pose settles within SETTLE_TOL of the goal."""
+    that d for 12 s of physics from the straight pose settles within SETTLE_TOL of the goal."""
     p = backend.params
     task = Reach()
     task.bind(p, 1)
     task.goal_displacement_range = tuple(p.displacement_range)
-    rngs = [np.random.default_rng(seed) for seed in (11, 12, 13, 14, 15, 16)]
+    rngs = [np.random.default_rng(seed) for seed in (11, 12, 13)]  # 11, 13: clipped
     goals = task.sample_goal_readings(rngs, backend)
     k, t0 = np.asarray(p.cable_stiffness), np.asarray(p.cable_pretension)
     s = backend.straight_cable_lengths - goals.cable_lengths
