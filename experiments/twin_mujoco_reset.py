@@ -82,7 +82,7 @@ def one_reset(vec: Any, seeds: list[int]) -> dict[str, Any]:
     _, info = vec.reset(seed=seeds)
     out = {"total_s": time.perf_counter() - t0, "total_cpu_s": time.process_time() - c0}
     out.update({k: t.seconds for k, t in timers.items()})
-    out.update({k.replace("_s", "_cpu_s"): t.cpu_seconds for k, t in timers.items()})
+    out.update({k[:-2] + "_cpu_s": t.cpu_seconds for k, t in timers.items()})
     for t in timers.values():
         t.restore()
     out["goals"] = np.asarray(info["goal"]).copy()
