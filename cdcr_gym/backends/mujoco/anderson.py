@@ -39,7 +39,8 @@ MEMORY = 10
 #: Iterations before giving up (the caller then falls back to the relaxed plain iteration).
 MAX_ITER = 300
 
-#: P(data) → the step (nv,) rad of the residual already in ``data`` (after ``mj_forward``).
+#: P(data, r) → the step P·r (nv,) rad for the residual r (nv,) N·m at ``data``'s state (after
+#: ``mj_forward``); it may overwrite r.
 Preconditioner = Callable[[Any, np.ndarray], np.ndarray]
 
 
