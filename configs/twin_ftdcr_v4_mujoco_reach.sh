@@ -25,7 +25,10 @@ ln -sfn "$PWD/$OUT/seed1" "$RUNS/ccka/ccka_seed1"
 python configs/twin_ftdcr_v4_eval.py "$RUNS/ccka/ccka_seed0" "$RUNS/ccka/ccka_seed1" --oracles \
   --config "$CONFIG" --params "$PARAMS" --env-id cdcr_gym/MuJoCoReach-v0 \
   --episodes "$EPISODES" --tag mujoco_trained --out "$OUT"
-# added to the same file (same episodes)
-python configs/twin_ftdcr_v4_eval.py "$RUNS/seed0" "$RUNS/seed1" \
+# added to the same file (same episodes), named mujoco_seed0/1
+mkdir -p "$RUNS/mujoco"
+ln -sfn "$PWD/$RUNS/seed0" "$RUNS/mujoco/mujoco_seed0"
+ln -sfn "$PWD/$RUNS/seed1" "$RUNS/mujoco/mujoco_seed1"
+python configs/twin_ftdcr_v4_eval.py "$RUNS/mujoco/mujoco_seed0" "$RUNS/mujoco/mujoco_seed1" \
   --config "$CONFIG" --params "$PARAMS" --env-id cdcr_gym/MuJoCoReach-v0 \
   --episodes "$EPISODES" --tag mujoco_trained --out "$OUT"
