@@ -6,6 +6,7 @@
 #   PARAMS=docs/figures/calibration/ftdcr_v4_mujoco/params.yaml bash configs/twin_ftdcr_v4_reach.sh
 # Another fit: PARAMS replaces env.kwargs.params of the config (the copy under RUNS); a fit whose
 # params.yaml has a backend: section is evaluated on MuJoCo with those arguments too.
+# Training on the MuJoCo twin itself: configs/twin_ftdcr_v4_mujoco_reach.sh.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PARAMS=${PARAMS:-docs/figures/calibration/ftdcr_v4_ccka/params.yaml}
@@ -13,7 +14,7 @@ RUNS=${RUNS:-runs/twin_ftdcr_v4}
 OUT=${OUT:-docs/figures/twin_ftdcr_v4}
 SEEDS=${SEEDS:-"0 1"}
 CCKA_EPISODES=${CCKA_EPISODES:-100}     # per starting state (straight, random)
-MUJOCO_EPISODES=${MUJOCO_EPISODES:-10}  # per starting state: a MuJoCo reset of this robot costs ~1 s
+MUJOCO_EPISODES=${MUJOCO_EPISODES:-10}  # per starting state (a MuJoCo reset of this robot: ~0.03 s)
 mkdir -p "$RUNS"
 CONFIG="$RUNS/config.yaml"
 sed "s#^\(    params: \)[^ ]*#\1$PARAMS#" configs/twin_ftdcr_v4_reach.yaml > "$CONFIG"

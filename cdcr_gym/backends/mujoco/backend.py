@@ -431,7 +431,7 @@ class MuJoCoBackend(ObstacleScene, TendonDrives, StabilityLimits, StaticSolve, B
             spheres = data.mocap_pos.copy()  # the scene stays (set_obstacles)
             self._mj.mj_resetData(model, data)
             data.mocap_pos[:] = spheres
-            if not self._solve_static(model, data, t[i]):
+            if not self._solve_static_fast(model, data, t[i]):
                 raise self._diverged("no static equilibrium found", data, t[i], 0.0)
             data.time = 0.0
             self._tensions[i] = t[i]
