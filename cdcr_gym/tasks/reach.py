@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from cdcr_gym import defaults, validation
@@ -30,13 +32,18 @@ class Reach(GoalTask):
     ``tensions`` and ``cable_lengths``, one per cable). Goal-conditioned: ``observation`` =
     tip and robot state, ``achieved_goal`` = tip, ``desired_goal`` = goal.
 
-    **Reward**: ``"dense"``: −‖goal − tip‖ (m) per step; ``"sparse"``: −1 while the distance
-    exceeds ``distance_threshold``, else 0. **Success**: distance <= ``distance_threshold``.
-    **info**: ``distance`` (m), ``is_success``, ``goal`` (m).
+    **Reward**: ``"dense"``: −d per step, d = ‖goal − tip‖ (m); with ``reward_log_scale`` = s
+    (m), −s·ln(1 + d/s) instead: −d near the goal (d ≪ s) and only logarithmic far from it (d ≫
+    s), so errors below s keep a larger share of the (normalised) reward's variation than under
+    −d, where the first steps of a reach dominate it (the slope at d is 1/(1 + d/s) of −d's). ``"sparse"``:
+    −1 while the distance exceeds ``distance_threshold``, else 0. **Success**: distance <=
+    ``distance_threshold``. **info**: ``distance`` (m), ``is_success``, ``goal`` (m).
 
     Args:
         reward_type: ``"dense"`` or ``"sparse"``.
         distance_threshold: success radius (m), > 0.
+        reward_log_scale: None (default: −d) or s > 0 (m): the dense reward −s·ln(1 + d/s).
+            ``ValueError`` with a sparse reward.
     """
 
     name = "Reach"
@@ -46,9 +53,28 @@ class Reach(GoalTask):
         self,
         reward_type: str = defaults.REWARD_TYPE,
         distance_threshold: float = defaults.DISTANCE_THRESHOLD,
+        reward_log_scale: float | None = None,
     ) -> None:
         self.reward_type = validation.choice(reward_type, "reward_type", REWARD_TYPES)
         self.distance_threshold = validation.positive(distance_threshold, "distance_threshold")
+        self.reward_log_scale = None
+        if reward_log_scale is not None:
+            if self.reward_type != "dense":
+                raise ValueError(
+                    f"reward_log_scale shapes the dense reward, got reward_type={reward_type!r} "
+                    f"with reward_log_scale={reward_log_scale!r}"
+                )
+            self.reward_log_scale = validation.positive(
+                reward_log_scale, "reward_log_scale", unit="m"
+            )
+
+    def reward_from_distance(self, distance: Any) -> Any:
+        """The task's reward of distances (m), elementwise: −s·ln(1 + d/s) with
+        ``reward_log_scale`` = s, else :meth:`GoalTask.reward_from_distance` (−d or sparse)."""
+        s = self.reward_log_scale
+        if s is None:
+            return super().reward_from_distance(distance)
+        return -s * np.log1p(np.asarray(distance) / s)
 
     def reset_goals(
         self,
