@@ -9,7 +9,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 CONFIG=configs/twin_ftdcr_v4_mujoco_reach.yaml
-PARAMS=docs/figures/calibration/ftdcr_v4_mujoco/params.yaml
+PARAMS=docs/figures/calibration/ftdcr_v4_mujoco_stage0/params.yaml
 RUNS=${RUNS:-runs/twin_ftdcr_v4_mujoco}
 OUT=${OUT:-docs/figures/twin_ftdcr_v4}
 EPISODES=${EPISODES:-20}   # per starting state (straight, random)

@@ -3,7 +3,7 @@
 # the IK oracles on held-out goals, on the twin it was trained on (CCKA) and on the MuJoCo twin.
 # Outputs: docs/figures/twin_ftdcr_v4/eval_{ccka,mujoco}.{json,png} (docs/sim2real.md).
 #   bash configs/twin_ftdcr_v4_reach.sh                       # the CCKA-fitted robot
-#   PARAMS=docs/figures/calibration/ftdcr_v4_mujoco/params.yaml bash configs/twin_ftdcr_v4_reach.sh
+#   PARAMS=docs/figures/calibration/ftdcr_v4_mujoco_stage0/params.yaml bash configs/twin_ftdcr_v4_reach.sh
 # Another fit: PARAMS replaces env.kwargs.params of the config (the copy under RUNS); a fit whose
 # params.yaml has a backend: section is evaluated on MuJoCo with those arguments too.
 # Training on the MuJoCo twin itself: configs/twin_ftdcr_v4_mujoco_reach.sh.

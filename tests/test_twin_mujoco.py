@@ -19,7 +19,7 @@ from cdcr_gym.model.workspace import sample_tensions_each
 from cdcr_gym.tasks.reach import Reach
 
 ROOT = Path(__file__).resolve().parents[1]
-FIT = ROOT / "docs" / "figures" / "calibration" / "ftdcr_v4_mujoco" / "params.yaml"
+FIT = ROOT / "docs" / "figures" / "calibration" / "ftdcr_v4_mujoco_stage0" / "params.yaml"
 #: A goal's tip vs the tip after a long physics settle of the same command (m): the settle is
 #: 300 control steps (12 s); measured on these goals: <= 2e-14 m after 200 steps, 7e-6 m after 50.
 SETTLE_TOL = 1e-9
