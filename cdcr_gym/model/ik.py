@@ -463,7 +463,9 @@ def solve_displacement_ik(
     for _ in range(iterations):
         # a goal is done once one of its runs reaches it
         solved = np.any(cost.reshape(k_runs, m) < _TOL**2, axis=0)
-        act = np.flatnonzero(~np.tile(solved, k_runs) & (cost >= _TOL**2 * 1e-4))
+        # ... and a run is over once it reaches it or stalls (damping at its cap: no step of
+        # any length lowers the cost)
+        act = np.flatnonzero(~np.tile(solved, k_runs) & (cost >= _TOL**2 * 1e-4) & (mu < 1e6))
         if act.size == 0:
             break
         jac = _drive_jacobian(model, h_mat, state, act)  # (N, 3, C)
