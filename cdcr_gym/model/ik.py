@@ -225,9 +225,14 @@ def _residuals(model: PCCModel, tensions: np.ndarray, goal, direction, scale):
 
 
 def _numerical(
-    model: PCCModel, goal: np.ndarray, direction: np.ndarray | None, iterations: int = 200
+    model: PCCModel,
+    goal: np.ndarray,
+    direction: np.ndarray | None,
+    iterations: int = 200,
+    every_run: bool = False,
 ) -> np.ndarray:
-    """Bending vectors (M, S, 2) solving the tip (and direction) goals (M, 3) by LM."""
+    """Bending vectors (M, S, 2) solving the tip (and direction) goals (M, 3) by LM; with
+    ``every_run`` those of every start pattern, (K, M, S, 2)."""
     t_max = model.params.max_tension
     scale = float(np.sum(model.section_lengths))
     starts = _start_patterns(model)  # (K, C)
@@ -281,6 +286,8 @@ def _numerical(
         mu = np.clip(np.where(better, mu / 5.0, mu * 4.0), 1e-15, 1e6)
     tensions = t_max * np.sin(xi) ** 2  # (K, M, C)
     w = model.bending_from_tensions(tensions)
+    if every_run:
+        return w
     effort = np.sum(minimal_tensions(model, w)[0], axis=-1)  # (K, M)
     reached = np.sqrt(cost) < _TOL
     # least effort among the runs that reached the goal, else the nearest run
@@ -398,8 +405,9 @@ def solve_displacement_ik(
     on d (minimum-norm steps: 3 equations, C unknowns; projected on the range, a drive at a bound
     the descent pushes against held there) with the exact Jacobian of the equilibrium on its
     active set, run from each ``start`` (if given) and from the displacements of
-    :func:`solve_ik`'s solution (its minimal tensions, clipped to the range: a slack point
-    below d_min raised to it), all together. A goal is done as soon as one of its runs reaches
+    :func:`solve_ik`'s solution (one section) or of every one of its Levenberg–Marquardt runs
+    (several sections: its solution and other shapes for the goal) — their minimal tensions,
+    clipped to the range (a slack point below d_min raised to it) — all together. A goal is done as soon as one of its runs reaches
     it (residual < 1e-10 m); the first such run (in the order of the starts) is returned, else
     the one nearest the goal.
 
@@ -410,8 +418,8 @@ def solve_displacement_ik(
         start: optional displacements (..., C) m to start from (e.g. the held command), or a
             list of such starts (tried in order).
         iterations: LM iteration budget, >= 1.
-        from_ik: also start from :func:`solve_ik`'s solution (after ``start``); at least one
-            start is needed.
+        from_ik: also start from :func:`solve_ik`'s solution and runs (after ``start``); at
+            least one start is needed.
 
     Returns:
         A :class:`DisplacementIKSolution`; ``residual`` > 0 marks goals the drives cannot reach.
@@ -440,9 +448,13 @@ def solve_displacement_ik(
             raise ValueError(
                 f"start must broadcast to {batch + (c,)}, got shape {s0.shape}"
             ) from None
-    if from_ik:
+    if from_ik and model.n_sections == 1:
         sol = solve_ik(flat, params)
         runs.append(drive_displacements(sol.tensions, sol.bending, params))
+    elif from_ik:  # every LM run of solve_ik (its solution is one): other shapes for the goal
+        w = _numerical(model, flat, None, every_run=True)  # (K, M, S, 2)
+        tensions = minimal_tensions(model, w.reshape(-1, model.n_sections, 2))[0]
+        runs.extend(drive_displacements(tensions.reshape(w.shape[:2] + (c,)), w, params))
     if not runs:
         raise ValueError("solve_displacement_ik needs a start: pass start or from_ik=True")
     d = np.clip(np.stack(runs), lo, hi).reshape(-1, c)  # (K·M, C)
