@@ -13,15 +13,13 @@ refused by the backend (``ValueError``): the table gives the message.
 
 from __future__ import annotations
 
-import argparse
-import json
 import math
-from pathlib import Path
 
 import numpy as np
 
 from cdcr_gym.calibration.damping import fit_second_order
 from cdcr_gym.model.params import RobotParams
+from experiments.json_main import json_main
 
 __all__ = ["release", "measure", "ZETAS", "TIMESTEPS", "FIT_START"]
 
@@ -133,16 +131,14 @@ def run(quick: bool = False) -> dict:  # pragma: no cover (the CLI; tests call t
 
 
 def main(argv: list[str] | None = None) -> None:  # pragma: no cover
-    parser = argparse.ArgumentParser(
-        prog="python -m experiments.damping_check", description=__doc__.splitlines()[0]
+    json_main(
+        "python -m experiments.damping_check",
+        __doc__,
+        "experiments/dynamics/damping.json",
+        "ζ 0.3 and 0.7 on the paper robot",
+        run,
+        argv,
     )
-    parser.add_argument("--out", type=Path, default=Path("experiments/dynamics/damping.json"))
-    parser.add_argument("--quick", action="store_true", help="ζ 0.3 and 0.7 on the paper robot")
-    args = parser.parse_args(argv)
-    out = run(quick=args.quick)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(out, indent=2) + "\n")
-    print("wrote", args.out)
 
 
 if __name__ == "__main__":  # pragma: no cover

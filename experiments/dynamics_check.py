@@ -23,7 +23,6 @@ Reference: ``experiments/dynamics/reference.json`` (``experiments.dynamics_refer
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 from pathlib import Path
@@ -33,6 +32,7 @@ import scipy.linalg
 import scipy.optimize
 
 from cdcr_gym.model.params import RobotParams
+from experiments.json_main import json_main
 
 __all__ = [
     "REFERENCE",
@@ -331,16 +331,14 @@ def run(quick: bool = False) -> dict:  # pragma: no cover (the CLI; tests call t
 
 
 def main(argv: list[str] | None = None) -> None:  # pragma: no cover
-    parser = argparse.ArgumentParser(
-        prog="python -m experiments.dynamics_check", description=__doc__.splitlines()[0]
+    json_main(
+        "python -m experiments.dynamics_check",
+        __doc__,
+        "experiments/dynamics/check.json",
+        "the paper robot only",
+        run,
+        argv,
     )
-    parser.add_argument("--out", type=Path, default=Path("experiments/dynamics/check.json"))
-    parser.add_argument("--quick", action="store_true", help="the paper robot only")
-    args = parser.parse_args(argv)
-    out = run(quick=args.quick)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(out, indent=2) + "\n")
-    print("wrote", args.out)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -1,10 +1,13 @@
-"""Open-loop vs closed-loop oracles on the same episodes, per task and backend (issue 24, item 2).
+"""Open-loop vs closed-loop oracles on the same episodes, per task and backend.
 
 Usage::
 
     python -m experiments.oracle_feedback [--backend Bullet CCKA] [--task reach pose track obstacle]
                                        [--episodes 100] [--seed 1000000] [--gain 0.08]
                                        [--no-gravity] [--modes open closed]
+                                       [--params PARAMS_YAML] [--action-mode MODE ...]
+                                       [--initial-state straight random]
+                                       [--displacement-step 0.001] [--tag TAG]
                                        [--out docs/figures/tasks]
 
 For every backend and task it runs the task's oracle (``cdcr_gym.controllers``: reach IK on
@@ -13,9 +16,12 @@ same episodes — reset seeds ``seed + i``, so the same goals, paths and scenes 
 (``feedback=False``: the model's solution commanded as is) and once closed loop
 (``feedback=True``: resolved-rate correction from the measured tip, ``gain`` per step;
 ``--modes`` runs only one of the two). Robots:
-each id's default (Reach, Track, Obstacle: the paper robot; Pose: tdcr2). Physics backends run
-with gravity on unless ``--no-gravity``. Every episode is the env's full 100 steps from the
-straight start.
+each id's default (Reach, Track, Obstacle: the paper robot; Pose: tdcr2), or a fitted robot
+``--params PARAMS_YAML`` (a physics backend then also gets the fit's backend arguments,
+``calibration.backend_kwargs_from_yaml``, e.g. the FTDCR v4 twin). Physics backends run with
+gravity on unless ``--no-gravity``. ``--action-mode`` (one row set per mode; default the env's)
+and ``--displacement-step`` set the drive; ``--initial-state`` the starts (one row set each,
+default straight). Every episode is the env's full 100 steps.
 
 Per controller it reports: task success (``info["is_success"]`` at the last step: Pose also
 needs 5°, Obstacle no collision in the episode), the fraction of episodes whose final tip is
@@ -23,7 +29,8 @@ within 5 mm of the goal, the final distance (median, p95, max, mm), and per task
 (Pose), the tracking RMS over the steps after the settling window (Track) and the collision rate
 and smallest clearance (Obstacle). It writes ``OUT/oracle_feedback_<backends>.json`` (every
 number, the command, the environment arguments) and ``OUT/oracle_feedback_<backends>_table.txt``
-(the command and the Markdown table) and prints the table.
+(the command and the Markdown table; ``_<TAG>`` before the suffix with ``--tag``) and prints
+the table.
 """
 
 from __future__ import annotations
@@ -41,6 +48,7 @@ from gymnasium import error as gym_error
 
 import cdcr_gym  # noqa: F401
 from cdcr_gym import controllers
+from cdcr_gym.calibration.report import backend_kwargs_from_yaml
 from cdcr_gym.controllers.ik import FEEDBACK_GAIN
 from training.run.argtypes import non_negative_int, positive_float, positive_int
 
@@ -121,42 +129,64 @@ def run_study(
     gain: float | None = None,
     gravity: bool = True,
     modes: tuple[str, ...] = ("open", "closed"),
+    params: str | None = None,
+    action_modes: tuple[str | None, ...] = (None,),
+    initial_states: tuple[str | None, ...] = (None,),
+    displacement_step: float | None = None,
 ) -> list[dict[str, Any]]:
-    """One result row per (backend, task, mode in ``modes``: "open" and/or "closed" loop), on
-    the same episodes."""
+    """One result row per (backend, task, action mode, initial state, mode in ``modes``: "open"
+    and/or "closed" loop), on the same episodes; ``params`` a fitted robot's yaml (None: each
+    id's default robot), ``None`` in ``action_modes``/``initial_states`` the env's default."""
 
     gain = FEEDBACK_GAIN if gain is None else gain
     results = []
-    for backend in backends:
-        for key in tasks:
-            task = TASKS[key]
-            env_id = f"cdcr_gym/{backend}{task}-v0"
-            kwargs: dict[str, Any] = {}
+    for backend, key, action_mode, initial_state in [
+        (b, k, a, i) for b in backends for k in tasks for a in action_modes for i in initial_states
+    ]:
+        task = TASKS[key]
+        env_id = f"cdcr_gym/{backend}{task}-v0"
+        kwargs: dict[str, Any] = {}
+        if params is not None:
+            kwargs["params"] = params
             if backend != "CCKA":
-                kwargs["gravity"] = gravity
-            env = gym.make(env_id, **kwargs)
-            params = env.unwrapped.params  # type: ignore[attr-defined]
-            robot = "tdcr2" if params.n_sections == 2 else "paper"
-            for feedback in [m == "closed" for m in modes]:
-                policy = _controller(env, task, feedback, gain)
-                t0 = time.perf_counter()
-                metrics = run_episodes(env, policy, episodes, seed)
-                row = {
-                    "task": task,
-                    "backend": backend,
-                    "env_id": env_id,
-                    "env_kwargs": kwargs,
-                    "robot": robot,
-                    "controller": type(policy).__name__,
-                    "mode": policy.mode,
-                    "gain": gain if feedback else None,
-                    "seed": seed,
-                    **summarize(metrics),
-                    "wall_time_s": time.perf_counter() - t0,
-                }
-                results.append(row)
-                print(_row_text(row), flush=True)
-            env.close()
+                kwargs.update(backend_kwargs_from_yaml(params))
+        if backend != "CCKA":
+            kwargs["gravity"] = gravity
+        for name, value in (
+            ("action_mode", action_mode),
+            ("initial_state", initial_state),
+            ("displacement_step", displacement_step),
+        ):
+            if value is not None:
+                kwargs[name] = value
+        env = gym.make(env_id, **kwargs)
+        robot_params = env.unwrapped.params  # type: ignore[attr-defined]
+        if params is not None:
+            robot = Path(params).parent.name
+        else:
+            robot = "tdcr2" if robot_params.n_sections == 2 else "paper"
+        for feedback in [m == "closed" for m in modes]:
+            policy = _controller(env, task, feedback, gain)
+            t0 = time.perf_counter()
+            metrics = run_episodes(env, policy, episodes, seed)
+            row = {
+                "task": task,
+                "backend": backend,
+                "env_id": env_id,
+                "env_kwargs": kwargs,
+                "robot": robot,
+                "action_mode": env.unwrapped.action_mode,  # type: ignore[attr-defined]
+                "initial_state": initial_state or "straight",
+                "controller": type(policy).__name__,
+                "mode": policy.mode,
+                "gain": gain if feedback else None,
+                "seed": seed,
+                **summarize(metrics),
+                "wall_time_s": time.perf_counter() - t0,
+            }
+            results.append(row)
+            print(_row_text(row), flush=True)
+        env.close()
     return results
 
 
@@ -185,8 +215,10 @@ def _backend_text(row: dict[str, Any]) -> str:
 def _row_text(row: dict[str, Any]) -> str:
     d = row["final_distance_mm"]
     mode = "closed loop" if row["mode"] == "closed_loop" else "open loop"
+    drive = f"{row.get('action_mode', '')}, {row.get('initial_state', 'straight')}"
     return (
-        f"| {row['task']} | {row['robot']} | {_backend_text(row)} | {mode} | {row['episodes']} "
+        f"| {row['task']} | {row['robot']} | {_backend_text(row)} | {drive} | {mode} "
+        f"| {row['episodes']} "
         f"| {100 * row['success_rate']:.0f} % | {100 * row['within_5mm']:.0f} % "
         f"| {d['median']:.3f} / {d['p95']:.3f} / {d['max']:.3f} | {_extra(row)} "
         f"| {row['wall_time_s']:.0f} s |"
@@ -196,9 +228,9 @@ def _row_text(row: dict[str, Any]) -> str:
 def markdown_table(results: list[dict[str, Any]]) -> str:
     """The study's table in Markdown, one row per (task, backend, mode)."""
     head = (
-        "| task | robot | backend | oracle | episodes | task success | within 5 mm "
-        "| final distance median / p95 / max (mm) | task metric | wall time |\n"
-        "|---|---|---|---|---|---|---|---|---|---|\n"
+        "| task | robot | backend | action mode, start | oracle | episodes | task success "
+        "| within 5 mm | final distance median / p95 / max (mm) | task metric | wall time |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|\n"
     )
     return head + "\n".join(_row_text(row) for row in results) + "\n"
 
@@ -220,6 +252,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--modes", nargs="+", default=["open", "closed"], choices=["open", "closed"]
     )
+    parser.add_argument("--params", default=None, help="a fitted robot's params.yaml")
+    parser.add_argument("--action-mode", nargs="+", default=[None], help="default: the env's")
+    parser.add_argument(
+        "--initial-state", nargs="+", default=[None], choices=["straight", "random"]
+    )
+    parser.add_argument("--displacement-step", type=positive_float, default=None)
+    parser.add_argument("--tag", default="", help="suffix of the output files' names")
     parser.add_argument("--out", type=Path, default=Path("docs/figures/tasks"))
     args = parser.parse_args(argv)
 
@@ -234,6 +273,10 @@ def main(argv: list[str] | None = None) -> int:
             args.gain,
             not args.no_gravity,
             tuple(args.modes),
+            args.params,
+            tuple(args.action_mode),
+            tuple(args.initial_state),
+            args.displacement_step,
         )
     except (ValueError, gym_error.Error) as exc:
         print(f"error: {exc}", file=sys.stderr)
@@ -242,7 +285,7 @@ def main(argv: list[str] | None = None) -> int:
         argv if argv is not None else sys.argv[1:]
     )
     table = markdown_table(results)
-    stem = "oracle_feedback_" + "_".join(args.backend)
+    stem = "oracle_feedback_" + "_".join(args.backend) + (f"_{args.tag}" if args.tag else "")
     args.out.mkdir(parents=True, exist_ok=True)
     payload = {"command": command, "results": results}
     (args.out / f"{stem}.json").write_text(json.dumps(payload, indent=2) + "\n")

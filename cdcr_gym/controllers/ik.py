@@ -43,11 +43,26 @@ observation by field name through the env's ``ObservationSpec`` and runs in one 
   analytic backend the same law converges geometrically (1 − gain per step); there the
   open-loop mode is exact.
 
-In the displacement action modes (``displacement``, ``displacement_delta``) both loops turn
-their target (tensions T and the shape w they hold) into the drive displacements that produce
-it: d = s(w) + (T − T0)/k (s the model's shortening of w, k and T0 the robot's drives; for a
-cable with T = 0 that is its slack point), commanded absolutely (normalised to the range) or in
-increments from the held displacements (the observation's ``displacements`` field).
+In the displacement action modes (``displacement``, ``displacement_delta``) the reach oracle
+works on the drives themselves (:data:`AnalyticIKController.DRIVE_IK`; the Track and Pose
+oracles turn their tension/shape targets into d = s(w) + (T − T0)/k, s the model's shortening
+of w, k and T0 the robot's drives, a cable with T = 0 at its slack point). The minimal tensions
+of the IK shape are not always within the drives' reach: on a robot with pretensioned,
+compliant drives (FTDCR v4) a slack cable's slack point can lie below the range, the clipped
+command pulls it taut and the tip misses by centimetres. So:
+
+* open loop: the displacements within ``displacement_range`` whose model equilibrium puts the
+  tip at the goal (:func:`cdcr_gym.model.ik.solve_displacement_ik`, cached per goal);
+* closed loop: the same IK for the goal shifted by the model's error at the held command,
+  ``goal + (f(d_held) − tip_measured)`` (f the model's tip of the held displacements' quasi-static
+  equilibrium), started from the goal's own solution (so every step's target stays on one
+  branch) and from the held displacements. Its fixed point is tip_measured = goal wherever the plant settles for a
+  command; where model and plant agree (the CCKA backend) it is the open-loop solution, exact.
+  ``gain`` is not used in these modes: the drives move at most ``displacement_step`` per step
+  (``displacement_delta``), which paces the loop.
+
+Either target is commanded absolutely (normalised to the range) or in increments from the held
+displacements (the observation's ``displacements`` field), scaled so the largest is one step.
 """
 
 from __future__ import annotations
@@ -59,7 +74,7 @@ import numpy as np
 from cdcr_gym import defaults, validation
 from cdcr_gym.envs.actuation import ACTION_MODES
 from cdcr_gym.model.chain import PCCModel
-from cdcr_gym.model.ik import solve_ik
+from cdcr_gym.model.ik import solve_displacement_ik, solve_ik
 from cdcr_gym.model.params import RobotParams
 from cdcr_gym.model.statics import minimal_tensions, reachable_scale
 from cdcr_gym.model.tendons import solve_displacement_statics
@@ -74,6 +89,7 @@ FEEDBACK_GAIN = 0.08
 ANCHOR_FRACTION = 1.0
 _JACOBIAN_STEP = 1e-6  # rad, central differences of the model features in w
 _DAMPING = 1e-6  # λ of the damped least squares, relative to the mean of diag(JᵀJ)
+_CACHE_SIZE = 256  # goals whose drive-IK solution is kept (open loop, and the closed loop's start)
 
 
 class AnalyticIKController:
@@ -96,6 +112,10 @@ class AnalyticIKController:
     Use :meth:`from_env` to copy these from an env. :meth:`predict` follows stable-baselines3's
     signature, so the evaluation code can run this and a trained model the same way.
     """
+
+    #: In a displacement action mode, solve for the drive displacements themselves (the tip is
+    #: the goal feature); False: convert the tension/shape targets (Track, Pose).
+    DRIVE_IK: bool = True
 
     def __init__(
         self,
@@ -120,6 +140,7 @@ class AnalyticIKController:
         self._run_lengths = np.asarray(params.cable_run_lengths)
         sections = np.asarray(params.cable_section)
         self._length_span = np.pi * np.asarray(params.cable_radii) * (sections + 1)
+        self._drive_cache: dict[bytes, np.ndarray] = {}
 
     @classmethod
     def from_env(
@@ -251,6 +272,14 @@ class AnalyticIKController:
     def action(self, obs: Any) -> np.ndarray:
         """The action (..., C) float32 in [−1, 1]: towards the IK solution (open loop) or the
         corrected command (closed loop)."""
+        if self.DRIVE_IK and self.action_mode in ("displacement", "displacement_delta"):
+            state = obs["observation"] if isinstance(obs, dict) else obs
+            held = self.held_displacements(state)
+            if self.feedback:
+                target = self._closed_loop_displacements(obs, held)
+            else:
+                target = self.drive_targets(self._goal_and_state(obs)[0])
+            return self._displacement_action(target, held)
         if self.feedback:
             target_tensions, target_lengths, tensions, lengths = self._closed_loop_targets(obs)
         else:
@@ -269,6 +298,40 @@ class AnalyticIKController:
         x = np.asarray(self.spec.decode(state, "displacements"), dtype=np.float64)
         return low + 0.5 * (x + 1.0) * (high - low)
 
+    def drive_targets(self, goal: np.ndarray) -> np.ndarray:
+        """Displacements (..., C) m within the range whose model equilibrium puts the tip at
+        ``goal`` (..., 3) m (:func:`~cdcr_gym.model.ik.solve_displacement_ik`), cached per goal
+        (an episode's goal is fixed)."""
+        goal = np.asarray(goal, dtype=np.float64)
+        flat = goal.reshape(-1, 3)
+        keys = [np.ascontiguousarray(g).tobytes() for g in flat]
+        todo = [i for i, key in enumerate(keys) if key not in self._drive_cache]
+        if todo:
+            solved = solve_displacement_ik(flat[todo], self.params).displacements
+            if len(self._drive_cache) + len(todo) > _CACHE_SIZE:
+                self._drive_cache.clear()
+            for i, d in zip(todo, solved):
+                self._drive_cache[keys[i]] = d
+        out = np.stack([self._drive_cache[key] for key in keys])
+        return out.reshape(goal.shape[:-1] + (self._model.n_cables,))
+
+    def _closed_loop_displacements(self, obs: Any, held: np.ndarray) -> np.ndarray:
+        """The closed loop's displacement target (..., C) m: the drive IK of the goal shifted by
+        the model's error at the held displacements ``held`` (..., C) m (module docstring)."""
+        error, _, _, goal = self._feedback_terms(obs)
+        measured = goal - error
+        p = self.params
+        c = self._model.n_cables
+        flat = held.reshape(-1, c)
+        state = solve_displacement_statics(
+            self._model, flat, p.cable_stiffness, p.cable_pretension, p.max_tension
+        )
+        bias = self.features(state.bending) - measured.reshape(-1, 3)
+        shifted = goal.reshape(-1, 3) + bias
+        start = self.drive_targets(goal).reshape(-1, c)
+        target = solve_displacement_ik(shifted, p, start=[start, flat], from_ik=False)
+        return target.displacements.reshape(held.shape)
+
     def displacement_command(
         self, target_tensions: np.ndarray, target_lengths: np.ndarray, held: np.ndarray
     ) -> np.ndarray:
@@ -280,7 +343,13 @@ class AnalyticIKController:
         k, t0 = np.asarray(p.cable_stiffness), np.asarray(p.cable_pretension)
         give = np.where(np.isinf(k), 0.0, (target_tensions - t0) / np.where(np.isinf(k), 1.0, k))
         target = self._model.straight_lengths - target_lengths + give
-        low, high = p.displacement_range
+        return self._displacement_action(target, held)
+
+    def _displacement_action(self, target: np.ndarray, held: np.ndarray) -> np.ndarray:
+        """The action (..., C) float32 towards the displacements ``target`` (..., C) m from the
+        ``held`` ones (absolute: normalised to the range; increments: scaled so the largest is
+        one step)."""
+        low, high = self.params.displacement_range
         if self.action_mode == "displacement":
             action = (2.0 * target - (low + high)) / (high - low)
         else:

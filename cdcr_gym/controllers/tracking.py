@@ -56,6 +56,8 @@ class TrackingIKController(AnalyticIKController):
         gain: integrator gain per control step of the closed loop, in (0, 1].
     """
 
+    DRIVE_IK = False  # displacement modes: the tension/shape targets, converted
+
     def __init__(
         self,
         params: RobotParams,
@@ -137,6 +139,8 @@ class PoseIKController(AnalyticIKController):
     the tip (m) and ℓ·(tip direction) (ℓ the robot's length, the weight ``solve_pose_ik`` gives
     the direction), measured from ``tip`` and ``tip_direction`` (flat) or ``achieved_goal``.
     """
+
+    DRIVE_IK = False  # displacement modes: the tension/shape targets, converted
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)

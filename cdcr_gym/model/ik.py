@@ -17,6 +17,14 @@ Pure numpy, batched over goals, deterministic.
 
 ``residual`` reports the distance (m) between the goal and the tip reached: goals that are not
 reachable within the tension limits show up there.
+
+* Displacement drives (:func:`solve_displacement_ik`): the drive displacements d within
+  ``displacement_range`` whose quasi-static equilibrium through the compliant one-sided tendons
+  (``tendons.solve_displacement_statics``: T = clip(T0 + k(d − s), 0, T_max)) puts the tip at the
+  goal. The minimal tensions of a shape are not always reachable by the drives: a slack cable's
+  slack point s − T0/k can lie below the range's lower end (then the clipped command pulls it
+  taut: centimetres of tip error), so the search runs on d itself (Levenberg–Marquardt, d kept in
+  the range by d = d_min + (d_max − d_min)·sin²ξ, Jacobian exact on the statics' active set).
 """
 
 from __future__ import annotations
@@ -36,8 +44,16 @@ from cdcr_gym.model.arc import (
 from cdcr_gym.model.chain import PCCModel
 from cdcr_gym.model.params import RobotParams
 from cdcr_gym.model.statics import bending_limit, cached_model, minimal_tensions
+from cdcr_gym.model.tendons import shortening_matrix, solve_displacement_statics
 
-__all__ = ["IKSolution", "solve_ik", "solve_pose_ik"]
+__all__ = [
+    "IKSolution",
+    "DisplacementIKSolution",
+    "solve_ik",
+    "solve_pose_ik",
+    "solve_displacement_ik",
+    "drive_displacements",
+]
 
 
 class IKSolution(NamedTuple):
@@ -209,9 +225,14 @@ def _residuals(model: PCCModel, tensions: np.ndarray, goal, direction, scale):
 
 
 def _numerical(
-    model: PCCModel, goal: np.ndarray, direction: np.ndarray | None, iterations: int = 200
+    model: PCCModel,
+    goal: np.ndarray,
+    direction: np.ndarray | None,
+    iterations: int = 200,
+    every_run: bool = False,
 ) -> np.ndarray:
-    """Bending vectors (M, S, 2) solving the tip (and direction) goals (M, 3) by LM."""
+    """Bending vectors (M, S, 2) solving the tip (and direction) goals (M, 3) by LM; with
+    ``every_run`` those of every start pattern, (K, M, S, 2)."""
     t_max = model.params.max_tension
     scale = float(np.sum(model.section_lengths))
     starts = _start_patterns(model)  # (K, C)
@@ -265,6 +286,8 @@ def _numerical(
         mu = np.clip(np.where(better, mu / 5.0, mu * 4.0), 1e-15, 1e6)
     tensions = t_max * np.sin(xi) ** 2  # (K, M, C)
     w = model.bending_from_tensions(tensions)
+    if every_run:
+        return w
     effort = np.sum(minimal_tensions(model, w)[0], axis=-1)  # (K, M)
     reached = np.sqrt(cost) < _TOL
     # least effort among the runs that reached the goal, else the nearest run
@@ -311,4 +334,184 @@ def solve_pose_ik(position, direction, params: RobotParams) -> IKSolution:
         sol.tip.reshape(batch + (3,)),
         sol.residual.reshape(batch),
         angle.reshape(batch),
+    )
+
+
+# -- displacement drives ----------------------------------------------------------------------
+
+
+class DisplacementIKSolution(NamedTuple):
+    """Result of :func:`solve_displacement_ik` (batched over goals).
+
+    Attributes:
+        displacements: drive displacements (..., C), m, within ``params.displacement_range``.
+        tensions: the equilibrium's tendon tensions (..., C), N.
+        bending: the equilibrium's bending vectors (..., S, 2), rad.
+        tip: tip position reached (..., 3), m.
+        residual: distance from the goal to ``tip`` (...), m.
+    """
+
+    displacements: np.ndarray
+    tensions: np.ndarray
+    bending: np.ndarray
+    tip: np.ndarray
+    residual: np.ndarray
+
+
+def drive_displacements(tensions, bending, params: RobotParams) -> np.ndarray:
+    """Displacements (..., C) m that hold ``tensions`` (..., C) N at the shape ``bending``
+    (..., S, 2) rad: d = s(w) + (T − T0)/k (s the shortening of the shape; k = inf: d = s); a
+    slack cable (T = 0) at its slack point. Not clipped to the drives' range."""
+    params = _check_params(params)
+    model = cached_model(params)
+    k = np.asarray(params.cable_stiffness, dtype=np.float64)
+    t0 = np.asarray(params.cable_pretension, dtype=np.float64)
+    finite = np.isfinite(k)
+    give = np.where(finite, (np.asarray(tensions) - t0) / np.where(finite, k, 1.0), 0.0)
+    return model.straight_lengths - model.lengths_from_bending(bending) + give
+
+
+def _drive_jacobian(model, h_mat, state, rows, h=1e-6):
+    """∂tip/∂d (N, 3, C) at the equilibria ``state[rows]`` (N rows): exact on the active set
+    (the free tendons' tensions solve (K⁻¹ + M)_FF T_F = d_F + K⁻¹T0 − M_F,fixed T_fixed, the
+    others are fixed at 0 or T_max); h (rad) the central-difference step of tip(w)."""
+    free = ~(state.slack[rows] | state.saturated[rows])  # (N, C)
+    n, c = free.shape
+    both = free[:, :, None] & free[:, None, :]
+    hm = np.where(both, h_mat, 0.0)
+    idx = np.arange(c)
+    hm[:, idx, idx] += np.where(free, 0.0, 1.0)
+    g = np.where(both, np.linalg.pinv(hm, rcond=1e-12, hermitian=True), 0.0)  # ∂T/∂d (N, C, C)
+    s2 = 2 * model.n_sections
+    w = state.bending[rows].reshape(n, s2)
+    probe = h * np.eye(s2)
+    tips = model.tip_from_bending(
+        np.concatenate([w[:, None] + probe, w[:, None] - probe], axis=1).reshape(
+            n, 2 * s2, model.n_sections, 2
+        )
+    )
+    jw = np.swapaxes((tips[:, :s2] - tips[:, s2:]) / (2.0 * h), 1, 2)  # (N, 3, 2S)
+    return jw @ model.tension_to_bending.T @ g
+
+
+def solve_displacement_ik(
+    goal, params: RobotParams, start=None, iterations: int = 100, from_ik: bool = True
+) -> DisplacementIKSolution:
+    """Drive displacements within ``params.displacement_range`` that put the tip at ``goal``.
+
+    The plant is the quasi-static PCC equilibrium of the compliant one-sided tendon drives
+    (:func:`cdcr_gym.model.tendons.solve_displacement_statics` with the robot's stiffness,
+    pretension and ``max_tension``: the CCKA backend in a displacement mode). Levenberg–Marquardt
+    on d (minimum-norm steps: 3 equations, C unknowns; projected on the range, a drive at a bound
+    the descent pushes against held there) with the exact Jacobian of the equilibrium on its
+    active set, run from each ``start`` (if given) and from the displacements of
+    :func:`solve_ik`'s solution (one section) or of every one of its Levenberg–Marquardt runs
+    (several sections: its solution and other shapes for the goal) — their minimal tensions,
+    clipped to the range (a slack point below d_min raised to it) — all together. A goal is done as soon as one of its runs reaches
+    it (residual < 1e-10 m); the first such run (in the order of the starts) is returned, else
+    the one nearest the goal.
+
+    Args:
+        goal: wanted tip positions in R0, shape (..., 3), m.
+        params: the robot (its drives: ``tendon_stiffness``, ``tendon_pretension``,
+            ``displacement_range``).
+        start: optional displacements (..., C) m to start from (e.g. the held command), or a
+            list of such starts (tried in order).
+        iterations: LM iteration budget, >= 1.
+        from_ik: also start from :func:`solve_ik`'s solution and runs (after ``start``); at
+            least one start is needed.
+
+    Returns:
+        A :class:`DisplacementIKSolution`; ``residual`` > 0 marks goals the drives cannot reach.
+
+    Raises:
+        ValueError: naming the argument for a goal or start of the wrong shape or not finite.
+    """
+    params = _check_params(params)
+    goal = as_finite("goal", goal, 3)
+    if isinstance(iterations, bool) or not isinstance(iterations, (int, np.integer)):
+        raise ValueError(f"iterations must be an int >= 1, got {iterations!r}")
+    if iterations < 1:
+        raise ValueError(f"iterations must be >= 1, got {iterations!r}")
+    model = cached_model(params)
+    c = model.n_cables
+    batch = goal.shape[:-1]
+    flat = goal.reshape(-1, 3)
+    m = len(flat)
+    lo, hi = params.displacement_range
+    runs = []
+    for s0 in [] if start is None else start if isinstance(start, (list, tuple)) else [start]:
+        s0 = as_finite("start", s0, c)
+        try:
+            runs.append(np.broadcast_to(s0, batch + (c,)).reshape(m, c))
+        except ValueError:
+            raise ValueError(
+                f"start must broadcast to {batch + (c,)}, got shape {s0.shape}"
+            ) from None
+    if from_ik and model.n_sections == 1:
+        sol = solve_ik(flat, params)
+        runs.append(drive_displacements(sol.tensions, sol.bending, params))
+    elif from_ik:  # every LM run of solve_ik (its solution is one): other shapes for the goal
+        w = _numerical(model, flat, None, every_run=True)  # (K, M, S, 2)
+        tensions = minimal_tensions(model, w.reshape(-1, model.n_sections, 2))[0]
+        runs.extend(drive_displacements(tensions.reshape(w.shape[:2] + (c,)), w, params))
+    if not runs:
+        raise ValueError("solve_displacement_ik needs a start: pass start or from_ik=True")
+    d = np.clip(np.stack(runs), lo, hi).reshape(-1, c)  # (K·M, C)
+    k_runs = len(runs)
+    g = np.broadcast_to(flat, (k_runs, m, 3)).reshape(-1, 3)
+    k = np.asarray(params.cable_stiffness, dtype=np.float64)
+    t0 = np.asarray(params.cable_pretension, dtype=np.float64)
+    h_mat = shortening_matrix(model) + np.diag(np.where(np.isfinite(k), 1.0 / k, 0.0))
+
+    def equilibrium(d_, goal_, warm=None):
+        st = solve_displacement_statics(model, d_, k, t0, params.max_tension, initial_tensions=warm)
+        return st, model.tip_from_bending(st.bending) - goal_
+
+    state, r = equilibrium(d, g)
+    tensions = state.tensions
+    cost = np.sum(r * r, axis=-1)
+    mu = np.full(len(d), 1e-3)
+    for _ in range(iterations):
+        # a goal is done once one of its runs reaches it
+        solved = np.any(cost.reshape(k_runs, m) < _TOL**2, axis=0)
+        # ... and a run is over once it reaches it or stalls (damping at its cap: no step of
+        # any length lowers the cost)
+        act = np.flatnonzero(~np.tile(solved, k_runs) & (cost >= _TOL**2 * 1e-4) & (mu < 1e6))
+        if act.size == 0:
+            break
+        jac = _drive_jacobian(model, h_mat, state, act)  # (N, 3, C)
+        jtr = (np.swapaxes(jac, -1, -2) @ r[act, :, None])[..., 0]
+        # projected LM: a drive at a bound the descent pushes against stays there
+        da = d[act]
+        pinned = ((da <= lo) & (jtr > 0.0)) | ((da >= hi) & (jtr < 0.0))
+        jac = np.where(pinned[:, None, :], 0.0, jac)
+        jtj = np.swapaxes(jac, -1, -2) @ jac
+        jtr = np.where(pinned, 0.0, jtr)
+        damp = mu[act, None, None] * (np.trace(jtj, axis1=-2, axis2=-1)[:, None, None] + 1e-30)
+        step = np.linalg.solve(jtj + damp * np.eye(c), -jtr[..., None])[..., 0]
+        trial = np.clip(da + step, lo, hi)
+        st_trial, r_trial = equilibrium(trial, g[act], tensions[act])
+        cost_trial = np.sum(r_trial * r_trial, axis=-1)
+        better = cost_trial < cost[act]
+        rows = act[better]
+        d[rows], r[rows], cost[rows] = trial[better], r_trial[better], cost_trial[better]
+        tensions[rows] = st_trial.tensions[better]
+        state.bending[rows] = st_trial.bending[better]
+        state.slack[rows] = st_trial.slack[better]
+        state.saturated[rows] = st_trial.saturated[better]
+        mu[act] = np.clip(np.where(better, mu[act] / 5.0, mu[act] * 4.0), 1e-15, 1e6)
+    d = d.reshape(k_runs, m, c)
+    cost = cost.reshape(k_runs, m)
+    reached = np.sqrt(cost) < _TOL
+    pick = np.where(np.any(reached, axis=0), np.argmax(reached, axis=0), np.argmin(cost, axis=0))
+    d = np.take_along_axis(d, pick[None, :, None], axis=0)[0]
+    final = solve_displacement_statics(model, d, k, t0, params.max_tension)
+    tip = model.tip_from_bending(final.bending)
+    return DisplacementIKSolution(
+        d.reshape(batch + (c,)),
+        final.tensions.reshape(batch + (c,)),
+        final.bending.reshape(batch + (model.n_sections, 2)),
+        tip.reshape(batch + (3,)),
+        np.linalg.norm(tip - flat, axis=-1).reshape(batch),
     )
