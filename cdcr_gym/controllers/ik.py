@@ -34,6 +34,12 @@ observation by field name through the env's ``ObservationSpec`` and runs in one 
   robot (tdcr2 poses: 75 % success on bullet without the blend, 100 % with it, 20 episodes),
   and the model's global IK knows the branch.
 
+  A known limit of this law on robots of several sections: where the command meets the tension
+  limits, s < 1 scales the *whole* shape back towards straight, and that can balance the
+  correction step — a fixed point away from the goal (FTDCR v4 CCKA twin, ``tension_delta``,
+  25 goals per start: 56 % from straight, 60 % from random starts within 5 mm, the others
+  ≈ 190 mm off; ``experiments.oracle_feedback``). The displacement modes below do not use it.
+
   ``gain`` is a pure integrator's gain per control step. The physics robot answers a step
   command in ≈ 0.3 s (15 steps of 0.02 s, paper robot on bullet), overshoots and settles by
   ≈ 0.6 s, which bounds it. On bullet with gravity (gain sweep in ``docs/tasks.md``): 0.05
