@@ -19,7 +19,7 @@ import numpy as np
 
 from cdcr_gym.calibration.damping import fit_second_order
 from cdcr_gym.model.params import RobotParams
-from experiments.json_main import json_main
+from experiments._json_main import json_main
 
 __all__ = ["release", "measure", "ZETAS", "TIMESTEPS", "FIT_START"]
 

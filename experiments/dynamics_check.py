@@ -32,7 +32,7 @@ import scipy.linalg
 import scipy.optimize
 
 from cdcr_gym.model.params import RobotParams
-from experiments.json_main import json_main
+from experiments._json_main import json_main
 
 __all__ = [
     "REFERENCE",

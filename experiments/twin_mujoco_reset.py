@@ -90,7 +90,9 @@ def one_reset(vec: Any, seeds: list[int]) -> dict[str, Any]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(
+        prog="python -m experiments.twin_mujoco_reset", description=__doc__.split("\n")[0]
+    )
     ap.add_argument("--config", default="configs/twin_ftdcr_v4_mujoco_reach.yaml")
     ap.add_argument("--repeats", type=int, default=3, help="fast resets (the plain one: once)")
     ap.add_argument("--steps", type=int, default=100)

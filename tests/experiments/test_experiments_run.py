@@ -16,7 +16,9 @@ import training
 from training.cli import COMMANDS, main
 
 ROOT = Path(experiments.__file__).resolve().parent
-EXPERIMENTS = sorted(m.name for m in pkgutil.iter_modules([str(ROOT)]))
+EXPERIMENTS = sorted(
+    m.name for m in pkgutil.iter_modules([str(ROOT)]) if not m.name.startswith("_")
+)  # _x: shared helpers
 
 
 def test_the_experiments_are_the_one_off_studies():

@@ -1,8 +1,8 @@
-"""experiments.json_main: the shared --out/--quick command line of the JSON experiments."""
+"""experiments._json_main: the shared --out/--quick command line of the JSON experiments."""
 
 import json
 
-from experiments.json_main import json_main
+from experiments._json_main import json_main
 
 
 def test_json_main_writes_the_run_and_passes_quick(tmp_path, capsys):
