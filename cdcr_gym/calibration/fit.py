@@ -283,11 +283,12 @@ def calibrate(
         or not slack
         or stiffness_scale != 1.0
     )
-    model: AnalyticReplay | BackendReplay | DriveReplay | PhysicsReplay
-    if physics_drive:
+
+    def physics_replay(rows: Measurements) -> PhysicsReplay:
+        """The in-order physics replay of ``rows`` with this fit's drive and options."""
         assert drive is not None  # checked above
-        model = PhysicsReplay(
-            data,
+        return PhysicsReplay(
+            rows,
             base,
             drive,
             cls,
@@ -296,6 +297,10 @@ def calibrate(
             stiffness_scale=stiffness_scale,
             **(replay_options or {}),
         )
+
+    model: AnalyticReplay | BackendReplay | DriveReplay | PhysicsReplay
+    if physics_drive:
+        model = physics_replay(data)
         model.name = backend
     elif use_drive:
         if fixed:
@@ -367,16 +372,7 @@ def calibrate(
         replay = (
             DriveReplay(validate, base, drive, slack=slack, stiffness_scale=stiffness_scale)
             if isinstance(model, DriveReplay)
-            else PhysicsReplay(
-                validate,
-                base,
-                drive,
-                cls,
-                fixed,
-                slack=slack,
-                stiffness_scale=stiffness_scale,
-                **(replay_options or {}),
-            )
+            else physics_replay(validate)
             if isinstance(model, PhysicsReplay) and drive is not None
             else AnalyticReplay(validate, base, fixed)
             if cls is None
