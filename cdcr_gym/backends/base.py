@@ -104,7 +104,8 @@ class DriveState(NamedTuple):
 def drive_tensions(
     params: RobotParams, displacements: np.ndarray, shortening: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The drives' law T = clip(T0 + k·(d − s), 0, max_tension) of robot ``params``:
+    """The drives' law T = clip(T0 + k·(d − s − c·Σ(T − T0)), 0, max_tension) of robot
+    ``params`` (c its ``base_compliance``):
     (tensions (..., C) N, slack (..., C) bool, saturated (..., C) bool) for displacements
     ``displacements`` (..., C) m and geometric shortenings ``shortening`` (..., C) m
     (:func:`cdcr_gym.model.tendons.tendon_tensions`)."""
@@ -114,6 +115,7 @@ def drive_tensions(
         params.cable_stiffness,
         params.cable_pretension,
         params.max_tension,
+        params.base_compliance,
     )
 
 

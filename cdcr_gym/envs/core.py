@@ -468,7 +468,12 @@ class EnvCore:
             p = self.params
             shortening = self.backend.straight_cable_lengths - self._readings.cable_lengths
             _, slack, saturated = tendon_tensions(
-                d, shortening, p.cable_stiffness, p.cable_pretension, p.max_tension
+                d,
+                shortening,
+                p.cable_stiffness,
+                p.cable_pretension,
+                p.max_tension,
+                p.base_compliance,
             )
             self._drive_flags = (slack, saturated)
 

@@ -360,20 +360,24 @@ class DisplacementIKSolution(NamedTuple):
 
 def drive_displacements(tensions, bending, params: RobotParams) -> np.ndarray:
     """Displacements (..., C) m that hold ``tensions`` (..., C) N at the shape ``bending``
-    (..., S, 2) rad: d = s(w) + (T − T0)/k (s the shortening of the shape; k = inf: d = s); a
-    slack cable (T = 0) at its slack point. Not clipped to the drives' range."""
+    (..., S, 2) rad: d = s(w) + (T − T0)/k + c·Σ(T − T0) (s the shortening of the shape, c the
+    robot's ``base_compliance``; k = inf: d = s); a slack cable (T = 0) at its slack point. Not
+    clipped to the drives' range."""
     params = _check_params(params)
     model = cached_model(params)
     k = np.asarray(params.cable_stiffness, dtype=np.float64)
     t0 = np.asarray(params.cable_pretension, dtype=np.float64)
     finite = np.isfinite(k)
-    give = np.where(finite, (np.asarray(tensions) - t0) / np.where(finite, k, 1.0), 0.0)
+    extra = np.asarray(tensions, dtype=np.float64) - t0
+    give = np.where(finite, extra / np.where(finite, k, 1.0), 0.0)
+    give = give + params.base_compliance * np.sum(extra, axis=-1, keepdims=True)
     return model.straight_lengths - model.lengths_from_bending(bending) + give
 
 
 def _drive_jacobian(model, h_mat, state, rows, h=1e-6):
     """∂tip/∂d (N, 3, C) at the equilibria ``state[rows]`` (N rows): exact on the active set
-    (the free tendons' tensions solve (K⁻¹ + M)_FF T_F = d_F + K⁻¹T0 − M_F,fixed T_fixed, the
+    (the free tendons' tensions solve H_FF T_F = d_F + … − H_F,fixed T_fixed with H = K⁻¹ + M +
+    c·11ᵀ, the
     others are fixed at 0 or T_max); h (rad) the central-difference step of tip(w)."""
     free = ~(state.slack[rows] | state.saturated[rows])  # (N, C)
     n, c = free.shape
@@ -462,7 +466,11 @@ def solve_displacement_ik(
     g = np.broadcast_to(flat, (k_runs, m, 3)).reshape(-1, 3)
     k = np.asarray(params.cable_stiffness, dtype=np.float64)
     t0 = np.asarray(params.cable_pretension, dtype=np.float64)
-    h_mat = shortening_matrix(model) + np.diag(np.where(np.isfinite(k), 1.0 / k, 0.0))
+    h_mat = (
+        shortening_matrix(model)
+        + np.diag(np.where(np.isfinite(k), 1.0 / k, 0.0))
+        + params.base_compliance  # the compliant base: c·11ᵀ
+    )
 
     def equilibrium(d_, goal_, warm=None):
         st = solve_displacement_statics(model, d_, k, t0, params.max_tension, initial_tensions=warm)

@@ -236,6 +236,9 @@ class RobotParams:
             a number or a tuple of one per cable.
         displacement_range: ``(d_min, d_max)`` (m), d_min < d_max: the displacements a
             normalised command a ∈ [−1, 1] maps to (linearly, a = −1 → d_min).
+        base_compliance: c (m/N), ≥ 0: the robot's base (its mount, the backbone's clamp and
+            axial compression) gives way under the total tendon load, so every tendon's drive
+            loses c·(ΣT − ΣT0) of its pull (:mod:`cdcr_gym.model.tendons`). 0 = a rigid base.
 
     Raises:
         ValueError: naming the field and the offending value, for any non-finite or
@@ -259,6 +262,7 @@ class RobotParams:
     tendon_stiffness: float | tuple[float, ...] = 2.0e4
     tendon_pretension: float | tuple[float, ...] = 2.0
     displacement_range: tuple[float, float] = (-0.045, 0.045)
+    base_compliance: float = 0.0
 
     def __post_init__(self) -> None:
         owner = "RobotParams"
@@ -315,7 +319,11 @@ class RobotParams:
         for f in fields(self):
             if f.name in ("sections",) + _SINGLE_SECTION_KEYS + _DRIVE_KEYS:
                 continue
-            object.__setattr__(self, f.name, _real(owner, f.name, getattr(self, f.name)))
+            positive = f.name != "base_compliance"
+            value = _real(owner, f.name, getattr(self, f.name), positive=positive)
+            if value < 0.0:
+                raise ValueError(f"{owner}.{f.name} must be >= 0 (m/N), got {value!r}")
+            object.__setattr__(self, f.name, value)
         n_cables = sum(s.n_cables for s in sections)
         object.__setattr__(
             self,

@@ -11,7 +11,13 @@ stiffness k_i (N/m), with pretension T0_i (N) at d = 0 on the straight robot::
     T_i = clip(T0_i + k_i·(d_i − s_i(q)), 0, T_max)
 
 where s_i(q) = L_i(straight) − L_i(q) (m) is the tendon's geometric shortening at the shape q.
-A tendon whose raw value T0 + k(d − s) is ≤ 0 is **slack** (exactly zero tension, it acts as if
+With a compliant base (``RobotParams.base_compliance`` c, m/N: the mount, the backbone's clamp
+and axial compression give way under the total tendon load) every drive loses c·(ΣT − ΣT0) of
+its pull::
+
+    T_i = clip(T0_i + k_i·(d_i − s_i(q) − c·Σ_l (T_l − T0_l)), 0, T_max)
+
+(c = 0, the default, is the law above). A tendon whose raw value T0 + k(d − s) is ≤ 0 is **slack** (exactly zero tension, it acts as if
 absent); one whose raw value exceeds ``max_tension`` is **saturated** (held at the limit: the
 drive cannot pull harder).
 
@@ -21,7 +27,8 @@ positive semi-definite: a Gram matrix of the cables' moment arms; its null space
 common-mode tension that does not bend). The law above is then the box-constrained linear
 complementarity problem of the strictly convex quadratic program (finite k)::
 
-    min_T  ½ Tᵀ (M + K⁻¹) T − (d + K⁻¹ T0)ᵀ T   over  0 ≤ T ≤ T_max,   K = diag(k),
+    min_T  ½ Tᵀ (M + c·11ᵀ + K⁻¹) T − (d + K⁻¹ T0 + c·ΣT0·1)ᵀ T   over  0 ≤ T ≤ T_max,
+    K = diag(k),
 
 whose unique solution :func:`solve_displacement_statics` finds exactly with a batched
 primal-dual active-set (semismooth Newton) step on the slack/saturated sets, which settles a
@@ -53,6 +60,7 @@ __all__ = [
     "TendonState",
     "TendonSolveError",
     "tendon_tensions",
+    "common_load",
     "shortening_matrix",
     "solve_displacement_statics",
     "solve_tendon_law",
@@ -124,17 +132,30 @@ def _pretension(value, n_cables: int) -> np.ndarray:
     return t0
 
 
-def _robot_scale(name: str, value, lead: tuple[int, ...], n: int) -> np.ndarray:
-    """A per-robot factor (n,) > 0 from ``value`` broadcast to the batch shape ``lead``."""
+def _robot_scale(
+    name: str, value, lead: tuple[int, ...], n: int, *, allow_zero: bool = False
+) -> np.ndarray:
+    """A per-robot factor (n,) > 0 (``allow_zero``: ≥ 0) from ``value`` broadcast to the batch
+    shape ``lead``."""
     if value is None:
         return np.ones(n)
     x = _array(name, value)
-    if np.any(x <= 0.0):
-        raise ValueError(f"{name} must be > 0, got {value!r}")
+    if np.any(x < 0.0) or (not allow_zero and np.any(x == 0.0)):
+        raise ValueError(f"{name} must be {'>= 0' if allow_zero else '> 0'}, got {value!r}")
     try:
         return np.broadcast_to(x, lead).reshape(n).astype(np.float64)
     except ValueError:
         raise ValueError(f"{name} must broadcast to {lead}, got shape {x.shape}") from None
+
+
+def _compliance(value) -> np.ndarray:
+    """``base_compliance`` as a float64 array of finite values >= 0 (m/N)."""
+    if isinstance(value, bool):
+        raise ValueError(f"base_compliance must be a number >= 0 (m/N), got {value!r}")
+    c = _array("base_compliance", value)
+    if np.any(c < 0.0):
+        raise ValueError(f"base_compliance must be >= 0 (m/N), got {value!r}")
+    return c
 
 
 def _max_tension(value) -> float:
@@ -152,9 +173,11 @@ def _max_tension(value) -> float:
 
 
 def tendon_tensions(
-    displacements, shortening, stiffness, pretension, max_tension=None
+    displacements, shortening, stiffness, pretension, max_tension=None, base_compliance=0.0
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The compliant tendon law, elementwise: T = clip(T0 + k·(d − s), 0, max_tension).
+    """The compliant tendon law at a given shape: T = clip(T0 + k·(d − s), 0, max_tension),
+    elementwise; with a compliant base (c > 0) T = clip(T0 + k·(d − s − c·Σ(T − T0)), 0,
+    max_tension), solved exactly for the common load ΣT (:func:`common_load`).
 
     Args:
         displacements: commanded displacements d (..., C) (m, positive = pulled in).
@@ -163,10 +186,11 @@ def tendon_tensions(
             T = T0 where d = s exactly, +limit where d > s, 0 where d < s).
         pretension: T0 (N), ≥ 0: a scalar, (C,) or (..., C).
         max_tension: the tension limit (N), or None for none.
+        base_compliance: c (m/N) ≥ 0, a scalar or (...) per robot (finite k only).
 
     Returns:
         ``(tensions, slack, saturated)``: tensions (..., C) (N); slack (..., C) bool where the raw
-        value T0 + k(d − s) ≤ 0 (tension exactly 0); saturated (..., C) bool where it exceeds
+        value T0 + k(d − s − c·Σ(T − T0)) ≤ 0 (tension exactly 0); saturated (..., C) bool where it exceeds
         ``max_tension`` (tension = max_tension). Shapes broadcast over all arguments.
 
     Raises:
@@ -194,12 +218,60 @@ def tendon_tensions(
         ) from None
     gap = d - s
     stiff = np.isinf(k)
+    comp = _compliance(base_compliance)
+    if np.any(comp > 0.0):
+        if stiff.any():
+            raise ValueError(
+                f"base_compliance {base_compliance!r} m/N needs finite tendon stiffness, got "
+                f"{stiffness!r}"
+            )
+        try:
+            comp = np.broadcast_to(comp, d.shape[:-1])
+        except ValueError:
+            raise ValueError(
+                f"base_compliance must broadcast to {d.shape[:-1]}, got shape {comp.shape}"
+            ) from None
+        free = t0 + k * gap + (k * comp[..., None]) * t0.sum(axis=-1, keepdims=True)
+        total = common_load(free, k * comp[..., None], limit)
+        gap = gap - comp[..., None] * (total - t0.sum(axis=-1))[..., None]
     sign = np.where(gap > 0.0, math.inf, np.where(gap < 0.0, -math.inf, t0))
     raw = np.where(stiff, sign, t0 + np.where(stiff, 0.0, k) * gap)
     slack = raw <= 0.0
     saturated = raw > limit
     tensions = np.clip(raw, 0.0, limit)
     return tensions, slack, saturated
+
+
+def common_load(free, coupling, max_tension=math.inf) -> np.ndarray:
+    """The total tension Σ (...) N that solves Σ = Σ_i clip(free_i − coupling_i·Σ, 0, T_max).
+
+    The tendon law with a compliant base at a given shape: ``free`` (..., C) N is each tendon's
+    raw tension without the base's give (T0 + k(d − s) + k·c·ΣT0), ``coupling`` (..., C) = k·c
+    (1/1) how much it loses per newton of total load. The right-hand side is piecewise linear and
+    non-increasing in Σ, so the root is unique; it is found exactly between the breakpoints
+    (where a tendon goes slack or leaves the limit).
+    """
+    free = np.asarray(free, dtype=np.float64)
+    a = np.broadcast_to(np.asarray(coupling, dtype=np.float64), free.shape)
+    safe = np.where(a > 0.0, a, 1.0)
+    lows = np.where(a > 0.0, (free - max_tension) / safe, -np.inf)
+    highs = np.where(a > 0.0, free / safe, -np.inf)
+    points = np.concatenate([np.zeros(free.shape[:-1] + (1,)), lows, highs], axis=-1)
+    points = np.sort(np.where(np.isfinite(points), np.maximum(points, 0.0), 0.0), axis=-1)
+
+    def excess(x):  # Σ_i T_i(x) − x, non-increasing; x (..., P)
+        t = np.clip(free[..., None, :] - a[..., None, :] * x[..., None], 0.0, max_tension)
+        return t.sum(axis=-1) - x
+
+    f = excess(points)
+    # the last breakpoint with f >= 0 (f(0) >= 0 always) and the next one: f is linear between
+    last = points.shape[-1] - 1
+    idx = np.maximum(np.sum(f >= 0.0, axis=-1) - 1, 0)
+    nxt = np.minimum(idx + 1, last)
+    x0, x1 = (np.take_along_axis(points, i[..., None], axis=-1)[..., 0] for i in (idx, nxt))
+    f0, f1 = (np.take_along_axis(f, i[..., None], axis=-1)[..., 0] for i in (idx, nxt))
+    step = np.where(f0 > f1, f0 / np.where(f0 > f1, f0 - f1, 1.0), 0.0)
+    return x0 + np.clip(step, 0.0, 1.0) * (x1 - x0)
 
 
 # -- the statics ---------------------------------------------------------------------------------
@@ -409,6 +481,7 @@ def solve_displacement_statics(
     initial_tensions=None,
     bending_scale=None,
     length_scale=None,
+    base_compliance=None,
 ) -> TendonState:
     """The quasi-static PCC shape under tendon displacement commands.
 
@@ -432,6 +505,8 @@ def solve_displacement_statics(
             (a robot whose cable radius r and modulus E differ from ``model``'s: (r/r₀)(E₀/E)).
         length_scale: optional per-robot factor (...) > 0 on the cable-length changes of a
             shape (r/r₀). The shortening matrix of such a robot is bending_scale·length_scale·M.
+        base_compliance: c (m/N) ≥ 0, a scalar or (...) per robot; None = the robot's
+            ``params.base_compliance``. Needs finite k.
 
     Returns:
         :class:`TendonState` with leading shape that of the broadcast arguments.
@@ -460,6 +535,12 @@ def solve_displacement_statics(
             f"stiffness must be all finite or all np.inf (inextensible), got {stiffness!r}"
         )
     singular = bool(inextensible.any())
+    comp = _compliance(model.params.base_compliance if base_compliance is None else base_compliance)
+    if singular and np.any(comp > 0.0):
+        raise ValueError(
+            f"base_compliance {base_compliance!r} m/N needs finite tendon stiffness: with k = inf "
+            f"the compliant base is the only compliance (give finite k, or base_compliance=0)"
+        )
     try:
         batch = np.broadcast_shapes(d.shape, k.shape, t0.shape)
     except ValueError:
@@ -486,6 +567,10 @@ def solve_displacement_statics(
         idx = np.arange(C)
         h[:, idx, idx] += 1.0 / k2
         q = d2 + t02 / k2
+        if np.any(comp > 0.0):
+            c2 = _robot_scale("base_compliance", comp, batch[:-1], n, allow_zero=True)
+            h += c2[:, None, None]
+            q = q + (c2 * t02.sum(axis=1))[:, None]
         c_scale = k2
         scale = mean_diag + float(np.mean(1.0 / k2))
     t, iterations = _box_qp(
@@ -519,9 +604,10 @@ def solve_tendon_law(
     max_tension=None,
     tol: float = 1e-12,
     max_iter: int = 100,
+    base_compliance=0.0,
 ) -> tuple[np.ndarray, int]:
     """The tensions of N robots, each with its own shortening matrix, under the compliant law
-    T = clip(T0 + k·(d − T @ M), 0, max_tension) (finite k; the solver of
+    T = clip(T0 + k·(d − T @ M − c·Σ(T − T0)), 0, max_tension) (finite k; the solver of
     :func:`solve_displacement_statics`, for robots whose geometry differs beyond a scale, e.g.
     the parameter sets of a calibration).
 
@@ -532,6 +618,8 @@ def solve_tendon_law(
         pretension: T0 (N) ≥ 0, a scalar, (C,) or (N, C).
         max_tension: tension limit (N); None or ``np.inf``: none.
         tol, max_iter: as :func:`solve_displacement_statics`.
+        base_compliance: c (m/N) ≥ 0, a scalar or (N,): the compliant base of the module
+            docstring (0: rigid).
 
     Returns:
         ``(tensions (N, C) N, iterations)``; slack/saturated tendons are those at 0 / the limit.
@@ -564,9 +652,12 @@ def solve_tendon_law(
         raise ValueError(
             f"stiffness {k.shape} and pretension {t0.shape} must broadcast to ({n}, {C})"
         ) from None
-    h = 0.5 * (m + np.swapaxes(m, 1, 2))
+    comp = _robot_scale(
+        "base_compliance", _compliance(base_compliance), (n,), n, allow_zero=True
+    )
+    h = 0.5 * (m + np.swapaxes(m, 1, 2)) + comp[:, None, None]
     idx = np.arange(C)
     h[:, idx, idx] += 1.0 / k2
-    q = d + t02 / k2
+    q = d + t02 / k2 + (comp * t02.sum(axis=1))[:, None]
     scale = float(np.mean(np.diagonal(m, axis1=1, axis2=2))) + float(np.mean(1.0 / k2))
     return _box_qp(h, q, t02, k2, scale, limit, False, None, (n, C), max_iter, tol, d)
