@@ -48,6 +48,7 @@ class DriveGeometry:
         stiffness: (B, C) tendon stiffness k, N/m (``inf`` not allowed: use a large value).
         pretension: (B, C) pretension T0 at d = 0 on the straight robot, N.
         max_tension: tension cap, N (``inf``: none).
+        base_compliance: (B,) the base's give c under the total tendon load, m/N (None: 0).
         slack: whether tendons go slack (the clip at zero); False = linear law.
         base_rotation: (B, 3, 3) robot base frame in the measurement frame.
         base_translation: (B, 3) robot base origin in the measurement frame, m.
@@ -62,6 +63,7 @@ class DriveGeometry:
     stiffness: np.ndarray
     pretension: np.ndarray
     max_tension: float = np.inf
+    base_compliance: np.ndarray | None = None
     slack: bool = True
     base_rotation: np.ndarray | None = None
     base_translation: np.ndarray | None = None
@@ -144,6 +146,10 @@ def solve_drive(
     t0 = np.repeat(geom.pretension, rows, axis=0)
     dd = np.tile(d, (b, 1))
     limit = geom.max_tension
+    comp = np.zeros(b) if geom.base_compliance is None else np.asarray(geom.base_compliance)
+    if np.any(comp > 0.0):  # the compliant base is the shortening matrix's c·11ᵀ
+        m_rows = m_rows + np.repeat(comp, rows)[:, None, None]
+        dd = dd + (np.repeat(comp, rows) * np.maximum(t0, 0.0).sum(axis=1))[:, None]
     if geom.slack:
         t, iterations = solve_tendon_law(m_rows, dd, k, np.maximum(t0, 0.0), limit, tol, max_iter)
     elif np.isfinite(limit):
@@ -159,7 +165,10 @@ def solve_drive(
     t = t.reshape(b, rows, c)
     u = np.einsum("bnc,bmc->bmn", gt, t) / ei
     s = np.einsum("bcn,bmn->bmc", a, u)
-    raw = geom.pretension[:, None, :] + geom.stiffness[:, None, :] * (d[None] - s)
+    give = comp[:, None, None] * (
+        t.sum(axis=2, keepdims=True) - t0.reshape(b, rows, c).sum(2, keepdims=True)
+    )
+    raw = geom.pretension[:, None, :] + geom.stiffness[:, None, :] * (d[None] - s - give)
     return DriveState(
         curvature=u.reshape(b, rows, n // 2, 2),
         tensions=t,
@@ -255,12 +264,15 @@ class TendonDrive:
         displacement_range: (low, high) commanded displacements the drive accepts, m (the
             reader's unit check).
         max_tension: tension cap of the drive law, N (``inf``: none).
+        base_compliance: c, the robot base's give under the total tendon load, m/N (every
+            drive loses c·Σ(T − T0); 0: a rigid base).
     """
 
     stiffness: tuple[float, ...]
     pretension: tuple[float, ...]
     displacement_range: tuple[float, float] = (-np.inf, np.inf)
     max_tension: float = np.inf
+    base_compliance: float = 0.0
 
     def __post_init__(self) -> None:
         k = np.asarray(self.stiffness, dtype=np.float64)
@@ -278,6 +290,10 @@ class TendonDrive:
             raise ValueError(f"displacement_range must be (low, high), got {(lo, hi)}")
         if not self.max_tension > 0.0:
             raise ValueError(f"max_tension must be > 0 N, got {self.max_tension!r}")
+        c = float(self.base_compliance)
+        if not (np.isfinite(c) and c >= 0.0):
+            raise ValueError(f"base_compliance must be finite and >= 0 m/N, got {c!r}")
+        object.__setattr__(self, "base_compliance", c)
         object.__setattr__(self, "stiffness", tuple(float(v) for v in k))
         object.__setattr__(self, "pretension", tuple(float(v) for v in t0))
         object.__setattr__(self, "displacement_range", (lo, hi))
@@ -297,7 +313,10 @@ class TendonDrive:
         rng_arr = np.asarray(rng, dtype=np.float64)
         if rng_arr.ndim == 2:  # per tendon (C, 2): the widest
             rng_arr = np.array([rng_arr[:, 0].min(), rng_arr[:, 1].max()])
-        return cls(tuple(k_arr), tuple(t_arr), (float(rng_arr[0]), float(rng_arr[1])))
+        comp = float(getattr(params, "base_compliance", 0.0))
+        return cls(
+            tuple(k_arr), tuple(t_arr), (float(rng_arr[0]), float(rng_arr[1])), base_compliance=comp
+        )
 
     def to_dict(self) -> dict:
         lo, hi = self.displacement_range
@@ -306,13 +325,22 @@ class TendonDrive:
             out["displacement_range"] = [lo, hi]
         if np.isfinite(self.max_tension):
             out["max_tension"] = float(self.max_tension)
+        if self.base_compliance > 0.0:
+            out["base_compliance"] = self.base_compliance
         return out
 
     @classmethod
     def from_dict(cls, data: dict, n: int, where: str) -> TendonDrive:
         """From a mapping with ``stiffness``, ``pretension`` (a number or C numbers each) and
-        optional ``displacement_range``, ``max_tension`` (ValueError naming ``where``)."""
-        allowed = {"stiffness", "pretension", "displacement_range", "max_tension"}
+        optional ``displacement_range``, ``max_tension``, ``base_compliance`` (ValueError
+        naming ``where``)."""
+        allowed = {
+            "stiffness",
+            "pretension",
+            "displacement_range",
+            "max_tension",
+            "base_compliance",
+        }
         if not isinstance(data, dict) or set(data) - allowed or "stiffness" not in data:
             raise ValueError(
                 f"{where}: a mapping with stiffness (N/m), pretension (N) and optional "
@@ -326,4 +354,10 @@ class TendonDrive:
                 f"{where}: stiffness/pretension need 1 or {n} values ({exc})"
             ) from None
         rng = tuple(data.get("displacement_range", (-np.inf, np.inf)))
-        return cls(tuple(k), tuple(t0), rng, float(data.get("max_tension", np.inf)))  # type: ignore[arg-type]
+        return cls(
+            tuple(k),
+            tuple(t0),
+            rng,  # type: ignore[arg-type]
+            float(data.get("max_tension", np.inf)),
+            float(data.get("base_compliance", 0.0)),
+        )

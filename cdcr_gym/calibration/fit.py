@@ -261,6 +261,8 @@ def calibrate(
             start_values[n] = base.sections[int(n[8:]) - 1].length
         elif n.startswith("cable_radius_s"):
             start_values[n] = base.sections[int(n[14:]) - 1].cable_radius
+        elif n == "base_compliance":
+            start_values[n] = drive.base_compliance if drive is not None else 0.0
         elif n.startswith(("tendon_stiffness", "tendon_pretension")):
             if drive is None:
                 raise ValueError(
@@ -423,6 +425,7 @@ def calibrate(
                 fitted_robot,
                 tendon_stiffness=fitted_drive.stiffness,  # type: ignore[call-arg]
                 tendon_pretension=fitted_drive.pretension,  # type: ignore[call-arg]
+                base_compliance=fitted_drive.base_compliance,  # type: ignore[call-arg]
             )
         except ValueError as exc:
             notes.append(
@@ -504,8 +507,13 @@ def _fitted_drive(
     from cdcr_gym.calibration.simulate import drive_geometry
 
     g = drive_geometry(base, drive, [values])
+    comp = g.base_compliance[0] if g.base_compliance is not None else drive.base_compliance
     return TendonDrive(
-        tuple(g.stiffness[0]), tuple(g.pretension[0]), drive.displacement_range, drive.max_tension
+        tuple(g.stiffness[0]),
+        tuple(g.pretension[0]),
+        drive.displacement_range,
+        drive.max_tension,
+        float(comp),
     )
 
 

@@ -41,6 +41,9 @@ tendon_stiffness_<i> (``k_tendons``)                                T = T0 + k·
 tendon_pretension (``T0``), …_s<j>     N     (T0 − T0₀)/1 N         likewise T0 (≥ 0, as the
 (``T0_sections``), …_<i>                                            robot's ``tendon_pretension``)
 (``T0_tendons``)
+base_compliance                        m/N   c/(1e-5 m/N)           the base's give under the
+                                                                    total tendon load (≥ 0,
+                                                                    ``RobotParams.base_compliance``)
 ====================================== ===== ====================== =============================
 
 ``base_frame`` = the translation, the tilt and the yaw. Gravity and payload are not modelled by
@@ -156,6 +159,7 @@ DRIVE_COMMON = [
     "marker_offset",
     "tendon_stiffness",
     "tendon_pretension",
+    "base_compliance",
 ]
 
 
@@ -351,7 +355,7 @@ def check_start(name: str, value: float) -> None:
         raise ValueError(f"start value of {name!r} must be finite, got {value!r}")
     if name.startswith(POSITIVE) and value <= 0.0:
         raise ValueError(f"start value of {name!r} must be > 0, got {value!r}")
-    if name in ("friction_coefficient", "tip_payload") and value < 0.0:
+    if name in ("friction_coefficient", "tip_payload", "base_compliance") and value < 0.0:
         raise ValueError(f"start value of {name!r} must be >= 0, got {value!r}")
 
 
@@ -410,6 +414,8 @@ def parameter_specs(
             specs.append(ParameterSpec(n, "N/m", 1.0, k0, 1e-3 * k0, 1e3 * k0, log=True))
         elif n.startswith("tendon_pretension"):
             specs.append(ParameterSpec(n, "N", 1.0, 0.0, 0.0, np.inf))
+        elif n == "base_compliance":
+            specs.append(ParameterSpec(n, "m/N", 1e-5, 0.0, 0.0, np.inf))
         else:  # pragma: no cover - resolve_names guards
             raise ValueError(f"unknown parameter {n!r}")
     return specs

@@ -15,7 +15,8 @@ Parameters (names of :mod:`cdcr_gym.calibration.parameters`):
 
 * simulated per robot: ``youngs_modulus``, ``friction_coefficient``, ``tip_payload``, the
   tendon drive's ``tendon_stiffness*`` / ``tendon_pretension*`` (the drive law of
-  ``cdcr_gym.model.tendons`` with these k and T0), and, with gravity, the base tilt
+  ``cdcr_gym.model.tendons`` with these k and T0) and ``base_compliance``, and, with gravity,
+  the base tilt
   (``base_tilt_x``, ``base_tilt_y``): gravity acts along the measurement frame's −Z, i.e. along
   Rᵀ·(0, 0, −g) in the robot's base frame;
 * applied to the simulated tips (no simulation): the base frame — ``tip = R·(p + marker·t) +
@@ -57,7 +58,12 @@ ROBOT_NAMES = frozenset({"youngs_modulus", "friction_coefficient", "tip_payload"
 
 def physics_name(name: str) -> bool:
     """Whether the physics displacement replay can fit ``name``."""
-    return name in FRAME_NAMES or name in ROBOT_NAMES or name.startswith("tendon_")
+    return (
+        name in FRAME_NAMES
+        or name in ROBOT_NAMES
+        or name.startswith("tendon_")
+        or name == "base_compliance"
+    )
 
 
 def row_steps(
@@ -204,6 +210,10 @@ class PhysicsReplay:
         g = drive_geometry(self.base, self.drive, [values], stiffness_scale=self.stiffness_scale)
         return g.stiffness[0], np.maximum(g.pretension[0], 0.0)
 
+    def base_compliance_of(self, values: dict[str, float]) -> float:
+        """The compliant base c (m/N) of ``values`` (the drive's where not fitted)."""
+        return float(values.get("base_compliance", self.drive.base_compliance))
+
     def _key(self, values: dict[str, float]) -> tuple:
         """What the simulation of ``values`` depends on (frame names excluded, except the
         tilt under gravity)."""
@@ -221,6 +231,7 @@ class PhysicsReplay:
             float(values.get("tip_payload", self.fixed.get("tip_payload") or 0.0)),
             tuple(k.tolist()),
             tuple(t0.tolist()),
+            self.base_compliance_of(values),
             extra,
         )
 
@@ -303,7 +314,10 @@ class PhysicsReplay:
             backend.gate_damping = self.gate_damping
             drives = [self.drive_of(v) for v in robots]
             backend.set_drive_parameters(
-                idx, np.stack([k for k, _ in drives]), np.stack([t for _, t in drives])
+                idx,
+                np.stack([k for k, _ in drives]),
+                np.stack([t for _, t in drives]),
+                np.array([self.base_compliance_of(v) for v in robots]),
             )
             if not self.slack:
                 for i in range(n):  # the drives may push up to max_tension: the linear law
@@ -327,6 +341,7 @@ class PhysicsReplay:
             youngs_modulus=v.get("youngs_modulus", self.base.youngs_modulus),
             tendon_stiffness=tuple(k.tolist()),
             tendon_pretension=tuple(t_pre.tolist()),
+            base_compliance=self.base_compliance_of(v),
         )
         kw = dict(self.fixed)
         for key in ("friction_coefficient", "tip_payload"):

@@ -210,6 +210,7 @@ def drive_geometry(
     yaw, tx, ty = np.zeros(b), np.zeros(b), np.zeros(b)
     trans = np.zeros((b, 3))
     marker = np.zeros(b)
+    comp = np.zeros(b)
     k_nom = np.array(drive.stiffness) if drive is not None else np.ones(c)
     t_nom = np.array(drive.pretension) if drive is not None else np.zeros(c)
     sec_len = np.array(base.section_lengths)
@@ -243,6 +244,7 @@ def drive_geometry(
         tx[n], ty[n] = v.get("base_tilt_x", 0.0), v.get("base_tilt_y", 0.0)
         trans[n] = [v.get("base_x", 0.0), v.get("base_y", 0.0), v.get("base_z", 0.0)]
         marker[n] = v.get("marker_offset", 0.0)
+        comp[n] = v.get("base_compliance", drive.base_compliance if drive is not None else 0.0)
     return DriveGeometry(
         lengths=lengths,
         section_of=owner,
@@ -252,6 +254,7 @@ def drive_geometry(
         stiffness=k,
         pretension=t0,
         max_tension=drive.max_tension if drive is not None else np.inf,
+        base_compliance=comp,
         slack=slack,
         base_rotation=rotation_zyx(yaw, ty, tx),
         base_translation=trans,

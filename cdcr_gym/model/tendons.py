@@ -652,9 +652,7 @@ def solve_tendon_law(
         raise ValueError(
             f"stiffness {k.shape} and pretension {t0.shape} must broadcast to ({n}, {C})"
         ) from None
-    comp = _robot_scale(
-        "base_compliance", _compliance(base_compliance), (n,), n, allow_zero=True
-    )
+    comp = _robot_scale("base_compliance", _compliance(base_compliance), (n,), n, allow_zero=True)
     h = 0.5 * (m + np.swapaxes(m, 1, 2)) + comp[:, None, None]
     idx = np.arange(C)
     h[:, idx, idx] += 1.0 / k2

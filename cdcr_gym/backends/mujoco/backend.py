@@ -343,6 +343,8 @@ class MuJoCoBackend(ObstacleScene, TendonDrives, StabilityLimits, StaticSolve, B
             np.asarray(p.cable_pretension, dtype=np.float64),
             float(p.max_tension),
         )
+        #: c (N,) m/N, each robot's compliant base (``RobotParams.base_compliance``).
+        self._base_compliance = np.full(self.num_robots, float(p.base_compliance))
         if self._drives:
             k = np.asarray(p.cable_stiffness)
             model.actuator_biasprm[self._drive_slice, 0] = k * self._straight - np.asarray(

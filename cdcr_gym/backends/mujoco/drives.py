@@ -8,6 +8,13 @@ one-sided clamp is the slack tendon, the upper one the saturation (``cdcr_gym.mo
 The drives' tendons get damping γ·k (γ = the physics timestep) and the step the
 ``implicitfast`` integrator, which treats that damping implicitly: the stiff spring stays stable.
 Tension commands release the drives (force exactly 0, damping off).
+
+A compliant base (``RobotParams.base_compliance`` c > 0, :mod:`cdcr_gym.model.tendons`): every
+drive loses c·Σ(T − T0) of its pull. The total load couples the tendons, which MuJoCo's
+per-tendon actuators cannot; so at the start of every control step the coupled law is solved
+exactly at the current tendon lengths (:func:`cdcr_gym.model.tendons.tendon_tensions`) and each
+actuator gets the command less the base's give, d − c·(ΣT − ΣT0). At rest that is the law
+exactly; the static solves (:meth:`_solve_drives`) iterate it to convergence.
 """
 
 from __future__ import annotations
@@ -19,6 +26,7 @@ import numpy as np
 from cdcr_gym import validation
 from cdcr_gym.backends.base import DriveState
 from cdcr_gym.backends.mujoco import friction as mj_friction
+from cdcr_gym.model.tendons import tendon_tensions
 
 __all__ = ["RELEASED", "TendonDrives"]
 
@@ -117,11 +125,16 @@ class TendonDrives:
                 model.tendon_damping[self._cable_ids] = h * k[i] if on else 0.0
 
     def set_drive_parameters(
-        self: Any, index: Any, stiffness: np.ndarray, pretension: np.ndarray
+        self: Any,
+        index: Any,
+        stiffness: np.ndarray,
+        pretension: np.ndarray,
+        base_compliance: np.ndarray | None = None,
     ) -> None:
         """Give robots ``index`` (n,) their own drive law: tendon stiffness ``stiffness`` (n, C)
         N/m and pretension ``pretension`` (n, C) N (the law of the module docstring with these
-        k and T0; the drives' damping γ·k follows k). Each such robot gets its own MjModel
+        k and T0; the drives' damping γ·k follows k), and optionally its compliant base
+        ``base_compliance`` (n,) m/N (module docstring). Each such robot gets its own MjModel
         (a calibration's batched finite differences: one robot per perturbed parameter).
         Builds the drives first if needed; a later rebuild (friction switched on by
         :meth:`set_randomized`, obstacles) resets them: call this last.
@@ -139,6 +152,11 @@ class TendonDrives:
             raise ValueError(f"stiffness must be > 0 N/m, got {k.tolist()}")
         if np.any(t0 < 0.0):
             raise ValueError(f"pretension must be >= 0 N, got {t0.tolist()}")
+        if base_compliance is not None:
+            comp = validation.real_array(base_compliance, "base_compliance", (idx.size,))
+            if np.any(comp < 0.0):
+                raise ValueError(f"base_compliance must be >= 0 m/N, got {comp.tolist()}")
+            self._base_compliance[idx] = comp
         if not self._drives:
             self.enable_displacement_control()
         k_all, t_all, t_max = self._drive_constants
@@ -175,6 +193,21 @@ class TendonDrives:
         raw = t0 + k * (displacements - (self._straight - lengths))
         return np.clip(raw, 0.0, t_max), raw <= 0.0, raw > t_max
 
+    def _drive_commands(self: Any, displacements: np.ndarray) -> np.ndarray:
+        """The actuators' commands (N, C) m for drive displacements ``displacements`` (N, C):
+        the displacements less each robot's base give c·(ΣT − ΣT0) with the tensions of the
+        coupled law at the current tendon lengths (module docstring); unchanged for c = 0."""
+        comp = self._base_compliance
+        if not np.any(comp > 0.0):
+            return displacements
+        k, t0, t_max = self._drive_constants
+        n, c = displacements.shape
+        k = np.broadcast_to(k, (n, c))
+        t0 = np.broadcast_to(t0, (n, c))
+        t, _, _ = tendon_tensions(displacements, self._straight - self._lengths, k, t0, t_max, comp)
+        give = comp * (t.sum(axis=1) - t0.sum(axis=1))
+        return displacements - give[:, None]
+
     def apply_displacements(self: Any, displacements: np.ndarray) -> None:
         """Hold drive displacements ``displacements`` (N, C) m for one control step
         (``n_substeps`` MuJoCo steps; the drives evaluate the law at every physics step, the
@@ -202,16 +235,17 @@ class TendonDrives:
         if not self._driving:
             self._set_drive_damping(True)
             self._driving = True
+        command = self._drive_commands(d)
         if self.gate_damping:
-            self._gate_drive_damping(d)
-        self._displacements = d
+            self._gate_drive_damping(command)
+        self._displacements = command
         self.time += self.control_timestep
         n_pull, drive = self._n_pull, self._drive_slice
-        for data, row in zip(self._datas, d):
+        for data, row in zip(self._datas, command):
             data.ctrl[:n_pull] = 0.0
             data.ctrl[drive] = row
         if self._rough:
-            self._step_with_friction(self._tensions.copy(), d)
+            self._step_with_friction(self._tensions.copy(), command)
             for i in range(n):
                 self._check_state(i)
         elif self.threads is None:
@@ -224,7 +258,13 @@ class TendonDrives:
             for i in range(n):
                 self._check_state(i)
                 self._sense(i)
-        tensions, slack, saturated = self._drive_law(d, self._lengths)
+        if np.any(self._base_compliance > 0.0):
+            k, t0, t_max = self._drive_constants
+            tensions, slack, saturated = tendon_tensions(
+                d, self._straight - self._lengths, k, t0, t_max, self._base_compliance
+            )
+        else:
+            tensions, slack, saturated = self._drive_law(d, self._lengths)
         self._tensions = tensions
         self._drive_state = DriveState(d.copy(), slack, saturated)
 

@@ -19,6 +19,7 @@ import numpy as np
 from cdcr_gym.backends.base import MAX_JOINT_ANGLE, Backend, Readings
 from cdcr_gym.backends.mujoco.anderson import anderson_solve, drive_preconditioner
 from cdcr_gym.backends.mujoco.drives import RELEASED
+from cdcr_gym.model.tendons import tendon_tensions
 
 __all__ = ["StaticSolve"]
 
@@ -95,22 +96,41 @@ class StaticSolve:
         """Put ``data`` at the static equilibrium of ``model`` (with drives) under drive
         displacements ``displacements`` (C,) m, the drives holding them (motors at 0 N):
         Anderson-accelerated, preconditioned with the taut drives' stiffness (``anderson.py``),
-        to max|P·r| < ``tol`` rad. Returns whether it converged."""
+        to max|P·r| < ``tol`` rad. With a compliant base (c > 0) the actuators' commands are
+        the displacements less the base's give c·(ΣT − ΣT0) (``drives.py``), re-solved from
+        the settled shape (secant steps on the give) until it changes by less than 1e-12 m (at
+        most 50 solves).
+        Returns whether it converged."""
         data.qvel[:] = 0.0
         data.act[:] = 0.0
         data.ctrl[:] = 0.0
-        data.ctrl[self._drive_slice] = displacements
         p = self.params
-        law = (
-            displacements,
-            np.asarray(p.cable_stiffness, dtype=float),
-            np.asarray(p.cable_pretension, dtype=float),
-            self._straight,
-            float(p.max_tension),
-        )
+        k = np.asarray(p.cable_stiffness, dtype=float)
+        t0 = np.asarray(p.cable_pretension, dtype=float)
         stiffness = np.asarray(model.jnt_stiffness[model.dof_jntid], dtype=float)
-        precondition = drive_preconditioner(stiffness, self._jac_index[0], self._cable_ids, law)
-        return anderson_solve(self._mj, model, data, precondition, tol=tol) > 0
+        comp = float(p.base_compliance)
+        give, prev = 0.0, None  # the base's give (m) and the secant's previous (give, residual)
+        for _ in range(50 if comp > 0.0 else 1):
+            command = displacements - give
+            data.ctrl[self._drive_slice] = command
+            law = (command, k, t0, self._straight, float(p.max_tension))
+            precondition = drive_preconditioner(stiffness, self._jac_index[0], self._cable_ids, law)
+            if anderson_solve(self._mj, model, data, precondition, tol=tol) <= 0:
+                return False
+            if comp == 0.0:
+                return True
+            shortening = self._straight - data.ten_length[self._cable_ids]
+            t, _, _ = tendon_tensions(displacements, shortening, k, t0, p.max_tension, comp)
+            residual = comp * float(t.sum() - t0.sum()) - give
+            if abs(residual) < 1e-12:
+                return True
+            # secant on the scalar give (a fixed-point step first)
+            step = residual
+            if prev is not None and residual != prev[1]:
+                step = -residual * (give - prev[0]) / (residual - prev[1])
+            prev = (give, residual)
+            give += step
+        return False
 
     def static_equilibrium(self: Any, tensions: np.ndarray, index: int = 0) -> np.ndarray:
         """Joint positions ``qpos`` of robot ``index``'s static equilibrium under ``tensions``
@@ -177,7 +197,7 @@ class StaticSolve:
             return Backend.displacement_equilibrium(self, d, tol, max_iter)
         m = d.shape[0]
         tip, direction = np.empty((m, 3)), np.empty((m, 3))
-        lengths = np.empty((m, p.n_cables))
+        lengths = np.zeros((m, p.n_cables))
         data, model = self._scratch, self.model
         k = np.asarray(p.cable_stiffness, dtype=float)
         t0 = np.asarray(p.cable_pretension, dtype=float)
@@ -189,7 +209,9 @@ class StaticSolve:
             tip[j] = data.site_xpos[self._tip_id]
             direction[j] = data.site_xmat[self._tip_id, 2::3]
             lengths[j] = data.ten_length[self._cable_ids]
-        tensions = np.clip(t0 + k * (d - (self._straight - lengths)), 0.0, p.max_tension)
+        tensions, _, _ = tendon_tensions(
+            d, self._straight - lengths, k, t0, p.max_tension, p.base_compliance
+        )
         out = Readings(tip, direction, lengths, tensions)
         if failed:
             slow = Backend.displacement_equilibrium(self, d[failed], tol, max_iter)
