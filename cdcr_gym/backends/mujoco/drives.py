@@ -152,13 +152,15 @@ class TendonDrives:
             raise ValueError(f"stiffness must be > 0 N/m, got {k.tolist()}")
         if np.any(t0 < 0.0):
             raise ValueError(f"pretension must be >= 0 N, got {t0.tolist()}")
+        comp = None
         if base_compliance is not None:
             comp = validation.real_array(base_compliance, "base_compliance", (idx.size,))
             if np.any(comp < 0.0):
                 raise ValueError(f"base_compliance must be >= 0 m/N, got {comp.tolist()}")
-            self._base_compliance[idx] = comp
         if not self._drives:
-            self.enable_displacement_control()
+            self.enable_displacement_control()  # rebuilds the model: the robots' values after
+        if comp is not None:
+            self._base_compliance[idx] = comp
         k_all, t_all, t_max = self._drive_constants
         k_all = np.array(np.broadcast_to(k_all, (self.num_robots, c)))
         t_all = np.array(np.broadcast_to(t_all, (self.num_robots, c)))
