@@ -56,7 +56,7 @@ from cdcr_gym.model.params import RobotParams
 __all__ = ["CalibrationResult", "calibrate", "DEFAULT_START"]
 
 #: Start values (SI) of parameters the robot does not carry, when fitted without a given start.
-DEFAULT_START = {"friction_coefficient": 0.1, "tip_payload": 0.01}
+DEFAULT_START = {"friction_coefficient": 0.1, "tip_payload": 0.01, "backbone_friction": 1e-3}
 #: Condition number of the scaled JᵀJ above which parameters are reported not identifiable.
 SINGULAR = 1e12
 

@@ -11,6 +11,8 @@ friction_coefficient —           μ/0.1                      backend ``frictio
 (mu)                                                        (physics backends)
 tip_payload          kg          m/10 g                     backend ``tip_payload`` (physics)
 (payload)
+backbone_friction    N·m         M_f/1 mN·m                 backend ``backbone_friction``
+                                                            (MuJoCo)
 base_tilt_x,         rad         angle/1°                   rotation of the robot's base about
 base_tilt_y (tilt)                                          X0 then Y0 (both: ``tilt``)
 ==================== =========== ========================== ===================================
@@ -105,7 +107,11 @@ ALIASES = {
     "base_frame": ["base_x", "base_y", "base_z", "base_tilt_x", "base_tilt_y", "base_yaw"],
 }
 #: Parameters only a backend with that keyword argument models.
-PHYSICS_ONLY = {"friction_coefficient": "friction_coefficient", "tip_payload": "tip_payload"}
+PHYSICS_ONLY = {
+    "friction_coefficient": "friction_coefficient",
+    "tip_payload": "tip_payload",
+    "backbone_friction": "backbone_friction",
+}
 
 
 @dataclass(frozen=True)
@@ -144,7 +150,7 @@ def _all_names(params: RobotParams) -> list[str]:
     return (
         ["youngs_modulus", "cable_radius"]
         + [f"cable_angle_{i + 1}" for i in range(params.n_cables)]
-        + ["friction_coefficient", "tip_payload", "base_tilt_x", "base_tilt_y"]
+        + ["friction_coefficient", "tip_payload", "backbone_friction", "base_tilt_x", "base_tilt_y"]
         + DRIVE_COMMON
         + _per(params)
     )
@@ -345,6 +351,8 @@ def expand_names(names: str | list[str], params: RobotParams) -> list[str]:
     return out
 
 
+#: Names whose values must be >= 0 (a --start value is checked).
+NON_NEGATIVE = ("friction_coefficient", "tip_payload", "base_compliance", "backbone_friction")
 #: Names whose values must be > 0 (a --start value is checked).
 POSITIVE = ("youngs_modulus", "cable_radius", "length_s", "tendon_stiffness")
 
@@ -355,7 +363,7 @@ def check_start(name: str, value: float) -> None:
         raise ValueError(f"start value of {name!r} must be finite, got {value!r}")
     if name.startswith(POSITIVE) and value <= 0.0:
         raise ValueError(f"start value of {name!r} must be > 0, got {value!r}")
-    if name in ("friction_coefficient", "tip_payload", "base_compliance") and value < 0.0:
+    if name in NON_NEGATIVE and value < 0.0:
         raise ValueError(f"start value of {name!r} must be >= 0, got {value!r}")
 
 
@@ -397,6 +405,8 @@ def parameter_specs(
             specs.append(ParameterSpec(n, "", 0.1, 0.0, 0.0, 1.0))
         elif n == "tip_payload":
             specs.append(ParameterSpec(n, "kg", 0.01, 0.0, 0.0, np.inf))
+        elif n == "backbone_friction":
+            specs.append(ParameterSpec(n, "N·m", 1e-3, 0.0, 0.0, np.inf))
         elif n in ("base_tilt_x", "base_tilt_y"):
             specs.append(ParameterSpec(n, "rad", math.radians(1.0), 0.0, -math.pi / 6, math.pi / 6))
         elif n in ("base_x", "base_y", "base_z", "marker_offset"):

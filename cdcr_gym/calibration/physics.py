@@ -13,7 +13,8 @@ the cables (loading vs unloading) and any motion not yet settled act as on the r
 
 Parameters (names of :mod:`cdcr_gym.calibration.parameters`):
 
-* simulated per robot: ``youngs_modulus``, ``friction_coefficient``, ``tip_payload``, the
+* simulated per robot: ``youngs_modulus``, ``friction_coefficient``, ``tip_payload``,
+  ``backbone_friction`` (MuJoCo), the
   tendon drive's ``tendon_stiffness*`` / ``tendon_pretension*`` (the drive law of
   ``cdcr_gym.model.tendons`` with these k and T0) and ``base_compliance``, and, with gravity,
   the base tilt
@@ -53,7 +54,9 @@ FRAME_NAMES = frozenset(
     {"base_x", "base_y", "base_z", "base_yaw", "base_tilt_x", "base_tilt_y", "marker_offset"}
 )
 #: Names the physics displacement replay simulates (besides the tendon drive's).
-ROBOT_NAMES = frozenset({"youngs_modulus", "friction_coefficient", "tip_payload"})
+ROBOT_NAMES = frozenset(
+    {"youngs_modulus", "friction_coefficient", "tip_payload", "backbone_friction"}
+)
 
 
 def physics_name(name: str) -> bool:
@@ -229,6 +232,7 @@ class PhysicsReplay:
                 values.get("friction_coefficient", self.fixed.get("friction_coefficient") or 0.0)
             ),
             float(values.get("tip_payload", self.fixed.get("tip_payload") or 0.0)),
+            float(values.get("backbone_friction", self.fixed.get("backbone_friction") or 0.0)),
             tuple(k.tolist()),
             tuple(t0.tolist()),
             self.base_compliance_of(values),
@@ -289,6 +293,7 @@ class PhysicsReplay:
         kw = dict(self.fixed)
         kw.pop("friction_coefficient", None)
         kw.pop("tip_payload", None)
+        kw.pop("backbone_friction", None)
         params = self.base
         backend = self.cls(params=params, num_robots=n, **kw)
         try:
@@ -305,6 +310,10 @@ class PhysicsReplay:
             pay = np.array([v.get("tip_payload", p0) for v in robots])
             if np.any(pay > 0.0):
                 rand["tip_payload"] = pay
+            f0 = float(self.fixed.get("backbone_friction", 0.0))
+            bb = np.array([v.get("backbone_friction", f0) for v in robots])
+            if np.any(bb > 0.0):
+                rand["backbone_friction"] = bb
             if rand:
                 backend.set_randomized(idx, rand)
             if self.gravity:
@@ -344,7 +353,7 @@ class PhysicsReplay:
             base_compliance=self.base_compliance_of(v),
         )
         kw = dict(self.fixed)
-        for key in ("friction_coefficient", "tip_payload"):
+        for key in ("friction_coefficient", "tip_payload", "backbone_friction"):
             if key in v:
                 kw[key] = float(v[key])
         if self.gravity and (v.get("base_tilt_x", 0.0) or v.get("base_tilt_y", 0.0)):
@@ -399,7 +408,7 @@ class PhysicsReplay:
         from cdcr_gym.calibration.parameters import tilt_quaternion
 
         kw = dict(self.fixed)
-        for key in ("friction_coefficient", "tip_payload"):
+        for key in ("friction_coefficient", "tip_payload", "backbone_friction"):
             if key in values:
                 kw[key] = float(values[key])
         if "base_tilt_x" in values or "base_tilt_y" in values:

@@ -54,6 +54,8 @@ _DISPLAY = {
     "marker_offset": ("mm", 1e3),
     "friction_coefficient": ("", 1.0),
     "tip_payload": ("g", 1e3),
+    "base_compliance": ("mm/kN", 1e6),
+    "backbone_friction": ("mN·m", 1e3),
 }
 
 

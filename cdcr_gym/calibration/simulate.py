@@ -146,7 +146,7 @@ class BackendReplay:
         """The backend's keyword arguments for ``values``: the fixed ones plus the fitted
         friction, payload and tilt."""
         kw = dict(self.fixed)
-        for key in ("friction_coefficient", "tip_payload"):
+        for key in ("friction_coefficient", "tip_payload", "backbone_friction"):
             if key in values:
                 kw[key] = float(values[key])
         if ("base_tilt_x" in values or "base_tilt_y" in values) and accepts(

@@ -4,8 +4,8 @@
 #    the robot of the calibrated twin, configs/twin_ftdcr_v4_reach.yaml) and ablation/<name>/
 #    beside it, then ablation.md;
 # 2. docs/figures/calibration/ftdcr_v4_ccka_selected/: the parameter set chosen on train.csv alone
-#    by ftdcr_v4_ccka_selection.py (selection.md there), the MuJoCo fit's warm start
-#    (ftdcr_v4_mujoco.sh), and its ablation.
+#    by ftdcr_v4_ccka_selection.py (selection.md there), with the compliant base, and its
+#    ablation (rigid_base: the same fit without the base compliance).
 # About 5 min on 2 shared cores.
 set -euo pipefail
 OUT=${1:-docs/figures/calibration/ftdcr_v4_ccka}
@@ -20,9 +20,12 @@ run --fit "$FIT" --linear-law --out "$OUT/ablation/no_slack"
 run --fit marker,k_tendons,T0_tendons,cable_angles --out "$OUT/ablation/no_base_frame"
 python -m training.studies.calibrate --ablation-table "$OUT"
 
-SEL=base_frame,marker,E,k_tendons,cable_angles
+# the set chosen by ftdcr_v4_ccka_selection.py on train.csv alone: E, pretensions, tendon angles
+# and the compliant base (k stays nominal)
+SEL=base_frame,marker,E,T0_tendons,cable_angles,base_compliance
 run --fit "$SEL" --out "$SELECTED"
-run --fit base_frame,marker,E,cable_angles --stiffness-scale 1000 --out "$SELECTED/ablation/rigid_tendons"
+run --fit base_frame,marker,E,T0_tendons,cable_angles --stiffness-scale 1000 --out "$SELECTED/ablation/rigid_tendons"
 run --fit "$SEL" --linear-law --out "$SELECTED/ablation/no_slack"
-run --fit marker,E,k_tendons,cable_angles --out "$SELECTED/ablation/no_base_frame"
+run --fit marker,E,T0_tendons,cable_angles,base_compliance --out "$SELECTED/ablation/no_base_frame"
+run --fit base_frame,marker,E,T0_tendons,cable_angles --out "$SELECTED/ablation/rigid_base"
 python -m training.studies.calibrate --ablation-table "$SELECTED"

@@ -50,6 +50,15 @@ CANDIDATES = {
     "E+k_sections+T0_sections+section_angles+lengths+cable_radii": (
         "E,k_sections,T0_sections,section_angles,lengths,cable_radii"
     ),
+    # the same sets with the compliant base (the robot's base gives under the total load)
+    "k_tendons+T0_tendons+cable_angles+base_compliance": (
+        "k_tendons,T0_tendons,cable_angles,base_compliance"
+    ),
+    "k_sections+T0_tendons+cable_angles+base_compliance": (
+        "k_sections,T0_tendons,cable_angles,base_compliance"
+    ),
+    "E+T0_tendons+cable_angles+base_compliance": "E,T0_tendons,cable_angles,base_compliance",
+    "E+k_tendons+cable_angles+base_compliance": "E,k_tendons,cable_angles,base_compliance",
 }
 
 

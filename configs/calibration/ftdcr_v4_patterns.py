@@ -34,10 +34,13 @@ from ftdcr_v4_ccka_selection import family  # noqa: E402
 DATA = Path("data/real/ftdcr_v4")
 FIG = Path("docs/figures/calibration")
 FITS = {
-    "CCKA (ftdcr_v4_ccka)": FIG / "ftdcr_v4_ccka",
-    "CCKA, selected set": FIG / "ftdcr_v4_ccka_selected",
-    "MuJoCo, frictionless": FIG / "ftdcr_v4_mujoco_frictionless",
-    "MuJoCo, friction fitted": FIG / "ftdcr_v4_mujoco",
+    "CCKA, rigid base (ftdcr_v4_ccka)": FIG / "ftdcr_v4_ccka",
+    "CCKA, compliant base (ftdcr_v4_ccka_base)": FIG / "ftdcr_v4_ccka_base",
+    "CCKA, selected set (compliant base)": FIG / "ftdcr_v4_ccka_selected",
+    "MuJoCo, rigid base, frictionless": FIG / "ftdcr_v4_mujoco_frictionless",
+    "MuJoCo, rigid base, friction fitted": FIG / "ftdcr_v4_mujoco",
+    "MuJoCo, compliant base (ftdcr_v4_mujoco_base)": FIG / "ftdcr_v4_mujoco_base",
+    "MuJoCo, compliant base, from the selected set": FIG / "ftdcr_v4_mujoco_base_selected",
 }
 BINS_MM = (0.0, 20.0, 40.0, 60.0, np.inf)
 

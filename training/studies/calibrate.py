@@ -380,9 +380,10 @@ def _print_summary(result) -> None:
 #: What each ablation variant changes (ablation_table).
 ABLATIONS = {
     ".": "full model: compliant one-sided tendons, base frame fitted",
-    "rigid_tendons": "rigid tendons (k x 1000 of nominal, not fitted)",
+    "rigid_tendons": "rigid tendons (k x 1000 of nominal, not fitted; no base compliance)",
     "no_slack": "no slack: the linear law T = T0 + k(d - s)",
     "no_base_frame": "no base-frame fit (robot base = measurement frame)",
+    "rigid_base": "rigid base (no base compliance)",
 }
 
 

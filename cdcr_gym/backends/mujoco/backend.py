@@ -45,6 +45,7 @@ from cdcr_gym.backends.base import (
     SimulationDivergedError,
 )
 from cdcr_gym.backends.mujoco import friction as mj_friction
+from cdcr_gym.backends.mujoco.backbone_friction import BackboneFriction
 from cdcr_gym.backends.mujoco.damping import tune_damping
 from cdcr_gym.backends.mujoco.drives import RELEASED, TendonDrives
 from cdcr_gym.backends.mujoco.limits import StabilityLimits
@@ -83,7 +84,9 @@ def _mujoco() -> Any:
     return mujoco
 
 
-class MuJoCoBackend(ObstacleScene, TendonDrives, StabilityLimits, StaticSolve, Backend):
+class MuJoCoBackend(
+    ObstacleScene, TendonDrives, BackboneFriction, StabilityLimits, StaticSolve, Backend
+):
     """``num_robots`` CDCRs simulated by MuJoCo (see the module docstring and ``mjcf``).
 
     Args:
@@ -126,6 +129,8 @@ class MuJoCoBackend(ObstacleScene, TendonDrives, StabilityLimits, StaticSolve, B
             set before every physics step with the slip state implicit in the step
             (``backends/mujoco/friction.py``).
         friction_slip_length: slip length x_s of the slip law (default 1e-4 m, > 0).
+        backbone_friction: Coulomb moment M_f (N·m, ≥ 0) against the bending of every joint
+            (default 0.0; ``backbone_friction.py``).
         integrator: MuJoCo integrator (default ``"Euler"``: semi-implicit, damping implicit).
             Displacement commands switch ``"Euler"`` to ``"implicitfast"`` (module docstring);
             ``"RK4"`` cannot take them.
@@ -149,7 +154,9 @@ class MuJoCoBackend(ObstacleScene, TendonDrives, StabilityLimits, StaticSolve, B
     supports_length_control = False
     supports_displacement_control = True
     supports_obstacles = True
-    randomizable = frozenset({"youngs_modulus", "friction_coefficient", "gravity", "tip_payload"})
+    randomizable = frozenset(
+        {"youngs_modulus", "friction_coefficient", "gravity", "tip_payload", "backbone_friction"}
+    )
 
     def __init__(
         self,
@@ -167,6 +174,7 @@ class MuJoCoBackend(ObstacleScene, TendonDrives, StabilityLimits, StaticSolve, B
         damping_ratio: float = 0.7,
         friction_coefficient: float = 0.0,
         friction_slip_length: float = 1e-4,
+        backbone_friction: float = 0.0,
         integrator: str = "Euler",
         threads: int | None = None,
         solid_obstacles: bool = False,
@@ -238,6 +246,9 @@ class MuJoCoBackend(ObstacleScene, TendonDrives, StabilityLimits, StaticSolve, B
         self._drive_state: DriveState | None = None
         self._build(segment_tendons=self.friction_coefficient > 0.0)
         self._check_timestep(self.model, "")
+        self._init_backbone_friction(
+            validation.positive(backbone_friction, "backbone_friction", allow_zero=True)
+        )
         # refuse, by name, a payload the robot cannot hold at the extreme shapes (goals and
         # random starts are drawn from them), as bullet does, instead of failing every reset
         check_tip_payload(
@@ -438,6 +449,7 @@ class MuJoCoBackend(ObstacleScene, TendonDrives, StabilityLimits, StaticSolve, B
             data.time = 0.0
             self._tensions[i] = t[i]
             self.slip[i] = 0.0
+            self._backbone_slip[i] = 0.0
             self.time[i] = 0.0
             self._sense(i)
 
@@ -459,7 +471,7 @@ class MuJoCoBackend(ObstacleScene, TendonDrives, StabilityLimits, StaticSolve, B
             self._step_with_friction(t)
             for i in range(self.num_robots):
                 self._check_state(i)
-        elif self.threads is None:
+        elif self.threads is None or self._backbone_rough():
             advance, check, sense, n_sub = (
                 self._advance,
                 self._check_state,
@@ -469,7 +481,7 @@ class MuJoCoBackend(ObstacleScene, TendonDrives, StabilityLimits, StaticSolve, B
             views = self._views
             for i, data in enumerate(self._datas):
                 views[i][6][:n_pull] = t[i]
-                advance(self._models[i], data, n_sub)
+                advance(self._models[i], data, n_sub, i)
                 check(i)
                 sense(i)
         else:
@@ -480,12 +492,16 @@ class MuJoCoBackend(ObstacleScene, TendonDrives, StabilityLimits, StaticSolve, B
                 self._check_state(i)
                 self._sense(i)
 
-    def _advance(self, model: Any, data: Any, n_steps: int) -> None:
+    def _advance(self, model: Any, data: Any, n_steps: int, robot: int | None = None) -> None:
         """``n_steps`` MuJoCo steps of one robot, leaving ``data`` with the position and
         velocity stages (``mj_step1``) of the new state computed: what the readings and the next
         step's ``mj_step2`` use, so that no stage is computed twice. (``mj_step`` computes them
         for the state it starts from; ``mj_step1`` + ``mj_step2`` = ``mj_step``.) RK4 cannot be
-        split: full steps, then ``mj_step1``."""
+        split: full steps, then ``mj_step1``. ``robot``: its index, for its backbone friction
+        (``backbone_friction.py``)."""
+        if robot is not None and self._backbone_torque[robot] > 0.0:
+            self._advance_with_backbone_friction(model, data, n_steps, robot)
+            return
         mj = self._mj
         if self._splittable:
             mj.mj_step2(model, data)
@@ -573,7 +589,7 @@ class MuJoCoBackend(ObstacleScene, TendonDrives, StabilityLimits, StaticSolve, B
                     )
                 else:
                     data.ctrl[n_pull : n_pull + n_seg] = 0.0
-                self._advance(model, data, 1)
+                self._advance(model, data, 1, i)
                 self._sense(i)
 
     def _wraps(self, i: int) -> np.ndarray:
@@ -679,6 +695,8 @@ class MuJoCoBackend(ObstacleScene, TendonDrives, StabilityLimits, StaticSolve, B
                 if "tip_payload" in values:
                     self._set_payload(model, float(values["tip_payload"][j]))
                 self._tune_damping(model)
+        if "backbone_friction" in values:  # after the stiffness: its stability check uses it
+            self.set_backbone_friction(idx, values["backbone_friction"])
 
     def _tune_damping(self, model: Any) -> None:
         """D = β·K with the β that gives ``model``'s own first bending mode (its stiffness,

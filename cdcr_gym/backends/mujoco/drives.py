@@ -250,9 +250,9 @@ class TendonDrives:
             self._step_with_friction(self._tensions.copy(), command)
             for i in range(n):
                 self._check_state(i)
-        elif self.threads is None:
+        elif self.threads is None or self._backbone_rough():
             for i, data in enumerate(self._datas):
-                self._advance(self._models[i], data, self.n_substeps)
+                self._advance(self._models[i], data, self.n_substeps, i)
                 self._check_state(i)
                 self._sense(i)
         else:
