@@ -322,9 +322,10 @@ def resolve_names(
             )
         if n in PHYSICS_ONLY and not accepts(backend_class, PHYSICS_ONLY[n]):
             label = backend_name or "analytic"
+            which = "mujoco" if n == "backbone_friction" else "bullet, mujoco"
             raise ValueError(
                 f"parameter {n!r} cannot be fitted on the {label} backend, which does not model "
-                f"it (no {PHYSICS_ONLY[n]!r} argument); use a physics backend (bullet, mujoco)"
+                f"it (no {PHYSICS_ONLY[n]!r} argument); use a physics backend ({which})"
             )
     return out
 

@@ -6,6 +6,7 @@
 # 2. docs/figures/calibration/ftdcr_v4_ccka_selected/: the parameter set chosen on train.csv alone
 #    by ftdcr_v4_ccka_selection.py (selection.md there), with the compliant base, and its
 #    ablation (rigid_base: the same fit without the base compliance).
+# 3. docs/figures/calibration/ftdcr_v4_ccka_base/: the first set with the compliant base.
 # About 5 min on 2 shared cores.
 set -euo pipefail
 OUT=${1:-docs/figures/calibration/ftdcr_v4_ccka}
@@ -19,6 +20,8 @@ run --fit base_frame,marker,T0_tendons,cable_angles --stiffness-scale 1000 --out
 run --fit "$FIT" --linear-law --out "$OUT/ablation/no_slack"
 run --fit marker,k_tendons,T0_tendons,cable_angles --out "$OUT/ablation/no_base_frame"
 python -m training.studies.calibrate --ablation-table "$OUT"
+# the same set with the compliant base: the MuJoCo fit's warm start (ftdcr_v4_mujoco.sh)
+run --fit "$FIT,base_compliance" --out "${OUT}_base"
 
 # the set chosen by ftdcr_v4_ccka_selection.py on train.csv alone: E, pretensions, tendon angles
 # and the compliant base (k stays nominal)

@@ -3,17 +3,17 @@ error source removed, scored on the held-out rows (val.csv), beside the pybullet
 fitted robot and the constant-curvature model of the same robot.
 
 Usage (after configs/calibration/ftdcr_v4_mujoco.sh):
-    python configs/calibration/ftdcr_v4_mujoco_ablation.py [OUT_DIR] [--table-only] [--jobs N]
-        [--only rigid_tendons,no_slack,...]
+    python configs/calibration/ftdcr_v4_mujoco_ablation.py [FULL_DIR] [--table-only] [--jobs N]
+        [--only rigid_base,no_backbone_friction,...]
 
-Every variant is a `cdcr-gym calibrate` run on train.csv (MuJoCo, rows in order with their
-recorded timing, gaps capped at 1 s) warm-started from the frictionless MuJoCo fit
-(OUT_DIR_frictionless/params.yaml, stage 1 of ftdcr_v4_mujoco.sh) with ONE thing removed, at
-most MAX_EVALS optimiser steps, two runs at a time. Each refits the frame, the marker, E and
-the payload (what the removed source can trade against; the per-section pretension stays at the
-stage-1 values). The refits are frictionless (a friction replay costs ~5x); the row "no
-friction" is stage 1 itself and "full" is stage 2 (friction fitted). Writes OUT_DIR/ablation/<variant>/ (each run's report) and OUT_DIR/ablation.json,
-OUT_DIR/ablation.md (default docs/figures/calibration/ftdcr_v4_mujoco).
+FULL_DIR is the full model's fit (default docs/figures/calibration/ftdcr_v4_mujoco_backbone:
+gravity, tip payload, compliant one-sided tendons, a compliant base, backbone friction). Every
+variant is a `cdcr-gym calibrate` run on train.csv (MuJoCo, rows in order with their recorded
+timing, gaps capped at 1 s) warm-started from the full fit with ONE thing removed, at most
+MAX_EVALS optimiser steps, two runs at a time; each refits what the full fit fitted (the frame,
+the marker, E, the base compliance, the backbone friction) less what the variant removes, the
+payload fixed at the full fit's. Writes FULL_DIR/ablation/<variant>/ (each run's report) and
+FULL_DIR/ablation.json, FULL_DIR/ablation.md.
 """
 
 from __future__ import annotations
@@ -30,37 +30,42 @@ import numpy as np
 from cdcr_gym.calibration import read_csv
 from cdcr_gym.calibration.drive import TendonDrive
 from cdcr_gym.calibration.physics import PhysicsReplay
-from cdcr_gym.calibration.report import error_stats, load_fitted
+from cdcr_gym.calibration.report import backend_kwargs_from_yaml, error_stats, load_fitted
 from cdcr_gym.calibration.simulate import DriveReplay
 from cdcr_gym.model.params_yaml import load_yaml
+from cdcr_gym.model.yaml_io import dump_yaml
 
 DATA = Path("data/real/ftdcr_v4")
+FIG = Path("docs/figures/calibration")
 TIMING = ["--backend-arg", "physics_timestep=0.04", "--backend-arg", "control_timestep=0.04"]
 MAX_EVALS = 2
 #: the stiffest tendons MuJoCo integrates stably at the 0.04 s step (x100 diverges)
 RIGID_SCALE = 10.0
+#: what the full fit fits
+FULL_FIT = ["base_frame", "marker", "E", "base_compliance", "backbone_friction"]
 
-#: variant → (what, extra arguments, fitted names)
-VARIANTS = {
+#: variant → (what, extra arguments, names removed from FULL_FIT, robot fields overridden)
+VARIANTS: dict[str, tuple[str, list[str], list[str], dict[str, float]]] = {
+    "no_backbone_friction": ("no backbone friction", [], ["backbone_friction"], {}),
+    "rigid_base": (
+        "rigid base (no base compliance)",
+        [],
+        ["base_compliance"],
+        {"base_compliance": 0.0},
+    ),
     "rigid_tendons": (
         f"rigid tendons (every k x {RIGID_SCALE:g}, k not fitted)",
         ["--stiffness-scale", f"{RIGID_SCALE:g}"],
-        "base_frame,marker,E,payload",
+        [],
+        {},
     ),
-    "no_slack": (
-        "no slack: the linear law T = T0 + k(d - s), tendons push",
-        ["--linear-law"],
-        "base_frame,marker,E,payload",
-    ),
-    "no_gravity": (
-        "no gravity (and so no payload)",
-        ["--backend-arg", "gravity=false"],
-        "base_frame,marker,E",
-    ),
+    "no_slack": ("no slack: the linear law, tendons push", ["--linear-law"], [], {}),
+    "no_gravity": ("no gravity (and so no payload)", ["--backend-arg", "gravity=false"], [], {}),
     "no_base_frame": (
         "no base-frame fit (robot base = measurement frame)",
         [],
-        "marker,E,payload",
+        ["base_frame"],
+        {},
     ),
 }
 
@@ -68,27 +73,54 @@ VARIANTS = {
 PAPER = {"ccka_vs_physics": 0.77, "ccka_vs_measurements": 0.37, "published_mujoco": 4.1}
 
 
-def refit(out: Path, name: str, start: Path | None = None) -> None:
-    """One ablation refit (module docstring), warm-started from ``start``/params.yaml (default
-    the frictionless fit)."""
-    stage1 = (start or Path(f"{out}_frictionless")) / "params.yaml"
-    _, extra, fit = VARIANTS[name]
+def _fitted(folder: Path) -> dict[str, float]:
+    return {
+        k: float(v) for k, v in load_yaml(folder / "params.yaml")["calibration"]["fitted"].items()
+    }
+
+
+def _backend(folder: Path) -> dict:
+    """The fit's backend arguments (``backend:`` of its params.yaml)."""
+    return backend_kwargs_from_yaml(folder / "params.yaml")
+
+
+def refit(full: Path, name: str) -> None:
+    """One ablation refit (module docstring), warm-started from ``full``."""
+    _, extra, removed, override = VARIANTS[name]
+    folder = full / "ablation" / name
+    folder.mkdir(parents=True, exist_ok=True)
+    robot = full / "params.yaml"
+    if override:  # the full robot with fields changed, as a params YAML of its own
+        doc = load_yaml(robot)
+        doc["robot"].update(override)
+        robot = folder.parent / f"{name}_robot.yaml"
+        robot.write_text(dump_yaml({"robot": doc["robot"]}))
+    values = _fitted(full)
+    fixed = []  # backbone friction: fitted from the full fit's value, or off (the default)
+    if "gravity=false" not in extra:
+        fixed += ["--backend-arg", f"tip_payload={_backend(full).get('tip_payload', 0.0)!r}"]
+    fit = [n for n in FULL_FIT if n not in removed]
+    starts = []
+    if "backbone_friction" in fit:
+        starts = ["--start", f"backbone_friction={values['backbone_friction']!r}"]
     cmd = [
         sys.executable,
         "-m",
         "training.studies.calibrate",
         str(DATA / "train.csv"),
         "--robot",
-        str(stage1),
+        str(robot),
         "--backend",
         "mujoco",
         "--validate",
         str(DATA / "val.csv"),
         "--fit",
-        fit,
+        ",".join(fit),
         "--start-from",
-        str(stage1),
+        str(full / "params.yaml"),
+        *starts,
         *TIMING,
+        *fixed,
         "--max-gap",
         "1.0",
         "--max-evals",
@@ -96,11 +128,10 @@ def refit(out: Path, name: str, start: Path | None = None) -> None:
         "--quiet",
         *extra,
         "--out",
-        str(out / "ablation" / name),
+        str(folder),
     ]
     t0 = time.perf_counter()
-    log = out / "ablation" / f"{name}.log"
-    log.parent.mkdir(parents=True, exist_ok=True)
+    log = full / "ablation" / f"{name}.log"
     with log.open("w") as fh:
         subprocess.run(cmd, check=True, stdout=fh, stderr=subprocess.STDOUT)
     print(f"{name}: {time.perf_counter() - t0:.0f} s", flush=True)
@@ -126,18 +157,19 @@ def record(folder: Path, what: str) -> dict:
     }
 
 
-def replays(out: Path) -> tuple[dict, dict, dict]:
-    """The pybullet replay of the full fit, the CCKA model of the same robot and its distance
-    to the MuJoCo replay without gravity (no refits)."""
-    params_yaml = out / "params.yaml"
-    robot, _ = load_fitted(params_yaml)
-    values = {k: float(v) for k, v in load_yaml(params_yaml)["calibration"]["fitted"].items()}
-    stage1 = load_yaml(Path(f"{out}_frictionless") / "params.yaml")["calibration"]["fitted"]
-    payload = float(stage1.get("tip_payload", 0.0))
+def replays(full: Path) -> tuple[dict, dict, dict]:
+    """The pybullet replay of the full fit (no backbone friction: a MuJoCo term), the CCKA model
+    of the same robot and its distance to the MuJoCo replay without gravity and friction (no
+    refits)."""
+    params_yaml = full / "params.yaml"
+    robot, backend = load_fitted(params_yaml)
+    values = _fitted(full)
+    payload = float(backend.get("tip_payload", 0.0))
     drive = TendonDrive.of(robot)
     if drive is None:
         raise ValueError(f"{params_yaml}: no tendon drive (calibration.tendons)")
     val = read_csv(DATA / "val.csv", robot=robot, drive=drive)
+    plain = {k: v for k, v in values.items() if k not in ("backbone_friction", "tip_payload")}
 
     def row(what: str, tip: np.ndarray, seconds: float) -> dict:
         s = error_stats(tip, val.tip)
@@ -154,14 +186,13 @@ def replays(out: Path) -> tuple[dict, dict, dict]:
     t0 = time.perf_counter()
     bullet = PhysicsReplay(val, robot, drive, "bullet", {"gravity": True, "tip_payload": payload})
     b_row = row(
-        "pybullet replay of the MuJoCo-fitted robot (friction off, not refitted)",
-        bullet({k: v for k, v in values.items() if k != "friction_coefficient"}).tip,
+        "pybullet replay of the MuJoCo-fitted robot (no backbone friction, not refitted)",
+        bullet(plain).tip,
         time.perf_counter() - t0,
     )
     t0 = time.perf_counter()
     timing = {"physics_timestep": 0.04, "control_timestep": 0.04}
     nograv = PhysicsReplay(val, robot, drive, "mujoco", {"gravity": False, **timing})
-    plain = {k: v for k, v in values.items() if k not in ("friction_coefficient",)}
     mj = nograv(plain).tip
     ccka = DriveReplay(val, robot, drive)(plain).tip
     c_row = row(
@@ -179,25 +210,24 @@ def replays(out: Path) -> tuple[dict, dict, dict]:
     return b_row, c_row, cc
 
 
-def table(out: Path) -> None:
+def table(full: Path) -> None:
     rows = {
         "full": record(
-            out, "MuJoCo, full: gravity, payload, compliant one-sided tendons, friction"
-        ),
-        "no_friction": record(
-            Path(f"{out}_frictionless"), "no friction (stage 1: the frictionless fit)"
-        ),
+            full,
+            "MuJoCo, full: gravity, payload, compliant one-sided tendons, compliant base, "
+            "backbone friction",
+        )
     }
-    for name, (what, _, _) in VARIANTS.items():
-        folder = out / "ablation" / name
+    for name, (what, _, _, _) in VARIANTS.items():
+        folder = full / "ablation" / name
         if (folder / "params.yaml").is_file():
             rows[name] = record(folder, what)
-    b_row, c_row, cc = replays(out)
+    b_row, c_row, cc = replays(full)
     rows["bullet"] = b_row
     rows["ccka_same_robot"] = c_row
-    ccka_fit = json.loads(
-        Path("docs/figures/calibration/ftdcr_v4_ccka_selected/report.json").read_text()
-    )["validation"]
+    ccka_fit = json.loads((FIG / "ftdcr_v4_ccka_selected" / "report.json").read_text())[
+        "validation"
+    ]
     doc = {
         "rows": rows,
         "ccka_vs_mujoco_no_gravity": cc,
@@ -205,16 +235,15 @@ def table(out: Path) -> None:
         "paper_percent_of_length": PAPER,
         "refit_max_evals": MAX_EVALS,
     }
-    (out / "ablation.json").write_text(json.dumps(doc, indent=1) + "\n")
+    (full / "ablation.json").write_text(json.dumps(doc, indent=1) + "\n")
     lines = [
         "# MuJoCo ablation on the held-out rows (val.csv)",
         "",
         "Each variant is refitted on train.csv with one error source removed (warm-started from "
-        f"a frictionless fit, `--start`: here stage 0, held-out 7.86 mm, at most {MAX_EVALS} "
-        "optimiser steps, frictionless), then replayed on the held-out rows; compare each with "
-        "the frictionless rows. Aligned RMSE: Euclidean tip RMSE after removing the mean offset (mm); "
-        "X / Y / Z its components; mean: plain mean tip error (mm); % of length: the mean over "
-        "the robot's length; fitted: parameters refitted.",
+        f"the full fit, at most {MAX_EVALS} optimiser steps), then replayed on the held-out "
+        "rows. Aligned RMSE: Euclidean tip RMSE after removing the mean offset (mm); X / Y / Z "
+        "its components; mean: plain mean tip error (mm); % of length: the mean over the "
+        "robot's length; train: the training rows' aligned RMSE; fitted: parameters refitted.",
         "",
         "| variant | fitted | aligned RMSE | X / Y / Z | mean | % of length | train | wall time (s) |",
         "|---|---|---|---|---|---|---|---|",
@@ -242,44 +271,31 @@ def table(out: Path) -> None:
         f"CCKA against MuJoCo without gravity: mean tip distance {cc['mean_mm']:.2f} mm, median "
         f"{cc['median_mm']:.2f} mm, 95th percentile {cc['p95_mm']:.2f} mm.",
         "",
-        "Command: `python configs/calibration/ftdcr_v4_mujoco_ablation.py --start "
-        "docs/figures/calibration/ftdcr_v4_mujoco_stage0`; each refit's "
-        "command is in its params.yaml and in ablation.json.",
+        f"Command: `python configs/calibration/ftdcr_v4_mujoco_ablation.py {full}`; each "
+        "refit's command is in its params.yaml and in ablation.json.",
         "",
     ]
-    (out / "ablation.md").write_text("\n".join(lines))
+    (full / "ablation.md").write_text("\n".join(lines))
 
 
 def main(
-    out: Path,
-    table_only: bool = False,
-    jobs: int = 2,
-    only: list[str] | None = None,
-    start: Path | None = None,
+    full: Path, table_only: bool = False, jobs: int = 2, only: list[str] | None = None
 ) -> None:
     if not table_only:
         names = only or list(VARIANTS)
         with ThreadPoolExecutor(jobs) as pool:  # refits at once (2 cores: 2)
-            list(pool.map(lambda n: refit(out, n, start), names))
-    table(out)
+            list(pool.map(lambda n: refit(full, n), names))
+    table(full)
 
 
 if __name__ == "__main__":
     import argparse
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument(
-        "out", nargs="?", type=Path, default=Path("docs/figures/calibration/ftdcr_v4_mujoco")
-    )
+    p.add_argument("full", nargs="?", type=Path, default=FIG / "ftdcr_v4_mujoco_backbone")
     p.add_argument("--table-only", action="store_true", help="collect the table, no refits")
     p.add_argument("--jobs", type=int, default=2, help="refits at once (default 2)")
     p.add_argument("--only", default="", help=f"comma-separated variants of {list(VARIANTS)}")
-    p.add_argument(
-        "--start",
-        type=Path,
-        default=None,
-        help="folder of the fit to warm-start from (default OUT_frictionless)",
-    )
     a = p.parse_args()
     only = [n for n in a.only.split(",") if n]
     for n in only:
@@ -287,4 +303,4 @@ if __name__ == "__main__":
             p.error(f"--only: unknown variant {n!r}; choose from {list(VARIANTS)}")
     if a.jobs < 1:
         p.error(f"--jobs must be >= 1, got {a.jobs}")
-    main(a.out, a.table_only, a.jobs, only or None, a.start)
+    main(a.full, a.table_only, a.jobs, only or None)

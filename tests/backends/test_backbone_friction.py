@@ -81,3 +81,20 @@ def test_an_unstable_stick_band_is_refused():
     model.dof_damping[:] = model.dof_damping * 0.3  # a robot damped too little for the band
     with pytest.raises(ValueError, match="backbone_friction.*unstable"):
         backend.set_backbone_friction([0], [1e-3])
+
+
+def test_backbone_friction_is_a_mujoco_fit_name_only():
+    """The calibration fits it on MuJoCo (a column of its own robot) and refuses it where the
+    backend has no such argument."""
+    from cdcr_gym.calibration import Measurements, calibrate
+    from cdcr_gym.calibration.drive import TendonDrive
+    from cdcr_gym.calibration.parameters import resolve_names
+
+    names = resolve_names("backbone_friction", ROBOT, MuJoCoBackend, "mujoco", displacement=True)
+    assert names == ["backbone_friction"]
+    d = np.zeros((4, 9))
+    d[:, 0] = np.linspace(0.0, 0.004, 4)
+    data = Measurements(None, np.zeros((4, 3)), None, None, displacements=d)
+    for backend in ("ccka", "bullet"):
+        with pytest.raises(ValueError, match="backbone_friction"):
+            calibrate(data, ROBOT, "backbone_friction", backend, drive=TendonDrive.of(ROBOT))
