@@ -314,7 +314,8 @@ def resolve_names(
                     "--backend ccka fit's params.yaml that holds the fitted lengths, radii and "
                     "tendon angles)"
                 )
-            continue
+            if n not in PHYSICS_ONLY or accepts(backend_class, PHYSICS_ONLY[n]):
+                continue
         if backend_class is not None and drive_only(n):
             raise ValueError(
                 f"parameter {n!r} belongs to the CCKA drive model; fit it with --backend ccka "
