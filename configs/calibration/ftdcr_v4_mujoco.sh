@@ -5,12 +5,14 @@
 # Jacobian share the unperturbed robot; E, the payload, the base compliance, the backbone
 # friction and (under gravity) the base tilt are simulated robots of one batched MuJoCo model.
 #
-# The model (from the CCKA fit with the compliant base, ftdcr_v4_ccka_base/):
+# The model (from the CCKA set selected on train.csv, ftdcr_v4_ccka_selected/: E, pretensions,
+# tendon angles, the compliant base):
 #   A. base frame, marker, E, tip payload, base compliance, 4 optimiser steps
-#      -> docs/figures/calibration/ftdcr_v4_mujoco_base/
-#   B. + backbone friction (payload fixed at A's), 4 steps -> ftdcr_v4_mujoco_backbone/
+#      -> docs/figures/calibration/ftdcr_v4_mujoco_base_selected/
+#   B. + backbone friction (payload fixed at A's), 4 steps -> ftdcr_v4_mujoco_backbone_selected/
 # Comparisons:
-#   A from the CCKA set selected on train.csv (ftdcr_v4_ccka_selected/) -> ftdcr_v4_mujoco_base_selected/
+#   A and B from the CCKA fit with per-tendon k and T0 and the compliant base
+#   (ftdcr_v4_ccka_base/) -> ftdcr_v4_mujoco_base/, ftdcr_v4_mujoco_backbone/
 #   rigid base (from ftdcr_v4_ccka/): stage 0 (A without the base compliance) -> ftdcr_v4_mujoco_stage0/,
 #   continued 5 steps -> ftdcr_v4_mujoco_frictionless/, + cable (capstan) friction mu, 2 steps
 #   -> ftdcr_v4_mujoco/, every tendon's pretension refitted, 3 steps -> ftdcr_v4_mujoco_T0/
@@ -24,17 +26,17 @@ run() { python -m training.studies.calibrate "$DATA/train.csv" --backend mujoco 
   --backend-arg control_timestep=0.04 --max-gap 1.0 "$@"; }
 payload() { python -c "import sys, yaml; print(yaml.safe_load(open(sys.argv[1]))['calibration']['fitted']['tip_payload'])" "$1"; }
 
-BASE=$F/ftdcr_v4_ccka_base/params.yaml
-run --robot "$BASE" --fit base_frame,marker,E,payload,base_compliance --start-from "$BASE" \
-  --max-evals 4 --out $F/ftdcr_v4_mujoco_base
-A=$F/ftdcr_v4_mujoco_base/params.yaml
-run --robot "$A" --fit base_frame,marker,E,base_compliance,backbone_friction --start-from "$A" \
-  --start backbone_friction=0.001 --backend-arg tip_payload="$(payload "$A")" --max-evals 4 \
-  --out $F/ftdcr_v4_mujoco_backbone
-
-SELECTED=$F/ftdcr_v4_ccka_selected/params.yaml
-run --robot "$SELECTED" --fit base_frame,marker,E,payload,base_compliance --start-from "$SELECTED" \
-  --max-evals 4 --out $F/ftdcr_v4_mujoco_base_selected
+# A and B: run_ab START_PARAMS OUT_SUFFIX
+run_ab() {
+  run --robot "$1" --fit base_frame,marker,E,payload,base_compliance --start-from "$1" \
+    --max-evals 4 --out "$F/ftdcr_v4_mujoco_base$2"
+  local a="$F/ftdcr_v4_mujoco_base$2/params.yaml"
+  run --robot "$a" --fit base_frame,marker,E,base_compliance,backbone_friction --start-from "$a" \
+    --start backbone_friction=0.001 --backend-arg tip_payload="$(payload "$a")" --max-evals 4 \
+    --out "$F/ftdcr_v4_mujoco_backbone$2"
+}
+run_ab $F/ftdcr_v4_ccka_selected/params.yaml _selected
+run_ab $F/ftdcr_v4_ccka_base/params.yaml ""
 
 CCKA=$F/ftdcr_v4_ccka/params.yaml
 FIT=base_frame,marker,E,payload

@@ -6,7 +6,8 @@ Usage (after configs/calibration/ftdcr_v4_mujoco.sh):
     python configs/calibration/ftdcr_v4_mujoco_ablation.py [FULL_DIR] [--table-only] [--jobs N]
         [--only rigid_base,no_backbone_friction,...]
 
-FULL_DIR is the full model's fit (default docs/figures/calibration/ftdcr_v4_mujoco_backbone:
+FULL_DIR is the full model's fit (default
+docs/figures/calibration/ftdcr_v4_mujoco_backbone_selected:
 gravity, tip payload, compliant one-sided tendons, a compliant base, backbone friction). Every
 variant is a `cdcr-gym calibrate` run on train.csv (MuJoCo, rows in order with their recorded
 timing, gaps capped at 1 s) warm-started from the full fit with ONE thing removed, at most
@@ -292,7 +293,7 @@ if __name__ == "__main__":
     import argparse
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("full", nargs="?", type=Path, default=FIG / "ftdcr_v4_mujoco_backbone")
+    p.add_argument("full", nargs="?", type=Path, default=FIG / "ftdcr_v4_mujoco_backbone_selected")
     p.add_argument("--table-only", action="store_true", help="collect the table, no refits")
     p.add_argument("--jobs", type=int, default=2, help="refits at once (default 2)")
     p.add_argument("--only", default="", help=f"comma-separated variants of {list(VARIANTS)}")

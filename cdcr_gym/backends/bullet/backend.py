@@ -610,6 +610,8 @@ class BulletBackend(Backend):
     def apply_displacements(self, displacements: np.ndarray) -> None:
         """Hold drive displacements ``displacements`` (1, C) m for one control step (the
         module docstring); :meth:`read` then reports the law's tensions at the final shape.
+        With a compliant base (``base_compliance`` c > 0) the drives' commands carry the
+        base's give c·(ΣT − ΣT0) of the coupled law at the shape the step starts from.
 
         Raises:
             ValueError: naming ``displacements`` for a wrong shape or non-finite values, or
@@ -624,13 +626,18 @@ class BulletBackend(Backend):
         if self._straight is None:
             self._straight = self.straight_cable_lengths
         straight = self._straight
-        drive = (
-            np.asarray(p.cable_stiffness, dtype=np.float64),
-            np.asarray(p.cable_pretension, dtype=np.float64),
-            float(p.max_tension),
-            straight,
-        )
-        q, qd = self._integrator.advance_displacements(d, drive, self.n_substeps, self._tick)
+        k = np.asarray(p.cable_stiffness, dtype=np.float64)
+        t0 = np.asarray(p.cable_pretension, dtype=np.float64)
+        drive = (k, t0, float(p.max_tension), straight)
+        command = d
+        if p.base_compliance > 0.0:
+            # the compliant base couples the tendons (every drive loses c·Σ(T − T0)): the
+            # coupled law solved at the current lengths, the integrator's drives get the
+            # command less the base's give (exact at rest; as the MuJoCo drives)
+            now = self.chain.cable_loads(self._integrator.state()[0], np.zeros(c))[1]
+            t_now = drive_tensions(p, d, straight - now)[0]
+            command = d - p.base_compliance * float(t_now.sum() - t0.sum())
+        q, qd = self._integrator.advance_displacements(command, drive, self.n_substeps, self._tick)
         lengths = self.chain.cable_loads(q, np.zeros(c))[1]
         tensions, slack, saturated = drive_tensions(p, d, straight - lengths)
         self._tensions = tensions
