@@ -41,6 +41,10 @@ FITS = {
     "MuJoCo, rigid base, friction fitted": FIG / "ftdcr_v4_mujoco",
     "MuJoCo, compliant base (ftdcr_v4_mujoco_base)": FIG / "ftdcr_v4_mujoco_base",
     "MuJoCo, compliant base, from the selected set": FIG / "ftdcr_v4_mujoco_base_selected",
+    "MuJoCo, compliant base, backbone friction (ftdcr_v4_mujoco_backbone)": FIG
+    / "ftdcr_v4_mujoco_backbone",
+    "MuJoCo, compliant base, backbone friction, from the selected set": FIG
+    / "ftdcr_v4_mujoco_backbone_selected",
 }
 BINS_MM = (0.0, 20.0, 40.0, 60.0, np.inf)
 
