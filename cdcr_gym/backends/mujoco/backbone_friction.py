@@ -15,8 +15,9 @@ over each physics step by the displacement-regularised (Dahl-type) law of the ca
 of Δq over a slip angle q_s. A joint that reverses keeps its moment until it has turned ≈ q_s
 back (stick), then slides with |τ_f| = M_f. q_s = M_f / k_j (k_j the joint's bending
 stiffness): the stick band is as stiff as the joint itself. In the quasi-static limit a joint
-comes to rest anywhere within ≈ M_f/k_j of its frictionless equilibrium — for a robot of
-uniform stiffness EI, a section's curvature within ≈ M_f/EI of it.
+held by its own spring alone comes to rest within ≈ M_f/k_j of its frictionless equilibrium (a
+section's curvature within ≈ M_f/EI of it); taut tendons, which stiffen the robot, narrow that
+band.
 
 The moment is applied explicitly (``qfrc_applied``, renewed before every physics step), so the
 stick band adds the stiffness k_j to the explicit joint spring: the step is stable while
