@@ -48,11 +48,11 @@ from cdcr_gym.backends.mujoco import friction as mj_friction
 from cdcr_gym.backends.mujoco.backbone_friction import BackboneFriction
 from cdcr_gym.backends.mujoco.damping import tune_damping
 from cdcr_gym.backends.mujoco.drives import RELEASED, TendonDrives
+from cdcr_gym.backends.mujoco.friction import CapstanFriction
 from cdcr_gym.backends.mujoco.limits import StabilityLimits
 from cdcr_gym.backends.mujoco.mjcf import JOINTS, MJCFModel, build_mjcf
 from cdcr_gym.backends.mujoco.obstacles import ObstacleScene
 from cdcr_gym.backends.mujoco.statics import StaticSolve
-from cdcr_gym.model import friction
 from cdcr_gym.model.discrete import (
     ROUTINGS,
     DiscreteBackbone,
@@ -85,7 +85,13 @@ def _mujoco() -> Any:
 
 
 class MuJoCoBackend(
-    ObstacleScene, TendonDrives, BackboneFriction, StabilityLimits, StaticSolve, Backend
+    ObstacleScene,
+    TendonDrives,
+    CapstanFriction,
+    BackboneFriction,
+    StabilityLimits,
+    StaticSolve,
+    Backend,
 ):
     """``num_robots`` CDCRs simulated by MuJoCo (see the module docstring and ``mjcf``).
 
@@ -553,64 +559,6 @@ class MuJoCoBackend(
         for i, data in enumerate(self._datas):
             mj.mj_setState(self._models[i], data, final[i], spec)
             mj.mj_step1(self._models[i], data)
-
-    # -- friction -------------------------------------------------------------------------------
-    def _step_with_friction(self, t: np.ndarray, displacements: np.ndarray | None = None) -> None:
-        """Physics step by physics step: the slip state at the end of the step (backward Euler
-        in s, ``backends/mujoco/friction.py``), the capstan segment tensions at the current wrap
-        angles and that slip state, then one MuJoCo step. With ``displacements`` (N, C) m the
-        drives pull (the motors hold 0) and the actuator tensions ``t`` are the drives' law at
-        the current tendon lengths, renewed before every physics step."""
-        if not self._has_segments:
-            raise RuntimeError("internal: friction without segment tendons")
-        n_pull = self._n_pull
-        n_seg = len(self._segment_order)
-        for _ in range(self.n_substeps):
-            for i, (model, data) in enumerate(zip(self._models, self._datas)):
-                if displacements is None:
-                    data.ctrl[:n_pull] = t[i]
-                else:
-                    t[i] = self._drive_law(displacements[i], self._lengths[i], i)[0]
-                if self._mu[i] > 0.0:
-                    self.slip[i] = mj_friction.implicit_slip_step(
-                        self._mj,
-                        model,
-                        data,
-                        tensions=t[i],
-                        slip=self.slip[i],
-                        mu=float(self._mu[i]),
-                        slip_length=self.friction_slip_length,
-                        wraps=self._wraps(i),
-                        cable_ids=self._cable_ids,
-                        segment_ids=self._segment_ids,
-                        segment_order=self._segment_order,
-                        cable_index=self._jac_index[0],
-                        segment_index=self._jac_index[1],
-                    )
-                else:
-                    data.ctrl[n_pull : n_pull + n_seg] = 0.0
-                self._advance(model, data, 1, i)
-                self._sense(i)
-
-    def _wraps(self, i: int) -> np.ndarray:
-        """Wrap angles (C, n_disks) rad of robot i's cables at its current pinholes."""
-        pins = self._datas[i].site_xpos[self._pin_ids]  # (n_disks + 1, C, 3)
-        return friction.wrap_angles(pins.transpose(1, 0, 2))  # entry +z of R0
-
-    def _segment_tensions(self, i: int, t: np.ndarray) -> np.ndarray:
-        """Capstan tensions (n_disks, C) N of robot i's cable segments (row k: disk k → k+1)
-        at its current pinholes and slip state."""
-        return friction.tension_profile(t, self._wraps(i), self._mu[i], self.slip[i]).T
-
-    @property
-    def anchor_tensions(self) -> np.ndarray:
-        """Tension (N, C) N in each cable's last segment (= the actuator's without friction)."""
-        out = self._tensions.copy()
-        for i in range(self.num_robots):
-            if self._mu[i] > 0.0:
-                seg = self._segment_tensions(i, self._tensions[i])
-                out[i] = seg[self._last_span, np.arange(self.params.n_cables)]
-        return out
 
     # -- reading --------------------------------------------------------------------------------
     def _sense(self, i: int) -> None:
