@@ -131,7 +131,8 @@ class AnalyticBackend(Backend):
         """Command tendon displacements ``displacements`` (N, C) m (positive = pulled in at the
         drive; 0 = the straight robot at its pretension) and move to the quasi-static shape.
 
-        Each tendon pulls with T = clip(T0 + k·(d − s), 0, params.max_tension) (SPEC §8), s its
+        Each tendon pulls with T = clip(T0 + k·(d − s), 0, T_max) (SPEC §8; T_max
+        :attr:`drive_max_tension`), s its
         geometric shortening, solved exactly with the pure-moment statics
         (:func:`cdcr_gym.model.tendons.solve_displacement_statics`, warm-started from the
         current tensions; per-robot randomised E and r are honoured).
@@ -161,7 +162,7 @@ class AnalyticBackend(Backend):
             d,
             p.cable_stiffness if stiffness is None else stiffness,
             p.cable_pretension if pretension is None else pretension,
-            p.max_tension,
+            self.drive_max_tension,
             initial_tensions=self._readings.tensions,
             bending_scale=self.bending_scale,
             length_scale=self.length_scale,

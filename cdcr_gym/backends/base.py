@@ -102,10 +102,14 @@ class DriveState(NamedTuple):
 
 
 def drive_tensions(
-    params: RobotParams, displacements: np.ndarray, shortening: np.ndarray
+    params: RobotParams,
+    displacements: np.ndarray,
+    shortening: np.ndarray,
+    max_tension: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The drives' law T = clip(T0 + k·(d − s − c·Σ(T − T0)), 0, max_tension) of robot
-    ``params`` (c its ``base_compliance``):
+    ``params`` (c its ``base_compliance``; the cap ``max_tension`` N, default
+    ``params.max_tension``, ``inf``: none):
     (tensions (..., C) N, slack (..., C) bool, saturated (..., C) bool) for displacements
     ``displacements`` (..., C) m and geometric shortenings ``shortening`` (..., C) m
     (:func:`cdcr_gym.model.tendons.tendon_tensions`)."""
@@ -114,7 +118,7 @@ def drive_tensions(
         shortening,
         params.cable_stiffness,
         params.cable_pretension,
-        params.max_tension,
+        params.max_tension if max_tension is None else max_tension,
         params.base_compliance,
     )
 
@@ -198,6 +202,47 @@ class Backend(abc.ABC):
         """The drives after the last :meth:`apply_displacements` (None after any other
         command)."""
         return None
+
+    #: The drives' tension cap set by :meth:`set_drive_max_tension` (None: params.max_tension).
+    _drive_cap: float | None = None
+
+    @property
+    def drive_max_tension(self) -> float:
+        """The displacement drives' tension cap T_max, N (``inf``: none):
+        ``params.max_tension`` unless :meth:`set_drive_max_tension` set another."""
+        return float(self.params.max_tension) if self._drive_cap is None else self._drive_cap
+
+    def set_drive_max_tension(self, max_tension: float) -> None:
+        """Cap the displacement drives' tensions at ``max_tension`` N (> 0; ``inf``: no cap)
+        instead of ``params.max_tension``.
+
+        ``params.max_tension`` is the range of the tension commands (and of an env's tension
+        actions); a real drive's cap is its own: a servo winding a tendon stops at its torque
+        limit, not at the range an agent's actions were given. A calibration replaying
+        measured drive commands uses the cap of its tendon drive
+        (``cdcr_gym.calibration.drive.TendonDrive.max_tension``, none by default), as its
+        constant-curvature solve does. Tension commands keep their range [0,
+        ``params.max_tension``].
+
+        Raises:
+            ValueError: naming ``max_tension`` for a NaN, a non-number or a value <= 0.
+            NotImplementedError: on a backend without displacement control.
+        """
+        if not self.supports_displacement_control:
+            raise NotImplementedError(
+                f"{type(self).__name__} does not support displacement control"
+            )
+        try:
+            cap = float(max_tension)
+        except (TypeError, ValueError):
+            raise ValueError(f"max_tension must be a number > 0 N, got {max_tension!r}") from None
+        if not cap > 0.0:  # also NaN
+            raise ValueError(f"max_tension must be > 0 N (inf: no cap), got {max_tension!r}")
+        self._drive_cap = cap
+        self._drive_cap_changed()
+
+    def _drive_cap_changed(self) -> None:
+        """Apply a new :attr:`drive_max_tension` (a backend whose drives keep it elsewhere)."""
 
     @property
     def straight_cable_lengths(self) -> np.ndarray:

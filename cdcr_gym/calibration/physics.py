@@ -24,6 +24,11 @@ Parameters (names of :mod:`cdcr_gym.calibration.parameters`):
   t_base``, R = Rz(yaw)·Ry(tilt_y)·Rx(tilt_x), p and t the simulated tip and tangent in the
   robot's base frame — and the marker offset.
 
+The drives pull with the law of the tendon drive ``drive``, capped at its ``max_tension``
+(none by default, as the constant-curvature replay), not at the robot's ``max_tension``: that
+is the range of tension commands and actions, not a limit of the measured drives
+(``Backend.set_drive_max_tension``).
+
 The robot's geometry (section lengths, tendon radii and angles) is the one of ``base``; a
 calibration starts from a CCKA fit's ``params.yaml`` that holds the fitted geometry.
 
@@ -328,6 +333,7 @@ class PhysicsReplay:
                 np.stack([t for _, t in drives]),
                 np.array([self.base_compliance_of(v) for v in robots]),
             )
+            backend.set_drive_max_tension(self.drive.max_tension)
             if not self.slack:
                 for i in range(n):  # the drives may push up to max_tension: the linear law
                     model = backend._own_model(i)
@@ -361,6 +367,7 @@ class PhysicsReplay:
         backend = self.cls(params=params, **kw)
         if hasattr(backend, "gate_damping"):
             backend.gate_damping = self.gate_damping
+        backend.set_drive_max_tension(self.drive.max_tension)
         try:
             t1 = time.perf_counter()
             tips, dirs, moved = self._drive_loop(backend, 1)

@@ -628,18 +628,18 @@ class BulletBackend(Backend):
         straight = self._straight
         k = np.asarray(p.cable_stiffness, dtype=np.float64)
         t0 = np.asarray(p.cable_pretension, dtype=np.float64)
-        drive = (k, t0, float(p.max_tension), straight)
+        drive = (k, t0, self.drive_max_tension, straight)
         command = d
         if p.base_compliance > 0.0:
             # the compliant base couples the tendons (every drive loses c·Σ(T − T0)): the
             # coupled law solved at the current lengths, the integrator's drives get the
             # command less the base's give (exact at rest; as the MuJoCo drives)
             now = self.chain.cable_loads(self._integrator.state()[0], np.zeros(c))[1]
-            t_now = drive_tensions(p, d, straight - now)[0]
+            t_now = drive_tensions(p, d, straight - now, drive[2])[0]
             command = d - p.base_compliance * float(t_now.sum() - t0.sum())
         q, qd = self._integrator.advance_displacements(command, drive, self.n_substeps, self._tick)
         lengths = self.chain.cable_loads(q, np.zeros(c))[1]
-        tensions, slack, saturated = drive_tensions(p, d, straight - lengths)
+        tensions, slack, saturated = drive_tensions(p, d, straight - lengths, drive[2])
         self._tensions = tensions
         self._drive_state = DriveState(d[None].copy(), slack[None], saturated[None])
         if not self._integrator.finite_and_bounded(q, qd):

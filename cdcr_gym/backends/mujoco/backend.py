@@ -358,7 +358,7 @@ class MuJoCoBackend(
         self._drive_constants = (
             np.asarray(p.cable_stiffness, dtype=np.float64),
             np.asarray(p.cable_pretension, dtype=np.float64),
-            float(p.max_tension),
+            self.drive_max_tension,
         )
         #: c (N,) m/N, each robot's compliant base (``RobotParams.base_compliance``).
         self._base_compliance = np.full(self.num_robots, float(p.base_compliance))
@@ -367,6 +367,7 @@ class MuJoCoBackend(
             model.actuator_biasprm[self._drive_slice, 0] = k * self._straight - np.asarray(
                 p.cable_pretension
             )
+            model.actuator_forcerange[self._drive_slice, 0] = -self.drive_max_tension
         chain = self.mjcf.chain
         self.routed = chain.routed  # (n_disks, C)
         self._last_span = self.routed.sum(axis=0) - 1

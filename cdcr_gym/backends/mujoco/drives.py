@@ -174,6 +174,16 @@ class TendonDrives:
             k_all[i], t_all[i] = k[j], t0[j]
         self._drive_constants = (k_all, t_all, t_max)
 
+    def _drive_cap_changed(self: Any) -> None:
+        """The drives' law and every robot's actuator force range [−T_max, 0] take the new
+        :attr:`drive_max_tension` T_max (``Backend.set_drive_max_tension``)."""
+        cap = self.drive_max_tension
+        k, t0, _ = self._drive_constants
+        self._drive_constants = (k, t0, cap)
+        if self._drives:
+            for model in {id(m): m for m in (self.model, *self._models)}.values():
+                model.actuator_forcerange[self._drive_slice, 0] = -cap
+
     def _release_drives(self: Any) -> None:
         """Tension commands: the drives' force clamped to exactly 0, their damping off."""
         if self._driving:

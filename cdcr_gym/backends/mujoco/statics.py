@@ -113,14 +113,16 @@ class StaticSolve:
         for _ in range(50 if comp > 0.0 else 1):
             command = displacements - give
             data.ctrl[self._drive_slice] = command
-            law = (command, k, t0, self._straight, float(p.max_tension))
+            law = (command, k, t0, self._straight, self.drive_max_tension)
             precondition = drive_preconditioner(stiffness, self._jac_index[0], self._cable_ids, law)
             if anderson_solve(self._mj, model, data, precondition, tol=tol) <= 0:
                 return False
             if comp == 0.0:
                 return True
             shortening = self._straight - data.ten_length[self._cable_ids]
-            t, _, _ = tendon_tensions(displacements, shortening, k, t0, p.max_tension, comp)
+            t, _, _ = tendon_tensions(
+                displacements, shortening, k, t0, self.drive_max_tension, comp
+            )
             residual = comp * float(t.sum() - t0.sum()) - give
             if abs(residual) < 1e-12:
                 return True
@@ -210,7 +212,7 @@ class StaticSolve:
             direction[j] = data.site_xmat[self._tip_id, 2::3]
             lengths[j] = data.ten_length[self._cable_ids]
         tensions, _, _ = tendon_tensions(
-            d, self._straight - lengths, k, t0, p.max_tension, p.base_compliance
+            d, self._straight - lengths, k, t0, self.drive_max_tension, p.base_compliance
         )
         out = Readings(tip, direction, lengths, tensions)
         if failed:
