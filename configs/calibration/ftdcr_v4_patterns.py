@@ -5,9 +5,9 @@ deflection from the straight pose.
 Usage (after ftdcr_v4_ccka.sh and ftdcr_v4_mujoco.sh):
     python configs/calibration/ftdcr_v4_patterns.py [OUT_FILE_STEM]
 
-Replays val.csv with the CCKA fit (docs/figures/calibration/ftdcr_v4_ccka/params.yaml) and the
-MuJoCo fits (ftdcr_v4_mujoco_frictionless/, ftdcr_v4_mujoco/: the rows in order with their
-recorded timing, as the fit). Aligned errors: the whole set's mean offset removed (as the
+Replays val.csv with the CCKA fits (docs/figures/calibration/ftdcr_v4_ccka*/params.yaml) and the
+MuJoCo fits (ftdcr_v4_mujoco_base_selected/, ftdcr_v4_mujoco_backbone_selected/: the rows in
+order with their recorded timing, as the fit). Aligned errors: the whole set's mean offset removed (as the
 headline number), then split by family or by deflection (the distance of the measured tip from
 the model's straight-pose tip, mm). Writes OUT_FILE_STEM.json and .md (default
 docs/figures/calibration/ftdcr_v4_patterns).
@@ -37,13 +37,8 @@ FITS = {
     "CCKA, rigid base (ftdcr_v4_ccka)": FIG / "ftdcr_v4_ccka",
     "CCKA, compliant base (ftdcr_v4_ccka_base)": FIG / "ftdcr_v4_ccka_base",
     "CCKA, selected set (compliant base)": FIG / "ftdcr_v4_ccka_selected",
-    "MuJoCo, rigid base, frictionless": FIG / "ftdcr_v4_mujoco_frictionless",
-    "MuJoCo, rigid base, friction fitted": FIG / "ftdcr_v4_mujoco",
-    "MuJoCo, compliant base (ftdcr_v4_mujoco_base)": FIG / "ftdcr_v4_mujoco_base",
-    "MuJoCo, compliant base, from the selected set": FIG / "ftdcr_v4_mujoco_base_selected",
-    "MuJoCo, compliant base, backbone friction (ftdcr_v4_mujoco_backbone)": FIG
-    / "ftdcr_v4_mujoco_backbone",
-    "MuJoCo, compliant base, backbone friction, from the selected set": FIG
+    "MuJoCo A: compliant base (ftdcr_v4_mujoco_base_selected)": FIG / "ftdcr_v4_mujoco_base_selected",
+    "MuJoCo B: compliant base, backbone friction (ftdcr_v4_mujoco_backbone_selected)": FIG
     / "ftdcr_v4_mujoco_backbone_selected",
 }
 BINS_MM = (0.0, 20.0, 40.0, 60.0, np.inf)

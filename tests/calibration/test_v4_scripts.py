@@ -62,3 +62,30 @@ def test_stiffness_sweep_starts_at_the_committed_fit():
     np.testing.assert_allclose(
         rows[0]["val_rmse_aligned_mm"], rep["validation"]["rmse_aligned_mm"], rtol=1e-6
     )
+
+
+def test_committed_mujoco_fit_replays_to_its_reported_held_out_error():
+    """The main MuJoCo fit's params.yaml, replayed on val.csv as the fit replayed it (rows in
+    order, recorded timing, the tendon drive's cap), gives the held-out error of its
+    report.json within 0.05 mm (MuJoCo builds differ in the last digits between machines)."""
+    import json
+
+    import pytest
+
+    pytest.importorskip("mujoco")
+    from cdcr_gym.calibration.physics import PhysicsReplay
+    from cdcr_gym.calibration.report import error_stats, load_fitted
+    from cdcr_gym.model.params_yaml import load_yaml
+
+    folder = ROOT / "docs/figures/calibration/ftdcr_v4_mujoco_backbone_selected"
+    robot, backend = load_fitted(folder / "params.yaml")
+    drive = TendonDrive.of(robot)
+    assert drive is not None and drive.max_tension == np.inf
+    val = read_csv(ROOT / "data/real/ftdcr_v4/val.csv", robot=robot, drive=drive)
+    fitted = load_yaml(folder / "params.yaml")["calibration"]["fitted"]
+    values = {k: float(v) for k, v in fitted.items()}
+    kwargs = {k: v for k, v in backend.items() if k != "base_orientation"}
+    tip = PhysicsReplay(val, robot, drive, "mujoco", kwargs)(values).tip
+    rep = json.loads((folder / "report.json").read_text())
+    got = error_stats(tip, val.tip)["rmse_aligned_mm"]
+    assert got == pytest.approx(rep["validation"]["rmse_aligned_mm"], abs=0.05)
