@@ -8,9 +8,8 @@ Usage (after ftdcr_v4_ccka.sh and ftdcr_v4_mujoco.sh):
 Replays val.csv with the CCKA fits (docs/figures/calibration/ftdcr_v4_ccka*/params.yaml) and the
 MuJoCo fits (ftdcr_v4_mujoco_base_selected/, ftdcr_v4_mujoco_backbone_selected/: the rows in
 order with their recorded timing, as the fit). Aligned errors: the whole set's mean offset
-removed (as the
-headline number), then split by family or by deflection (the distance of the measured tip from
-the model's straight-pose tip, mm). Writes OUT_FILE_STEM.json and .md (default
+removed (as the headline number), then split by family or by deflection (the distance of the
+measured tip from the model's straight-pose tip, mm). Writes OUT_FILE_STEM.json and .md (default
 docs/figures/calibration/ftdcr_v4_patterns).
 """
 
