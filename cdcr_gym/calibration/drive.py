@@ -266,6 +266,9 @@ class TendonDrive:
         max_tension: tension cap of the drive law, N (``inf``: none).
         base_compliance: c, the robot base's give under the total tendon load, m/N (every
             drive loses c·Σ(T − T0); 0: a rigid base).
+        backlash: w, the play between each drive's command and its tendon, m (the replays
+            pass the rows' commands through :func:`cdcr_gym.calibration.backlash.play`;
+            0: none).
     """
 
     stiffness: tuple[float, ...]
@@ -273,6 +276,7 @@ class TendonDrive:
     displacement_range: tuple[float, float] = (-np.inf, np.inf)
     max_tension: float = np.inf
     base_compliance: float = 0.0
+    backlash: float = 0.0
 
     def __post_init__(self) -> None:
         k = np.asarray(self.stiffness, dtype=np.float64)
@@ -294,6 +298,10 @@ class TendonDrive:
         if not (np.isfinite(c) and c >= 0.0):
             raise ValueError(f"base_compliance must be finite and >= 0 m/N, got {c!r}")
         object.__setattr__(self, "base_compliance", c)
+        w = float(self.backlash)
+        if not (np.isfinite(w) and w >= 0.0):
+            raise ValueError(f"backlash must be finite and >= 0 m, got {w!r}")
+        object.__setattr__(self, "backlash", w)
         object.__setattr__(self, "stiffness", tuple(float(v) for v in k))
         object.__setattr__(self, "pretension", tuple(float(v) for v in t0))
         object.__setattr__(self, "displacement_range", (lo, hi))
@@ -327,24 +335,28 @@ class TendonDrive:
             out["max_tension"] = float(self.max_tension)
         if self.base_compliance > 0.0:
             out["base_compliance"] = self.base_compliance
+        if self.backlash > 0.0:
+            out["backlash"] = self.backlash
         return out
 
     @classmethod
     def from_dict(cls, data: dict, n: int, where: str) -> TendonDrive:
         """From a mapping with ``stiffness``, ``pretension`` (a number or C numbers each) and
-        optional ``displacement_range``, ``max_tension``, ``base_compliance`` (ValueError
-        naming ``where``)."""
+        optional ``displacement_range``, ``max_tension``, ``base_compliance``, ``backlash``
+        (ValueError naming ``where``)."""
         allowed = {
             "stiffness",
             "pretension",
             "displacement_range",
             "max_tension",
             "base_compliance",
+            "backlash",
         }
         if not isinstance(data, dict) or set(data) - allowed or "stiffness" not in data:
             raise ValueError(
                 f"{where}: a mapping with stiffness (N/m), pretension (N) and optional "
-                f"displacement_range (m), max_tension (N), got {data!r}"
+                f"displacement_range (m), max_tension (N), base_compliance (m/N), backlash (m), "
+                f"got {data!r}"
             )
         try:
             k = np.broadcast_to(np.asarray(data["stiffness"], dtype=np.float64), (n,))
@@ -360,4 +372,5 @@ class TendonDrive:
             rng,  # type: ignore[arg-type]
             float(data.get("max_tension", np.inf)),
             float(data.get("base_compliance", 0.0)),
+            float(data.get("backlash", 0.0)),
         )

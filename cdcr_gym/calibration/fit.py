@@ -263,6 +263,8 @@ def calibrate(
             start_values[n] = base.sections[int(n[14:]) - 1].cable_radius
         elif n == "base_compliance":
             start_values[n] = drive.base_compliance if drive is not None else 0.0
+        elif n == "drive_backlash":
+            start_values[n] = drive.backlash if drive is not None else 0.0
         elif n.startswith(("tendon_stiffness", "tendon_pretension")):
             if drive is None:
                 raise ValueError(
@@ -514,6 +516,7 @@ def _fitted_drive(
         drive.displacement_range,
         drive.max_tension,
         float(comp),
+        float(values.get("drive_backlash", drive.backlash)),
     )
 
 

@@ -46,6 +46,10 @@ tendon_pretension (``T0``), …_s<j>     N     (T0 − T0₀)/1 N         likewi
 base_compliance                        m/N   c/(1e-5 m/N)           the base's give under the
                                                                     total tendon load (≥ 0,
                                                                     ``RobotParams.base_compliance``)
+drive_backlash                         m     w/(0.1 mm)             the play between each
+                                                                    drive's command and its
+                                                                    tendon (≥ 0, rows in order:
+                                                                    ``calibration.backlash``)
 ====================================== ===== ====================== =============================
 
 ``base_frame`` = the translation, the tilt and the yaw. Gravity and payload are not modelled by
@@ -166,6 +170,7 @@ DRIVE_COMMON = [
     "tendon_stiffness",
     "tendon_pretension",
     "base_compliance",
+    "drive_backlash",
 ]
 
 
@@ -354,7 +359,13 @@ def expand_names(names: str | list[str], params: RobotParams) -> list[str]:
 
 
 #: Names whose values must be >= 0 (a --start value is checked).
-NON_NEGATIVE = ("friction_coefficient", "tip_payload", "base_compliance", "backbone_friction")
+NON_NEGATIVE = (
+    "friction_coefficient",
+    "tip_payload",
+    "base_compliance",
+    "backbone_friction",
+    "drive_backlash",
+)
 #: Names whose values must be > 0 (a --start value is checked).
 POSITIVE = ("youngs_modulus", "cable_radius", "length_s", "tendon_stiffness")
 
@@ -428,6 +439,8 @@ def parameter_specs(
             specs.append(ParameterSpec(n, "N", 1.0, 0.0, 0.0, np.inf))
         elif n == "base_compliance":
             specs.append(ParameterSpec(n, "m/N", 1e-5, 0.0, 0.0, np.inf))
+        elif n == "drive_backlash":
+            specs.append(ParameterSpec(n, "m", 1e-4, 0.0, 0.0, np.inf))
         else:  # pragma: no cover - resolve_names guards
             raise ValueError(f"unknown parameter {n!r}")
     return specs

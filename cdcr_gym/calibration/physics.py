@@ -16,7 +16,8 @@ Parameters (names of :mod:`cdcr_gym.calibration.parameters`):
 * simulated per robot: ``youngs_modulus``, ``friction_coefficient``, ``tip_payload``,
   ``backbone_friction`` (MuJoCo), the
   tendon drive's ``tendon_stiffness*`` / ``tendon_pretension*`` (the drive law of
-  ``cdcr_gym.model.tendons`` with these k and T0) and ``base_compliance``, and, with gravity,
+  ``cdcr_gym.model.tendons`` with these k and T0), ``base_compliance`` and ``drive_backlash``
+  (each robot's commands through its drives' backlash), and, with gravity,
   the base tilt
   (``base_tilt_x``, ``base_tilt_y``): gravity acts along the measurement frame's −Z, i.e. along
   Rᵀ·(0, 0, −g) in the robot's base frame;
@@ -47,6 +48,7 @@ from typing import Any
 
 import numpy as np
 
+from cdcr_gym.calibration.backlash import play
 from cdcr_gym.calibration.data import Measurements
 from cdcr_gym.calibration.drive import TendonDrive, rotation_zyx
 from cdcr_gym.calibration.parameters import accepts
@@ -70,7 +72,7 @@ def physics_name(name: str) -> bool:
         name in FRAME_NAMES
         or name in ROBOT_NAMES
         or name.startswith("tendon_")
-        or name == "base_compliance"
+        or name in ("base_compliance", "drive_backlash")
     )
 
 
@@ -222,6 +224,14 @@ class PhysicsReplay:
         """The compliant base c (m/N) of ``values`` (the drive's where not fitted)."""
         return float(values.get("base_compliance", self.drive.base_compliance))
 
+    def commands_of(self, values: dict[str, float]) -> np.ndarray:
+        """The displacements (M, C) m that reach the tendons of ``values``' robot: the rows'
+        commands through its drives' backlash (``drive_backlash``, the drive's where not
+        fitted; :func:`cdcr_gym.calibration.backlash.play`)."""
+        d = self.data.displacements
+        assert d is not None
+        return play(d, float(values.get("drive_backlash", self.drive.backlash)))
+
     def _key(self, values: dict[str, float]) -> tuple:
         """What the simulation of ``values`` depends on (frame names excluded, except the
         tilt under gravity)."""
@@ -241,6 +251,7 @@ class PhysicsReplay:
             tuple(k.tolist()),
             tuple(t0.tolist()),
             self.base_compliance_of(values),
+            float(values.get("drive_backlash", self.drive.backlash)),
             extra,
         )
 
@@ -266,22 +277,26 @@ class PhysicsReplay:
             moved = max(moved, m)
         return np.stack(tips), np.stack(dirs), moved
 
-    def _drive_loop(self, backend: Any, n: int) -> tuple[np.ndarray, np.ndarray, float]:
-        d = self.data.displacements
-        m_rows = d.shape[0]
+    def _drive_loop(
+        self, backend: Any, commands: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, float]:
+        """Replay the rows (module docstring) with robot i's commands ``commands[i]`` (n, M, C)
+        m; its tips and tangents (n, M, 3) and the largest last-step tip motion (m)."""
+        d = commands
+        n, m_rows = d.shape[0], d.shape[1]
         tips = np.empty((n, m_rows, 3))
         dirs = np.empty((n, m_rows, 3))
         moved = 0.0
-        previous = d[0]
+        previous = d[:, 0]
         for m in range(m_rows):
-            target = d[m]
+            target = d[:, m]
             steps = int(self.steps[m])
             before = None
             for k in range(1, steps + 1):
                 if k == steps:
                     before = backend.read().tip.copy()
                 cmd = target if m == 0 else previous + (target - previous) * (k / steps)
-                backend.apply_displacements(np.broadcast_to(cmd, (n, cmd.size)))
+                backend.apply_displacements(np.ascontiguousarray(cmd))
             r = backend.read()
             tips[:, m] = r.tip
             dirs[:, m] = r.tip_direction
@@ -339,7 +354,8 @@ class PhysicsReplay:
                     model = backend._own_model(i)
                     model.actuator_forcerange[backend._drive_slice, 1] = params.max_tension
             t1 = time.perf_counter()
-            tips, dirs, moved = self._drive_loop(backend, n)
+            commands = np.stack([self.commands_of(v) for v in robots])
+            tips, dirs, moved = self._drive_loop(backend, commands)
         finally:
             backend.close()
         t2 = time.perf_counter()
@@ -370,7 +386,7 @@ class PhysicsReplay:
         backend.set_drive_max_tension(self.drive.max_tension)
         try:
             t1 = time.perf_counter()
-            tips, dirs, moved = self._drive_loop(backend, 1)
+            tips, dirs, moved = self._drive_loop(backend, self.commands_of(v)[None])
         finally:
             backend.close()
         self.timing.add(1, int(self.steps.sum()), t1 - t0, time.perf_counter() - t1)

@@ -55,6 +55,7 @@ _DISPLAY = {
     "friction_coefficient": ("", 1.0),
     "tip_payload": ("g", 1e3),
     "base_compliance": ("mm/kN", 1e6),
+    "drive_backlash": ("mm", 1e3),
     "backbone_friction": ("mN·m", 1e3),
 }
 

@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from cdcr_gym.calibration.backlash import play
 from cdcr_gym.calibration.data import Measurements
 from cdcr_gym.calibration.drive import (
     DriveGeometry,
@@ -306,12 +307,41 @@ class DriveReplay:
             self.base, self.drive, batch, slack=self.slack, stiffness_scale=self.stiffness_scale
         )
         if self.data.displacements is not None:
-            curvature = solve_drive(geom, self.data.displacements).curvature
+            curvature = self._drive_curvature(geom, batch)
         else:
             g, _ = geom.coupling()
             u = np.einsum("bcn,mc->bmn", g, self.data.tensions) / geom.ei[:, None, None]
             curvature = u.reshape(len(batch), len(self.data), -1, 2)
         return forward_tips(geom, curvature)
+
+    def _drive_curvature(self, geom: Any, batch: list[dict[str, float]]) -> np.ndarray:
+        """Section curvatures (B, M, S, 2) of the B robots under the rows' commands, each
+        robot's through its drives' backlash (``drive_backlash``, ``TendonDrive.backlash``;
+        :func:`cdcr_gym.calibration.backlash.play`): the robots that share a backlash are
+        solved together."""
+        d = self.data.displacements
+        assert d is not None and self.drive is not None
+        widths = [float(v.get("drive_backlash", self.drive.backlash)) for v in batch]
+        if not any(w > 0.0 for w in widths):
+            return solve_drive(geom, d).curvature
+        groups: dict[float, list[int]] = {}
+        for b, w in enumerate(widths):
+            groups.setdefault(w, []).append(b)
+        out: np.ndarray | None = None
+        for w, idx in groups.items():
+            sub = drive_geometry(
+                self.base,
+                self.drive,
+                [batch[i] for i in idx],
+                slack=self.slack,
+                stiffness_scale=self.stiffness_scale,
+            )
+            u = solve_drive(sub, play(d, w)).curvature
+            if out is None:
+                out = np.empty((len(batch), *u.shape[1:]))
+            out[idx] = u
+        assert out is not None
+        return out
 
     def __call__(self, values: dict[str, float]) -> Prediction:
         tip, direction = self.batch([values])
