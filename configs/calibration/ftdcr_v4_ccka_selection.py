@@ -59,6 +59,16 @@ CANDIDATES = {
     ),
     "E+T0_tendons+cable_angles+base_compliance": "E,T0_tendons,cable_angles,base_compliance",
     "E+k_tendons+cable_angles+base_compliance": "E,k_tendons,cable_angles,base_compliance",
+    # with the drives' backlash (the play between a drive's command and its tendon)
+    "k_tendons+T0_tendons+cable_angles+base_compliance+drive_backlash": (
+        "k_tendons,T0_tendons,cable_angles,base_compliance,drive_backlash"
+    ),
+    "k_sections+T0_tendons+cable_angles+base_compliance+drive_backlash": (
+        "k_sections,T0_tendons,cable_angles,base_compliance,drive_backlash"
+    ),
+    "E+T0_tendons+cable_angles+base_compliance+drive_backlash": (
+        "E,T0_tendons,cable_angles,base_compliance,drive_backlash"
+    ),
 }
 
 

@@ -7,14 +7,14 @@ Usage (after configs/calibration/ftdcr_v4_mujoco.sh):
         [--only rigid_base,no_backbone_friction,...]
 
 FULL_DIR is the full model's fit (default
-docs/figures/calibration/ftdcr_v4_mujoco_backbone_selected:
-gravity, tip payload, compliant one-sided tendons, a compliant base, backbone friction). Every
-variant is a `cdcr-gym calibrate` run on train.csv (MuJoCo, rows in order with their recorded
-timing, gaps capped at 1 s) warm-started from the full fit with ONE thing removed, at most
-MAX_EVALS optimiser steps, two runs at a time; each refits what the full fit fitted (the frame,
-the marker, E, the base compliance, the backbone friction) less what the variant removes, the
-payload fixed at the full fit's. Writes FULL_DIR/ablation/<variant>/ (each run's report) and
-FULL_DIR/ablation.json, FULL_DIR/ablation.md.
+docs/figures/calibration/ftdcr_v4_mujoco_backbone_selected: gravity, tip payload, compliant
+one-sided tendons, a compliant base, backbone friction, drive backlash). Every variant is a
+`cdcr-gym calibrate` run on train.csv (MuJoCo, rows in order with their recorded timing, gaps
+capped at 1 s) warm-started from the full fit with ONE thing removed, at most MAX_EVALS
+optimiser steps, two runs at a time; each refits what the full fit fitted (the frame, the
+marker, E, the base compliance, the backbone friction, the drive backlash) less what the
+variant removes, the payload fixed at the full fit's. Writes FULL_DIR/ablation/<variant>/
+(each run's report) and FULL_DIR/ablation.json, FULL_DIR/ablation.md.
 """
 
 from __future__ import annotations
@@ -43,10 +43,11 @@ MAX_EVALS = 2
 #: the stiffest tendons MuJoCo integrates stably at the 0.04 s step (x100 diverges)
 RIGID_SCALE = 10.0
 #: what the full fit fits
-FULL_FIT = ["base_frame", "marker", "E", "base_compliance", "backbone_friction"]
+FULL_FIT = ["base_frame", "marker", "E", "base_compliance", "backbone_friction", "drive_backlash"]
 
 #: variant → (what, extra arguments, names removed from FULL_FIT, robot fields overridden)
 VARIANTS: dict[str, tuple[str, list[str], list[str], dict[str, float]]] = {
+    "no_backlash": ("no drive backlash", [], ["drive_backlash"], {}),
     "no_backbone_friction": ("no backbone friction", [], ["backbone_friction"], {}),
     "rigid_base": (
         "rigid base (no base compliance)",
@@ -216,7 +217,7 @@ def table(full: Path) -> None:
         "full": record(
             full,
             "MuJoCo, full: gravity, payload, compliant one-sided tendons, compliant base, "
-            "backbone friction",
+            "backbone friction, drive backlash",
         )
     }
     for name, (what, _, _, _) in VARIANTS.items():

@@ -56,7 +56,12 @@ def predict(folder: Path) -> tuple[np.ndarray, np.ndarray, Measurements]:
     val = read_csv(DATA / "val.csv", robot=robot, drive=drive)
     values = {k: float(v) for k, v in cal["fitted"].items()}
     zero = Measurements(None, np.zeros((1, 3)), None, None, displacements=np.zeros((1, 9)))
-    frame = {k: v for k, v in values.items() if k.startswith(("base_", "marker"))}
+    # the frame (and the drives' backlash: kept beside the robot, in calibration.tendons)
+    frame = {
+        k: v
+        for k, v in values.items()
+        if k.startswith(("base_", "marker")) or k == "drive_backlash"
+    }
     straight = DriveReplay(zero, robot, drive)(frame).tip[0]
     if cal["backend"] == "ccka":  # the fitted robot carries the rest (angles, k, T0, E)
         return DriveReplay(val, robot, drive)(frame).tip, straight, val

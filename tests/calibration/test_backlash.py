@@ -120,3 +120,19 @@ def test_mujoco_replay_gives_each_robot_its_own_played_commands():
     plain = PhysicsReplay(data, V4, drive, "mujoco", kw, default_gap=0.4)({}).tip
     np.testing.assert_allclose(tips[1], plain, atol=1e-9)
     assert np.abs(tips[0] - tips[1]).max() > 1e-4
+
+
+def test_the_cli_keeps_the_fitted_backlash_of_a_params_yaml(tmp_path):
+    """A fit started from a fitted params.yaml (``--robot``) replays with the backlash kept in
+    its calibration.tendons (RobotParams has no backlash: the environments do not model it)."""
+    from cdcr_gym.model.params import params_to_dict
+    from cdcr_gym.model.yaml_io import dump_yaml
+    from training.studies.calibrate import _drive
+
+    drive = dataclasses.replace(TendonDrive.of(V4), backlash=1.1e-4)
+    path = tmp_path / "params.yaml"
+    doc = {"robot": params_to_dict(V4), "calibration": {"tendons": drive.to_dict()}}
+    path.write_text(dump_yaml(doc))
+    robot = RobotParams.from_yaml(path)
+    assert _drive(str(path), robot).backlash == pytest.approx(1.1e-4)
+    assert _drive("ftdcr_v4", V4).backlash == 0.0

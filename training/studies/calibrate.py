@@ -263,6 +263,25 @@ def _start_from(path: Path, robot, fit: str) -> dict[str, float]:
     return {k: float(v) for k, v in fitted.items() if k in wanted}
 
 
+def _drive(text: str, robot):
+    """The robot's tendon drive (``TendonDrive.of``) with what a fitted params YAML keeps
+    beside the robot in ``calibration.tendons``: the drives' backlash and tension cap."""
+    from dataclasses import replace
+
+    from cdcr_gym.calibration.drive import TendonDrive
+    from cdcr_gym.model.params_yaml import load_yaml
+
+    drive = TendonDrive.of(robot)
+    if drive is None or Path(text).suffix not in (".yaml", ".yml"):
+        return drive
+    data = load_yaml(Path(text))
+    tendons = ((data.get("calibration") or {}).get("tendons")) if isinstance(data, dict) else None
+    if not isinstance(tendons, dict):
+        return drive
+    kept = TendonDrive.from_dict(tendons, robot.n_cables, f"{text}: calibration.tendons")
+    return replace(drive, backlash=kept.backlash, max_tension=kept.max_tension)
+
+
 def _robot(text: str):
     from cdcr_gym.model.params import PRESETS, RobotParams
 
@@ -308,11 +327,10 @@ def main(argv: list[str] | None = None) -> int:
     if args.data is None:
         parser.error("DATA.csv is required (or --synthetic-study)")
     from cdcr_gym.calibration import calibrate, read_csv, write_outputs
-    from cdcr_gym.calibration.drive import TendonDrive
 
     try:
         robot = _robot(args.robot)
-        drive = TendonDrive.of(robot)
+        drive = _drive(args.robot, robot)
         data = read_csv(args.data, args.format, robot, drive)
         validate = read_csv(args.validate, args.format, robot, drive) if args.validate else None
         kwargs = _backend_args(args.backend_arg, args.backend)
