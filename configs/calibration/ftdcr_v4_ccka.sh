@@ -4,8 +4,9 @@
 #    the robot of the calibrated twin, configs/twin_ftdcr_v4_reach.yaml) and ablation/<name>/
 #    beside it, then ablation.md;
 # 2. docs/figures/calibration/ftdcr_v4_ccka_selected/: the parameter set chosen on train.csv alone
-#    by ftdcr_v4_ccka_selection.py (selection.md there), with the compliant base, and its
-#    ablation (rigid_base: the same fit without the base compliance).
+#    by ftdcr_v4_ccka_selection.py (selection.md there), with the compliant base and the drive
+#    backlash, and its ablation (rigid_base: without the base compliance; no_backlash: without
+#    the drive backlash).
 # 3. docs/figures/calibration/ftdcr_v4_ccka_base/: the first set with the compliant base.
 # About 5 min on 2 shared cores.
 set -euo pipefail
@@ -25,10 +26,13 @@ run --fit "$FIT,base_compliance" --out "${OUT}_base"
 
 # the set chosen by ftdcr_v4_ccka_selection.py on train.csv alone: E, pretensions, tendon angles
 # and the compliant base (k stays nominal)
-SEL=base_frame,marker,E,T0_tendons,cable_angles,base_compliance
+SEL=base_frame,marker,E,T0_tendons,cable_angles,base_compliance,drive_backlash
 run --fit "$SEL" --out "$SELECTED"
-run --fit base_frame,marker,E,T0_tendons,cable_angles --stiffness-scale 1000 --out "$SELECTED/ablation/rigid_tendons"
+run --fit base_frame,marker,E,T0_tendons,cable_angles,drive_backlash --stiffness-scale 1000 \
+  --out "$SELECTED/ablation/rigid_tendons"
 run --fit "$SEL" --linear-law --out "$SELECTED/ablation/no_slack"
-run --fit marker,E,T0_tendons,cable_angles,base_compliance --out "$SELECTED/ablation/no_base_frame"
-run --fit base_frame,marker,E,T0_tendons,cable_angles --out "$SELECTED/ablation/rigid_base"
+run --fit marker,E,T0_tendons,cable_angles,base_compliance,drive_backlash \
+  --out "$SELECTED/ablation/no_base_frame"
+run --fit base_frame,marker,E,T0_tendons,cable_angles,drive_backlash --out "$SELECTED/ablation/rigid_base"
+run --fit base_frame,marker,E,T0_tendons,cable_angles,base_compliance --out "$SELECTED/ablation/no_backlash"
 python -m training.studies.calibrate --ablation-table "$SELECTED"

@@ -2,12 +2,13 @@
 # The MuJoCo calibration of the FTDCR v4 robot on its real displacement measurements: the rows
 # replayed in order with their recorded timing (gaps capped at 1 s), gravity on, the geometry and
 # tendon drive of the CCKA set selected on train.csv (configs/calibration/ftdcr_v4_ccka.sh,
-# ftdcr_v4_ccka_selected/: E, pretensions, tendon angles, the compliant base). The drives pull
+# ftdcr_v4_ccka_selected/: E, pretensions, tendon angles, the compliant base, the drives'
+# backlash). The drives pull
 # with the fitted tendon drive's law, uncapped (as the CCKA fit). The frame columns of the
 # Jacobian share the unperturbed robot; E, the payload, the base compliance, the backbone
 # friction and (under gravity) the base tilt are simulated robots of one batched MuJoCo model.
 #
-#   A. base frame, marker, E, tip payload, base compliance, 4 optimiser steps
+#   A. base frame, marker, E, tip payload, base compliance, drive backlash, 4 optimiser steps
 #      -> docs/figures/calibration/ftdcr_v4_mujoco_base_selected/
 #   B. + backbone friction (payload fixed at A's), 4 steps -> ftdcr_v4_mujoco_backbone_selected/
 #
@@ -26,9 +27,10 @@ run() { python -m training.studies.calibrate "$DATA/train.csv" --backend mujoco 
 payload() { python -c "import sys, yaml; print(yaml.safe_load(open(sys.argv[1]))['calibration']['fitted']['tip_payload'])" "$1"; }
 
 S=$F/ftdcr_v4_ccka_selected/params.yaml
-run --robot "$S" --fit base_frame,marker,E,payload,base_compliance --start-from "$S" \
+run --robot "$S" --fit base_frame,marker,E,payload,base_compliance,drive_backlash --start-from "$S" \
   --max-evals 4 --out "$F/ftdcr_v4_mujoco_base_selected"
 A="$F/ftdcr_v4_mujoco_base_selected/params.yaml"
-run --robot "$A" --fit base_frame,marker,E,base_compliance,backbone_friction --start-from "$A" \
+run --robot "$A" --fit base_frame,marker,E,base_compliance,drive_backlash,backbone_friction \
+  --start-from "$A" \
   --start backbone_friction=0.001 --backend-arg tip_payload="$(payload "$A")" --max-evals 4 \
   --out "$F/ftdcr_v4_mujoco_backbone_selected"

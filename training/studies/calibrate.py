@@ -402,6 +402,7 @@ ABLATIONS = {
     "no_slack": "no slack: the linear law T = T0 + k(d - s)",
     "no_base_frame": "no base-frame fit (robot base = measurement frame)",
     "rigid_base": "rigid base (no base compliance)",
+    "no_backlash": "no drive backlash",
 }
 
 
