@@ -214,6 +214,11 @@ def calibrate(
     )
     names, pin_notes = pin_ill_posed(names, base)
     notes += pin_notes
+    if data.displacements is None and "drive_backlash" in names:
+        raise ValueError(
+            "parameter 'drive_backlash' needs displacement data (the drives' commands in row "
+            "order); these data give tensions"
+        )
     if drive is None:
         drive = TendonDrive.of(base)
     if physics_drive and drive is None:

@@ -136,3 +136,11 @@ def test_the_cli_keeps_the_fitted_backlash_of_a_params_yaml(tmp_path):
     robot = RobotParams.from_yaml(path)
     assert _drive(str(path), robot).backlash == pytest.approx(1.1e-4)
     assert _drive("ftdcr_v4", V4).backlash == 0.0
+
+
+def test_backlash_on_tension_data_is_refused():
+    p = RobotParams.preset("tdcr2")
+    t = np.random.default_rng(3).uniform(0.0, 3.0, (20, p.n_cables))
+    data = Measurements(t, np.zeros((20, 3)), None, None)
+    with pytest.raises(ValueError, match="drive_backlash"):
+        calibrate(data, p, "drive_backlash,base_x", "ccka")
