@@ -92,7 +92,9 @@ def refit(full: Path, name: str) -> None:
     folder = full / "ablation" / name
     folder.mkdir(parents=True, exist_ok=True)
     robot = full / "params.yaml"
-    if override:  # the full robot with fields changed, as a params YAML of its own
+    # the full robot with fields changed, as a params YAML of its own (only its robot: without
+    # the fitted drive's backlash, kept in calibration.tendons, unless the variant fits it)
+    if override or "drive_backlash" in removed:
         doc = load_yaml(robot)
         doc["robot"].update(override)
         robot = folder.parent / f"{name}_robot.yaml"

@@ -36,10 +36,10 @@ FIG = Path("docs/figures/calibration")
 FITS = {
     "CCKA, rigid base (ftdcr_v4_ccka)": FIG / "ftdcr_v4_ccka",
     "CCKA, compliant base (ftdcr_v4_ccka_base)": FIG / "ftdcr_v4_ccka_base",
-    "CCKA, selected set (compliant base)": FIG / "ftdcr_v4_ccka_selected",
-    "MuJoCo A: compliant base (ftdcr_v4_mujoco_base_selected)": FIG
+    "CCKA, selected set (compliant base, drive backlash)": FIG / "ftdcr_v4_ccka_selected",
+    "MuJoCo A: compliant base, drive backlash (ftdcr_v4_mujoco_base_selected)": FIG
     / "ftdcr_v4_mujoco_base_selected",
-    "MuJoCo B: compliant base, backbone friction (ftdcr_v4_mujoco_backbone_selected)": FIG
+    "MuJoCo B: A + backbone friction (ftdcr_v4_mujoco_backbone_selected)": FIG
     / "ftdcr_v4_mujoco_backbone_selected",
 }
 BINS_MM = (0.0, 20.0, 40.0, 60.0, np.inf)
