@@ -35,6 +35,7 @@ from ftdcr_v4_ccka_selection import family  # noqa: E402
 
 from cdcr_gym.calibration import calibrate, read_csv  # noqa: E402
 from cdcr_gym.calibration.drive import TendonDrive  # noqa: E402
+from cdcr_gym.calibration.parameters import expand_names  # noqa: E402
 from cdcr_gym.calibration.report import error_stats  # noqa: E402
 from cdcr_gym.model.params import RobotParams  # noqa: E402
 from cdcr_gym.model.params_yaml import load_yaml  # noqa: E402
@@ -76,8 +77,8 @@ def _candidate(item: tuple[str, tuple[str, bool]]) -> dict:
     pair = np.array([family(lab).startswith("pair") for lab in train.labels])
     single, pairs = train.subset(np.flatnonzero(~pair)), train.subset(np.flatnonzero(pair))
     fitted = load_yaml(START)["calibration"]["fitted"]
-    start = {k: float(v) for k, v in fitted.items() if k.startswith(("base_", "marker"))}
-    start["youngs_modulus"] = robot.youngs_modulus
+    wanted = set(expand_names(fit, robot))
+    start = {k: float(v) for k, v in fitted.items() if k in wanted}
     if "backbone_friction" in fit:
         start["backbone_friction"] = FRICTION_START
     t0 = time.perf_counter()
