@@ -33,6 +33,7 @@ from cdcr_gym.calibration.report import (
     plot_residuals,
     report_json,
     report_markdown,
+    twin_kwargs_from_yaml,
     write_outputs,
     write_params_yaml,
 )
@@ -52,4 +53,5 @@ __all__ = [
     "plot_residuals",
     "load_fitted",
     "backend_kwargs_from_yaml",
+    "twin_kwargs_from_yaml",
 ]

@@ -1,9 +1,7 @@
-"""Backlash of the tendon drives: the play between a drive's command and the tendon it moves.
-
-A servo winding a tendon through gears and a spool does not move the tendon until its command
-has turned through the play: after a reversal the tendon stays where it was until the command
-has moved the full width w past it. With the commands d_m (m) of the rows in order, the
-displacement that reaches the tendon is the *play operator* of width w (per tendon, SI):
+"""Backlash of the tendon drives over a measured command sequence: the play between a drive's
+command and the tendon it moves (:mod:`cdcr_gym.model.backlash`). With the commands d_m (m) of
+the rows in order, the displacement that reaches the tendon is the *play operator* of width w
+(per tendon, SI):
 
     y_{-1} = 0 (the drives at their zero, the robot at rest: where every replay starts),
     y_m = clip(y_{m−1}, d_m − w/2, d_m + w/2),
@@ -18,6 +16,8 @@ no backlash (y = d). Used by the calibration's replays (``drive_backlash``,
 from __future__ import annotations
 
 import numpy as np
+
+from cdcr_gym.model.backlash import play_step
 
 __all__ = ["play"]
 
@@ -44,11 +44,8 @@ def play(displacements: np.ndarray, width: float | np.ndarray) -> np.ndarray:
         raise ValueError(f"width must be finite and >= 0 m, got {np.asarray(width).tolist()!r}")
     if not np.any(w > 0.0):
         return d.copy()
-    half = 0.5 * w
-    lo, hi = d - half, d + half
     out = np.empty_like(d)
     y = np.zeros(d.shape[1])
     for m in range(d.shape[0]):
-        y = np.minimum(np.maximum(y, lo[m]), hi[m])
-        out[m] = y
+        y = out[m] = play_step(y, d[m], w)
     return out

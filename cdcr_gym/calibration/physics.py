@@ -427,7 +427,8 @@ class PhysicsReplay:
 
     def backend_kwargs(self, values: dict[str, float]) -> dict[str, Any]:
         """The backend's keyword arguments for ``values``: the fixed ones plus the fitted
-        friction, payload and (with gravity) the base tilt as ``base_orientation``."""
+        friction, payload, (with gravity) the base tilt as ``base_orientation`` and, on
+        MuJoCo, ``gate_damping`` as replayed."""
         from cdcr_gym.calibration.parameters import tilt_quaternion
 
         kw = dict(self.fixed)
@@ -436,6 +437,8 @@ class PhysicsReplay:
                 kw[key] = float(values[key])
         if "base_tilt_x" in values or "base_tilt_y" in values:
             kw["base_orientation"] = tilt_quaternion(values)
+        if self.batched and self.gate_damping:
+            kw["gate_damping"] = True  # as replayed: an env of this robot gates them too
         return kw
 
     def __call__(self, values: dict[str, float]) -> Any:

@@ -11,7 +11,9 @@ plain Euclidean error.
 ``gymnasium.make(id, params="params.yaml")``), the fitted backend arguments under ``backend:``
 (friction, payload, gravity, base orientation: pass them to a physics env,
 ``gym.make("cdcr_gym/BulletReach-v0", params=path, **backend_kwargs_from_yaml(path))``), and a
-``calibration:`` record (data, backend, values and 95 % intervals, residual medians).
+``calibration:`` record (data, backend, values and 95 % intervals, residual medians; for
+displacement data the tendon drive under ``calibration.tendons``, with the drives' tension cap
+and backlash, which :func:`twin_kwargs_from_yaml` hands to an env driven by displacements).
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ __all__ = [
     "write_params_yaml",
     "load_fitted",
     "backend_kwargs_from_yaml",
+    "twin_kwargs_from_yaml",
     "report_markdown",
     "plot_residuals",
     "write_outputs",
@@ -194,6 +197,35 @@ def backend_kwargs_from_yaml(path: str | Path, data: Any = None) -> dict[str, An
     kw = dict(data.get("backend") or {}) if isinstance(data, dict) else {}
     if "base_orientation" in kw:
         kw["base_orientation"] = tuple(kw["base_orientation"])
+    return kw
+
+
+def twin_kwargs_from_yaml(path: str | Path, action_mode: str = "displacement") -> dict[str, Any]:
+    """Everything but the robot that rebuilds the calibrated model of a ``params.yaml`` as an
+    env: ``gym.make(id, params=path, **twin_kwargs_from_yaml(path))``.
+
+    The backend arguments (:func:`backend_kwargs_from_yaml`), ``action_mode``, and in a
+    displacement action mode the fitted tendon drive's cap and backlash from
+    ``calibration.tendons`` (``drive_max_tension``: its ``max_tension``, ``inf`` — no cap — when
+    it has none, as the calibration's replays; ``drive_backlash``: its ``backlash``, m), so the
+    env's drives act as the fitted ones did. A file without ``calibration.tendons`` (a fit to
+    tensions, a hand-written robot) adds no drive arguments.
+
+    Raises:
+        ValueError: naming the file for a malformed ``calibration.tendons``.
+    """
+    from cdcr_gym.calibration.drive import TendonDrive
+
+    data = load_yaml(Path(path))
+    kw: dict[str, Any] = {**backend_kwargs_from_yaml(path, data), "action_mode": action_mode}
+    cal = data.get("calibration") if isinstance(data, dict) else None
+    tendons = cal.get("tendons") if isinstance(cal, dict) else None
+    if action_mode in ("displacement", "displacement_delta") and isinstance(tendons, dict):
+        params = params_from_dict(data, str(path))
+        drive = TendonDrive.from_dict(tendons, params.n_cables, f"{path}: calibration.tendons")
+        kw["drive_max_tension"] = float(drive.max_tension)
+        if drive.backlash > 0.0:
+            kw["drive_backlash"] = float(drive.backlash)
     return kw
 
 

@@ -24,7 +24,9 @@ displacement whose law gives those tensions at that shape (s the backend's short
 tension every tendon sits exactly at its slack point), clipped to ``displacement_range``.
 ``options["initial_displacements"]`` instead starts from the equilibrium under given
 displacements (``Backend.displacement_equilibrium``, the nominal robot). ``info`` gains
-``displacements`` (N, C) m, ``slack`` and ``saturated`` (N, C) bool; the observation gains the
+``displacements`` (N, C) m, ``slack`` and ``saturated`` (N, C) bool (and, with a
+``drive_backlash``, ``tendon_displacements`` (N, C) m: what reaches the tendons through the
+play; ``drive_max_tension`` caps the drives); the observation gains the
 field ``displacements`` (the commanded d normalised to the range, [−1, 1]). Imperfections in
 these modes: ``action_delay`` delays the action (a reset fills the queue with the action that
 holds the reset displacements); sensor noise and biases act as in every mode; the actuator
@@ -51,6 +53,7 @@ from cdcr_gym import defaults, validation
 from cdcr_gym.backends.base import Backend, Readings
 from cdcr_gym.envs.actuation import Actuation
 from cdcr_gym.envs.safety import SafetyFilter
+from cdcr_gym.model.backlash import play_step
 from cdcr_gym.model.params import RobotParams
 from cdcr_gym.model.tendons import tendon_tensions
 from cdcr_gym.model.workspace import sample_tensions_each
@@ -97,6 +100,16 @@ class EnvCore:
         safety_margin: the clearance (m, >= 0) the filter keeps.
         safety_penalty: reward subtracted per unit of ``safety_correction`` (>= 0; 0: none):
             lets a policy learn to need the filter less.
+        drive_max_tension: the displacement drives' tension cap (N, > 0; ``inf``: none; None:
+            the robot's ``max_tension``, the range of tension actions;
+            ``Backend.set_drive_max_tension``). Displacement action modes only. Above
+            ``max_tension`` the observed tensions saturate at their range (``info`` has the
+            true ones); a reset's ``initial_displacements`` equilibrium keeps ``max_tension``.
+        drive_backlash: the play w (m, >= 0) between each drive's command and its tendon
+            (``cdcr_gym.model.backlash``): every step the tendon takes y = clip(y, d − w/2,
+            d + w/2) of the commanded d; a reset sets y = d. Displacement action modes only.
+            A calibrated robot's cap and backlash: ``twin_kwargs_from_yaml``
+            (``cdcr_gym.calibration``).
     """
 
     def __init__(
@@ -117,6 +130,8 @@ class EnvCore:
         safety_filter: bool = False,
         safety_margin: float = 0.0,
         safety_penalty: float = 0.0,
+        drive_max_tension: float | None = None,
+        drive_backlash: float = 0.0,
     ) -> None:
         if not isinstance(backend, Backend):
             raise ValueError(f"backend must be a cdcr_gym.backends.Backend, got {backend!r}")
@@ -216,6 +231,33 @@ class EnvCore:
         self._held_lengths = self._readings.cable_lengths
         self._init_realism(randomize, imperfections)
         self._init_safety(safety_filter, safety_margin, safety_penalty)
+        self._init_drives(drive_max_tension, drive_backlash)
+
+    def _init_drives(self, max_tension: float | None, backlash: float) -> None:
+        """The displacement drives' cap (on the backend) and backlash (:attr:`drive_backlash` m,
+        and the tendons' displacements y (N, C) m behind it)."""
+        self.drive_backlash = validation.positive(
+            backlash, "drive_backlash", allow_zero=True, unit="m"
+        )
+        if not self.actuation.commands_displacements and (
+            max_tension is not None or self.drive_backlash
+        ):
+            raise ValueError(
+                f"drive_max_tension={max_tension!r} and drive_backlash={backlash!r} need a "
+                f"displacement action mode ('displacement' or 'displacement_delta'), got "
+                f"action_mode={self.actuation.mode!r}"
+            )
+        if max_tension is not None:
+            try:
+                self.backend.set_drive_max_tension(max_tension)
+            except ValueError:
+                raise ValueError(
+                    f"drive_max_tension must be a number > 0 N (inf: no cap), got {max_tension!r}"
+                ) from None
+        #: drives that pull beyond max_tension: the observed tensions saturate at their range
+        self._saturating_sensors = self.backend.drive_max_tension > self.params.max_tension
+        #: the displacements (N, C) m that reach the tendons through the drives' backlash
+        self._tendon_displacements = self._held_displacements.copy()
 
     def _init_safety(self, enabled: bool, margin: float, penalty: float) -> None:
         """The safety filter (None when off) and its per-env correction (N,)."""
@@ -448,10 +490,13 @@ class EnvCore:
         held = self._held_displacements.copy()
         held[idx] = displacements
         self._held_displacements = held
+        tendon = self._tendon_displacements.copy()
+        tendon[idx] = displacements  # the drives' play centred: no offset after a reset
+        self._tendon_displacements = tendon
         tensions = r.tensions[idx]
         slack, saturated = (f.copy() for f in self._drive_flags)
         slack[idx] = tensions <= 0.0
-        saturated[idx] = tensions >= p.max_tension
+        saturated[idx] = tensions >= self.backend.drive_max_tension
         self._drive_flags = (slack, saturated)
 
     def _step_displacements(self, action: np.ndarray) -> None:
@@ -459,6 +504,9 @@ class EnvCore:
         act = self.actuation
         d = act.displacements(action, self._held_displacements)
         self._held_displacements = d
+        if self.drive_backlash:
+            d = play_step(self._tendon_displacements, d, self.drive_backlash)
+        self._tendon_displacements = d
         self.backend.apply_displacements(d)
         self._readings = self.backend.read()
         state = self.backend.drive_state
@@ -472,7 +520,7 @@ class EnvCore:
                 shortening,
                 p.cable_stiffness,
                 p.cable_pretension,
-                p.max_tension,
+                self.backend.drive_max_tension,
                 p.base_compliance,
             )
             self._drive_flags = (slack, saturated)
@@ -545,6 +593,8 @@ class EnvCore:
         rows = buffer[: self._task_rows]
         if imp is None:
             task.observe(r, rows, self.goal_conditioned)
+            if self._saturating_sensors:  # tensions beyond the observed range
+                np.clip(rows, self._obs_bounds[0], self._obs_bounds[1], out=rows)
         else:  # noisy readings; a sensor saturates at the observation space's bounds
             task.observe(imp.sense(r, self._rngs), rows, self.goal_conditioned)
             np.clip(rows, self._obs_bounds[0], self._obs_bounds[1], out=rows)
@@ -574,6 +624,8 @@ class EnvCore:
             info["anchor_tensions"] = r.anchor_tensions
         if self.actuation.commands_displacements:
             info["displacements"] = self._held_displacements.copy()
+            if self.drive_backlash:
+                info["tendon_displacements"] = self._tendon_displacements.copy()
             info["slack"] = self._drive_flags[0].copy()
             info["saturated"] = self._drive_flags[1].copy()
         if self.randomized:

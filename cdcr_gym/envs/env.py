@@ -131,6 +131,8 @@ class CDCREnv(CoreAttributes, gym.Env):
     | ``safety_filter`` | False | Obstacle: correct commands whose CCKA-predicted shape would touch a sphere (``cdcr_gym.envs.safety``); ``info`` gains ``safety_filtered``, ``safety_correction`` |
     | ``safety_margin`` | 0.0 | clearance (m) the filter keeps |
     | ``safety_penalty`` | 0.0 | reward − penalty × ``safety_correction`` (‖T_safe − T_cmd‖ / T_max) |
+    | ``drive_max_tension`` | None | displacement modes: the drives' tension cap (N; ``inf``: none; None: ``max_tension``); observed tensions saturate at their range |
+    | ``drive_backlash`` | 0.0 | displacement modes: the play (m) between each drive's command and its tendon; ``info`` gains ``tendon_displacements`` |
 
     ## Version History
     * v0: initial release (one-section reach); the n-section core keeps its layout and results.

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The MuJoCo calibration of the FTDCR v4 robot on its real displacement measurements: the rows
-# replayed in order with their recorded timing (gaps capped at 1 s), gravity on, the geometry and
+# replayed in order with their recorded timing (gaps capped at 1 s), the geometry and
 # tendon drive of the CCKA set selected on train.csv (configs/calibration/ftdcr_v4_ccka.sh,
 # ftdcr_v4_ccka_selected/: E, pretensions, tendon angles, the compliant base, the drives'
 # backlash). The drives pull
@@ -8,6 +8,10 @@
 # Jacobian share the unperturbed robot; E, the payload, the base compliance, the backbone
 # friction and (under gravity) the base tilt are simulated robots of one batched MuJoCo model.
 #
+#   Main fit, the structure chosen on train.csv alone (configs/calibration/ftdcr_v4_mujoco_selection.py,
+#   ftdcr_v4_mujoco_selection/): no gravity; base frame, marker, E, base compliance, drive
+#   backlash, backbone friction, 4 optimiser steps -> ftdcr_v4_mujoco_selected/
+#   With gravity (not selected; kept for comparison):
 #   A. base frame, marker, E, tip payload, base compliance, drive backlash, 4 optimiser steps
 #      -> docs/figures/calibration/ftdcr_v4_mujoco_base_selected/
 #   B. + backbone friction (payload fixed at A's), 4 steps -> ftdcr_v4_mujoco_backbone_selected/
@@ -27,6 +31,9 @@ run() { python -m training.studies.calibrate "$DATA/train.csv" --backend mujoco 
 payload() { python -c "import sys, yaml; print(yaml.safe_load(open(sys.argv[1]))['calibration']['fitted']['tip_payload'])" "$1"; }
 
 S=$F/ftdcr_v4_ccka_selected/params.yaml
+run --robot "$S" --backend-arg gravity=false \
+  --fit base_frame,marker,E,base_compliance,drive_backlash,backbone_friction --start-from "$S" \
+  --start backbone_friction=0.001 --max-evals 4 --out "$F/ftdcr_v4_mujoco_selected"
 run --robot "$S" --fit base_frame,marker,E,payload,base_compliance,drive_backlash --start-from "$S" \
   --max-evals 4 --out "$F/ftdcr_v4_mujoco_base_selected"
 A="$F/ftdcr_v4_mujoco_base_selected/params.yaml"

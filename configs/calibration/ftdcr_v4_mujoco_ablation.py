@@ -1,20 +1,22 @@
 """What each error source is worth for the MuJoCo model of the FTDCR v4 robot: one REFIT per
-error source removed, scored on the held-out rows (val.csv), beside the pybullet replay of the
-fitted robot and the constant-curvature model of the same robot.
+error source removed (or, for gravity, switched), scored on the held-out rows (val.csv), beside
+the pybullet replay of the fitted robot and the constant-curvature model of the same robot.
 
 Usage (after configs/calibration/ftdcr_v4_mujoco.sh):
     python configs/calibration/ftdcr_v4_mujoco_ablation.py [FULL_DIR] [--table-only] [--jobs N]
         [--only rigid_base,no_backbone_friction,...]
 
-FULL_DIR is the full model's fit (default
-docs/figures/calibration/ftdcr_v4_mujoco_backbone_selected: gravity, tip payload, compliant
-one-sided tendons, a compliant base, backbone friction, drive backlash). Every variant is a
-`cdcr-gym calibrate` run on train.csv (MuJoCo, rows in order with their recorded timing, gaps
-capped at 1 s) warm-started from the full fit with ONE thing removed, at most MAX_EVALS
-optimiser steps, two runs at a time; each refits what the full fit fitted (the frame, the
-marker, E, the base compliance, the backbone friction, the drive backlash) less what the
-variant removes, the payload fixed at the full fit's. Writes FULL_DIR/ablation/<variant>/
-(each run's report) and FULL_DIR/ablation.json, FULL_DIR/ablation.md.
+FULL_DIR is the full model's fit (default docs/figures/calibration/ftdcr_v4_mujoco_selected:
+the structure chosen on train.csv by configs/calibration/ftdcr_v4_mujoco_selection.py —
+compliant one-sided tendons, a compliant base, backbone friction, drive backlash, no gravity).
+Every variant is a `cdcr-gym calibrate` run on train.csv (MuJoCo, rows in order with their
+recorded timing, gaps capped at 1 s) warm-started from the full fit with ONE thing changed, at
+most MAX_EVALS optimiser steps, two runs at a time; each refits what the full fit fitted (the
+frame, the marker, E, the base compliance, the backbone friction, the drive backlash) less what
+the variant removes, with the full fit's gravity setting. The gravity variant is the other
+setting: without gravity when the full fit has it (the payload then goes too), with gravity and
+a fitted tip payload when it has not. Writes FULL_DIR/ablation/<variant>/ (each run's report)
+and FULL_DIR/ablation.json, FULL_DIR/ablation.md.
 """
 
 from __future__ import annotations
@@ -62,12 +64,23 @@ VARIANTS: dict[str, tuple[str, list[str], list[str], dict[str, float]]] = {
         {},
     ),
     "no_slack": ("no slack: the linear law, tendons push", ["--linear-law"], [], {}),
-    "no_gravity": ("no gravity (and so no payload)", ["--backend-arg", "gravity=false"], [], {}),
     "no_base_frame": (
         "no base-frame fit (robot base = measurement frame)",
         [],
         ["base_frame"],
         {},
+    ),
+}
+
+#: the gravity variant: (name, what, extra arguments, names added to FULL_FIT) for a full fit
+#: with gravity (True) and without (False)
+GRAVITY_VARIANT: dict[bool, tuple[str, str, list[str], list[str]]] = {
+    True: ("no_gravity", "no gravity (and so no payload)", ["--backend-arg", "gravity=false"], []),
+    False: (
+        "gravity",
+        "with gravity and a fitted tip payload",
+        ["--backend-arg", "gravity=true"],
+        ["payload"],
     ),
 }
 
@@ -86,9 +99,26 @@ def _backend(folder: Path) -> dict:
     return backend_kwargs_from_yaml(folder / "params.yaml")
 
 
+def _gravity(full: Path) -> bool:
+    """Whether the full fit simulated gravity (the CLI's default: on)."""
+    return bool(_backend(full).get("gravity", True))
+
+
+def variants(
+    full: Path,
+) -> dict[str, tuple[str, list[str], list[str], dict[str, float], list[str]]]:
+    """The variants of ``full``: name → (what, extra arguments, names removed from FULL_FIT,
+    robot fields overridden, names added to FULL_FIT); the gravity variant follows the full
+    fit's setting (module docstring)."""
+    out = {n: (*v, []) for n, v in VARIANTS.items()}
+    name, what, extra, added = GRAVITY_VARIANT[_gravity(full)]
+    out[name] = (what, extra, [], {}, added)
+    return out
+
+
 def refit(full: Path, name: str) -> None:
     """One ablation refit (module docstring), warm-started from ``full``."""
-    _, extra, removed, override = VARIANTS[name]
+    _, extra, removed, override, added = variants(full)[name]
     folder = full / "ablation" / name
     folder.mkdir(parents=True, exist_ok=True)
     robot = full / "params.yaml"
@@ -101,9 +131,11 @@ def refit(full: Path, name: str) -> None:
         robot.write_text(dump_yaml({"robot": doc["robot"]}))
     values = _fitted(full)
     fixed = []  # backbone friction: fitted from the full fit's value, or off (the default)
-    if "gravity=false" not in extra:
+    if _gravity(full) and "gravity=false" not in extra:
         fixed += ["--backend-arg", f"tip_payload={_backend(full).get('tip_payload', 0.0)!r}"]
-    fit = [n for n in FULL_FIT if n not in removed]
+    elif not _gravity(full) and "gravity=true" not in extra:
+        fixed += ["--backend-arg", "gravity=false"]
+    fit = [n for n in FULL_FIT if n not in removed] + added
     starts = []
     if "backbone_friction" in fit:
         starts = ["--start", f"backbone_friction={values['backbone_friction']!r}"]
@@ -188,7 +220,9 @@ def replays(full: Path) -> tuple[dict, dict, dict]:
         }
 
     t0 = time.perf_counter()
-    bullet = PhysicsReplay(val, robot, drive, "bullet", {"gravity": True, "tip_payload": payload})
+    gravity = bool(backend.get("gravity", True))
+    bullet_kw = {"gravity": gravity, "tip_payload": payload} if gravity else {"gravity": False}
+    bullet = PhysicsReplay(val, robot, drive, "bullet", bullet_kw)
     b_row = row(
         "pybullet replay of the MuJoCo-fitted robot (no backbone friction, not refitted)",
         bullet(plain).tip,
@@ -215,14 +249,15 @@ def replays(full: Path) -> tuple[dict, dict, dict]:
 
 
 def table(full: Path) -> None:
+    weight = "gravity, payload" if _gravity(full) else "no gravity"
     rows = {
         "full": record(
             full,
-            "MuJoCo, full: gravity, payload, compliant one-sided tendons, compliant base, "
+            f"MuJoCo, full: {weight}, compliant one-sided tendons, compliant base, "
             "backbone friction, drive backlash",
         )
     }
-    for name, (what, _, _, _) in VARIANTS.items():
+    for name, (what, *_) in variants(full).items():
         folder = full / "ablation" / name
         if (folder / "params.yaml").is_file():
             rows[name] = record(folder, what)
@@ -286,7 +321,7 @@ def main(
     full: Path, table_only: bool = False, jobs: int = 2, only: list[str] | None = None
 ) -> None:
     if not table_only:
-        names = only or list(VARIANTS)
+        names = only or list(variants(full))
         with ThreadPoolExecutor(jobs) as pool:  # refits at once (2 cores: 2)
             list(pool.map(lambda n: refit(full, n), names))
     table(full)
@@ -296,15 +331,16 @@ if __name__ == "__main__":
     import argparse
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("full", nargs="?", type=Path, default=FIG / "ftdcr_v4_mujoco_backbone_selected")
+    p.add_argument("full", nargs="?", type=Path, default=FIG / "ftdcr_v4_mujoco_selected")
     p.add_argument("--table-only", action="store_true", help="collect the table, no refits")
     p.add_argument("--jobs", type=int, default=2, help="refits at once (default 2)")
-    p.add_argument("--only", default="", help=f"comma-separated variants of {list(VARIANTS)}")
+    p.add_argument("--only", default="", help="comma-separated variants (module docstring)")
     a = p.parse_args()
     only = [n for n in a.only.split(",") if n]
+    known = list(variants(a.full))
     for n in only:
-        if n not in VARIANTS:
-            p.error(f"--only: unknown variant {n!r}; choose from {list(VARIANTS)}")
+        if n not in known:
+            p.error(f"--only: unknown variant {n!r}; choose from {known}")
     if a.jobs < 1:
         p.error(f"--jobs must be >= 1, got {a.jobs}")
     main(a.full, a.table_only, a.jobs, only or None)

@@ -6,8 +6,9 @@ Usage (after ftdcr_v4_ccka.sh and ftdcr_v4_mujoco.sh):
     python configs/calibration/ftdcr_v4_patterns.py [OUT_FILE_STEM]
 
 Replays val.csv with the CCKA fits (docs/figures/calibration/ftdcr_v4_ccka*/params.yaml) and the
-MuJoCo fits (ftdcr_v4_mujoco_base_selected/, ftdcr_v4_mujoco_backbone_selected/: the rows in
-order with their recorded timing, as the fit). Aligned errors: the whole set's mean offset
+MuJoCo fits (ftdcr_v4_mujoco_selected/, the main one, and ftdcr_v4_mujoco_base_selected/,
+ftdcr_v4_mujoco_backbone_selected/ with gravity: the rows in order with their recorded timing, as
+the fit). Aligned errors: the whole set's mean offset
 removed (as the headline number), then split by family or by deflection (the distance of the
 measured tip from the model's straight-pose tip, mm). Writes OUT_FILE_STEM.json and .md (default
 docs/figures/calibration/ftdcr_v4_patterns).
@@ -37,8 +38,11 @@ FITS = {
     "CCKA, rigid base (ftdcr_v4_ccka)": FIG / "ftdcr_v4_ccka",
     "CCKA, compliant base (ftdcr_v4_ccka_base)": FIG / "ftdcr_v4_ccka_base",
     "CCKA, selected set (compliant base, drive backlash)": FIG / "ftdcr_v4_ccka_selected",
-    "MuJoCo A: compliant base, drive backlash (ftdcr_v4_mujoco_base_selected)": FIG
-    / "ftdcr_v4_mujoco_base_selected",
+    "MuJoCo, selected: no gravity, compliant base, drive backlash, backbone friction "
+    "(ftdcr_v4_mujoco_selected)": FIG / "ftdcr_v4_mujoco_selected",
+    "MuJoCo A: gravity, payload, compliant base, drive backlash (ftdcr_v4_mujoco_base_selected)": (
+        FIG / "ftdcr_v4_mujoco_base_selected"
+    ),
     "MuJoCo B: A + backbone friction (ftdcr_v4_mujoco_backbone_selected)": FIG
     / "ftdcr_v4_mujoco_backbone_selected",
 }

@@ -7,6 +7,7 @@ import importlib.util
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from cdcr_gym.calibration import read_csv
 from cdcr_gym.calibration.drive import TendonDrive
@@ -64,20 +65,19 @@ def test_stiffness_sweep_starts_at_the_committed_fit():
     )
 
 
-def test_committed_mujoco_fit_replays_to_its_reported_held_out_error():
-    """The main MuJoCo fit's params.yaml, replayed on val.csv as the fit replayed it (rows in
+@pytest.mark.parametrize("fit", ["ftdcr_v4_mujoco_selected", "ftdcr_v4_mujoco_backbone_selected"])
+def test_committed_mujoco_fit_replays_to_its_reported_held_out_error(fit):
+    """A committed MuJoCo fit's params.yaml (the main one, without gravity; B, with it), replayed on val.csv as the fit replayed it (rows in
     order, recorded timing, the tendon drive's cap), gives the held-out error of its
     report.json within 0.05 mm (MuJoCo builds differ in the last digits between machines)."""
     import json
-
-    import pytest
 
     pytest.importorskip("mujoco")
     from cdcr_gym.calibration.physics import PhysicsReplay
     from cdcr_gym.calibration.report import error_stats, load_fitted
     from cdcr_gym.model.params_yaml import load_yaml
 
-    folder = ROOT / "docs/figures/calibration/ftdcr_v4_mujoco_backbone_selected"
+    folder = ROOT / "docs/figures/calibration" / fit
     robot, backend = load_fitted(folder / "params.yaml")
     drive = TendonDrive.of(robot)
     assert drive is not None and drive.max_tension == np.inf
@@ -89,3 +89,28 @@ def test_committed_mujoco_fit_replays_to_its_reported_held_out_error():
     rep = json.loads((folder / "report.json").read_text())
     got = error_stats(tip, val.tip)["rmse_aligned_mm"]
     assert got == pytest.approx(rep["validation"]["rmse_aligned_mm"], abs=0.05)
+
+
+@pytest.mark.parametrize("gravity", [True, False])
+def test_ablation_gravity_variant_follows_the_full_fit(tmp_path, gravity):
+    """The ablation switches the full fit's gravity: a fit with gravity gets a no-gravity
+    variant (and keeps its payload fixed elsewhere), one without gets a gravity variant that
+    also fits the payload; the other variants keep the full fit's setting."""
+    from cdcr_gym.model.yaml_io import dump_yaml
+
+    abl = _module("ftdcr_v4_mujoco_ablation")
+    full = tmp_path / "full"
+    full.mkdir()
+    (full / "params.yaml").write_text(
+        dump_yaml({"backend": {"gravity": gravity, "tip_payload": 0.004 if gravity else 0.0}})
+    )
+    v = abl.variants(full)
+    assert set(abl.VARIANTS) < set(v)
+    if gravity:
+        what, extra, removed, _, added = v["no_gravity"]
+        assert extra == ["--backend-arg", "gravity=false"] and added == [] and "gravity" not in v
+    else:
+        what, extra, removed, _, added = v["gravity"]
+        assert extra == ["--backend-arg", "gravity=true"] and added == ["payload"]
+        assert "no_gravity" not in v
+    assert removed == []

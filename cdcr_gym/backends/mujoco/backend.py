@@ -152,6 +152,9 @@ class MuJoCoBackend(
             tensions) can sink a few centimetres into it within one step, and is then pushed
             out over the next steps (time constant 2h); a robot held against a sphere rests
             within ~1 mm of its surface (``CONTACT_SOLIMP``).
+        gate_damping: (default ``False``) the displacement drives' damping on the (nearly)
+            taut tendons only (``TendonDrives.gate_damping``), as the calibration's replays
+            use it; a fitted ``params.yaml`` of displacement data records it.
 
     Raises:
         ValueError: naming the argument and the value, for any invalid argument.
@@ -184,6 +187,7 @@ class MuJoCoBackend(
         integrator: str = "Euler",
         threads: int | None = None,
         solid_obstacles: bool = False,
+        gate_damping: bool = False,
     ) -> None:
         if not isinstance(params, RobotParams):
             raise ValueError(f"params must be a cdcr_gym.params.RobotParams, got {params!r}")
@@ -224,6 +228,7 @@ class MuJoCoBackend(
             threads = validation.integer(threads, "threads", 1)
         self.threads = threads
         self.solid_obstacles = validation.flag(solid_obstacles, "solid_obstacles")
+        self.gate_damping = validation.flag(gate_damping, "gate_damping")
         if self.solid_obstacles and self.integrator != "Euler":
             # the contacts' inertia is set for Euler's step (_set_contact_inertia); with the
             # implicit integrators a fast robot sinks into a sphere and is thrown out of it
