@@ -97,6 +97,15 @@ def latency() -> None:
         print(f"latency, {f}: " + ", ".join(row))
 
 
-if __name__ == "__main__":
+def main(argv: list[str] | None = None) -> None:
+    import argparse
+
+    argparse.ArgumentParser(
+        prog="python -m experiments.ftdcr_v4_probes", description=__doc__.splitlines()[0]
+    ).parse_args(argv)
     marker_across()
     latency()
+
+
+if __name__ == "__main__":
+    main()
