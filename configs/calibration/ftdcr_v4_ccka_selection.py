@@ -23,6 +23,7 @@ import json
 import re
 import sys
 import time
+from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
@@ -146,19 +147,27 @@ def _candidate(item: tuple[str, str]) -> dict:
     return r
 
 
-def main(out: Path) -> None:
-    with ProcessPoolExecutor(2) as pool:  # two fits at once (the machine's two cores)
-        done = pool.map(_candidate, CANDIDATES.items())
-        rows: dict[str, dict] = dict(zip(CANDIDATES, done))
+def select(candidates: dict, fit_one: Callable[[tuple], dict], rule: str, out: Path):
+    """Fit every candidate (``fit_one((name, spec))`` → its row, two at a time: the machine's two
+    cores), select the one with the lowest ``selection_pairs_rmse_aligned_mm`` and write
+    OUT/selection.json (the rule, the selected name, every row); returns (rows, selected)."""
+    with ProcessPoolExecutor(2) as pool:
+        rows: dict[str, dict] = dict(zip(candidates, pool.map(fit_one, candidates.items())))
     best = min(rows, key=lambda n: rows[n]["selection_pairs_rmse_aligned_mm"])
-    doc = {
-        "rule": "fit on the one-tendon/one-section rows of train.csv, select the lowest aligned "
-        "RMSE on its two-section (pair) rows; val.csv not used for the choice",
-        "selected": best,
-        "candidates": rows,
-    }
     out.mkdir(parents=True, exist_ok=True)
+    doc = {"rule": rule, "selected": best, "candidates": rows}
     (out / "selection.json").write_text(json.dumps(doc, indent=1) + "\n")
+    return rows, best
+
+
+def main(out: Path) -> None:
+    rows, best = select(
+        CANDIDATES,
+        _candidate,
+        "fit on the one-tendon/one-section rows of train.csv, select the lowest aligned "
+        "RMSE on its two-section (pair) rows; val.csv not used for the choice",
+        out,
+    )
     lines = [
         "# CCKA parameter selection (FTDCR v4)",
         "",

@@ -20,10 +20,8 @@ docs/figures/calibration/ftdcr_v4_mujoco_selection).
 
 from __future__ import annotations
 
-import json
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import replace
 from pathlib import Path
 
@@ -31,7 +29,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from ftdcr_v4_ccka_selection import family  # noqa: E402
+from ftdcr_v4_ccka_selection import family, select  # noqa: E402
 
 from cdcr_gym.calibration import calibrate, read_csv  # noqa: E402
 from cdcr_gym.calibration.drive import TendonDrive  # noqa: E402
@@ -118,17 +116,13 @@ def _candidate(item: tuple[str, tuple[str, bool]]) -> dict:
 
 
 def main(out: Path) -> None:
-    with ProcessPoolExecutor(2) as pool:  # two fits at once (the machine's two cores)
-        rows = dict(zip(CANDIDATES, pool.map(_candidate, CANDIDATES.items())))
-    best = min(rows, key=lambda n: rows[n]["selection_pairs_rmse_aligned_mm"])
-    doc = {
-        "rule": "MuJoCo fits on the one-tendon/one-section rows of train.csv, the lowest aligned "
+    rows, best = select(
+        CANDIDATES,
+        _candidate,
+        "MuJoCo fits on the one-tendon/one-section rows of train.csv, the lowest aligned "
         "RMSE on its two-section (pair) rows selected; val.csv not used",
-        "selected": best,
-        "candidates": rows,
-    }
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "selection.json").write_text(json.dumps(doc, indent=1) + "\n")
+        out,
+    )
     lines = [
         "# MuJoCo model selection (FTDCR v4)",
         "",

@@ -114,3 +114,20 @@ def test_ablation_gravity_variant_follows_the_full_fit(tmp_path, gravity):
         assert extra == ["--backend-arg", "gravity=true"] and added == ["payload"]
         assert "no_gravity" not in v
     assert removed == []
+
+
+def _fake_fit(item: tuple) -> dict:
+    name, score = item
+    return {"selection_pairs_rmse_aligned_mm": score, "name": name}
+
+
+def test_selection_picks_the_lowest_pair_error_and_writes_it(tmp_path):
+    """The selections' shared step (both scripts): every candidate fitted, the lowest error on
+    the pair rows selected, selection.json written with the rule."""
+    import json
+
+    sel = _module("ftdcr_v4_ccka_selection")
+    rows, best = sel.select({"a": 4.2, "b": 3.9, "c": 4.0}, _fake_fit, "the rule", tmp_path)
+    assert best == "b" and rows["c"]["name"] == "c"
+    doc = json.loads((tmp_path / "selection.json").read_text())
+    assert doc == {"rule": "the rule", "selected": "b", "candidates": rows}
