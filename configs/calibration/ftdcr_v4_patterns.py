@@ -1,6 +1,8 @@
 """Where the fitted models of the FTDCR v4 robot miss on the held-out rows: the error per motion
 pattern family (``same``, ``scurve``, ``spiral``), along X, Y, Z, and against the tip's
-deflection from the straight pose.
+deflection from the straight pose, and inside against beyond the training file's command range
+(a held-out row is "beyond" when any tendon's command lies outside that tendon's range over
+train.csv).
 
 Usage (after ftdcr_v4_ccka.sh and ftdcr_v4_mujoco.sh):
     python configs/calibration/ftdcr_v4_patterns.py [OUT_FILE_STEM]
@@ -27,6 +29,7 @@ from cdcr_gym.calibration.drive import TendonDrive
 from cdcr_gym.calibration.physics import PhysicsReplay
 from cdcr_gym.calibration.report import load_fitted
 from cdcr_gym.calibration.simulate import DriveReplay
+from cdcr_gym.model.params import RobotParams
 from cdcr_gym.model.params_yaml import load_yaml
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -74,6 +77,34 @@ def predict(folder: Path) -> tuple[np.ndarray, np.ndarray, Measurements]:
     return PhysicsReplay(val, robot, drive, "mujoco", kwargs)(values).tip, straight, val
 
 
+def beyond_training_commands() -> tuple[np.ndarray, dict]:
+    """(M,) bool over val.csv's rows: a command outside that tendon's range over train.csv; and
+    the two files' per-tendon ranges (mm, tendon order) with the beyond rows per family."""
+    robot = RobotParams.preset("ftdcr_v4")
+    drive = TendonDrive.of(robot)
+    d = {
+        n: read_csv(DATA / f"{n}.csv", robot=robot, drive=drive).displacements
+        for n in ("train", "val")
+    }
+    if d["train"] is None or d["val"] is None:  # pragma: no cover - displacement files
+        raise ValueError("train.csv and val.csv must hold displacement commands")
+    low, high = d["train"].min(axis=0), d["train"].max(axis=0)
+    beyond = ((d["val"] < low) | (d["val"] > high)).any(axis=1)
+    ranges: dict = {
+        f"{n}_mm": {
+            "min": (x.min(axis=0) * 1e3).round(2).tolist(),
+            "max": (x.max(axis=0) * 1e3).round(2).tolist(),
+        }
+        for n, x in d.items()
+    }
+    labels = read_csv(DATA / "val.csv", robot=robot, drive=drive).labels
+    fam = np.array([family(lab) for lab in labels])
+    ranges["beyond_rows_per_family"] = {
+        f: int((beyond & (fam == f)).sum()) for f in ("same", "scurve", "spiral")
+    }
+    return beyond, ranges
+
+
 def stats(aligned: np.ndarray, plain: np.ndarray) -> dict:
     return {
         "rows": int(len(aligned)),
@@ -105,8 +136,15 @@ def stiffness_sweep(folder: Path) -> list[dict]:
     return out
 
 
+def cell(s: dict) -> str:
+    """A table cell: aligned RMSE (X / Y / Z; rows), mm."""
+    xyz = " / ".join(f"{v:.1f}" for v in s["rmse_aligned_xyz_mm"])
+    return f"{s['rmse_aligned_mm']:.2f} ({xyz}; {s['rows']} rows)"
+
+
 def main(stem: Path) -> None:
     doc: dict = {}
+    beyond, ranges = beyond_training_commands()
     for name, folder in FITS.items():
         if not (folder / "params.yaml").is_file():
             continue
@@ -116,6 +154,10 @@ def main(stem: Path) -> None:
         fam = np.array([family(lab) for lab in val.labels])
         defl = np.linalg.norm(val.tip - straight, axis=1) * 1e3
         out: dict = {"all": stats(aligned, err), "family": {}, "deflection_mm": {}}
+        out["commands"] = {
+            "inside_training_range": stats(aligned[~beyond], err[~beyond]),
+            "beyond_training_range": stats(aligned[beyond], err[beyond]),
+        }
         for f in ("same", "scurve", "spiral"):
             m = fam == f
             out["family"][f] = stats(aligned[m], err[m])
@@ -127,7 +169,8 @@ def main(stem: Path) -> None:
         print(name, json.dumps(out["family"]), flush=True)
     sweep = stiffness_sweep(FIG / "ftdcr_v4_ccka")
     stem.with_suffix(".json").write_text(
-        json.dumps({"fits": doc, "ccka_stiffness_sweep": sweep}, indent=1) + "\n"
+        json.dumps({"fits": doc, "command_ranges": ranges, "ccka_stiffness_sweep": sweep}, indent=1)
+        + "\n"
     )
     lines = [
         "# FTDCR v4: held-out error by motion pattern and by deflection",
@@ -140,17 +183,35 @@ def main(stem: Path) -> None:
         "|---|---|---|---|---|" + "---|" * len(next(iter(doc.values()))["deflection_mm"]),
     ]
     for name, out in doc.items():
-
-        def cell(s: dict) -> str:
-            xyz = " / ".join(f"{v:.1f}" for v in s["rmse_aligned_xyz_mm"])
-            return f"{s['rmse_aligned_mm']:.2f} ({xyz}; {s['rows']} rows)"
-
         lines.append(
             f"| {name} | {cell(out['all'])} | "
             + " | ".join(cell(out["family"][f]) for f in ("same", "scurve", "spiral"))
             + " | "
             + " | ".join(cell(s) for s in out["deflection_mm"].values())
             + " |"
+        )
+    lo, hi = np.array(ranges["train_mm"]["min"]), np.array(ranges["train_mm"]["max"])
+    vlo, vhi = np.array(ranges["val_mm"]["min"]), np.array(ranges["val_mm"]["max"])
+    lines += [
+        "",
+        f"Inside against beyond the training file's commands: {int(beyond.sum())} of "
+        f"{beyond.size} held-out rows ("
+        + ", ".join(f"{f} {n}" for f, n in ranges["beyond_rows_per_family"].items())
+        + ") command a tendon outside that tendon's range over train.csv. Largest pull: "
+        + ", ".join(
+            f"tendon {i + 1} {hi[i]:.1f} mm in train, {vhi[i]:.1f} mm held out"
+            for i in np.flatnonzero(vhi > hi)
+        )
+        + f"; largest release: {lo.min():.1f} mm in train, {vlo.min():.1f} mm held out. "
+        "Aligned as the headline number (the whole set's offset removed), then split.",
+        "",
+        "| model | inside the training range | beyond it |",
+        "|---|---|---|",
+    ]
+    for name, out in doc.items():
+        c = out["commands"]
+        lines.append(
+            f"| {name} | {cell(c['inside_training_range'])} | {cell(c['beyond_training_range'])} |"
         )
     lines += [
         "",

@@ -1,0 +1,248 @@
+"""Three structural terms for the FTDCR v4 robot, probed on the CCKA model before any is built
+into the backends (docs/experiments/real_robot.md):
+
+* ``anisotropic``: the rod bends more stiffly about one axis of the cross-section than about
+  the other, the same for every section: the bending compliance of section j is
+  ``R(φ)·diag(1/(1+a), 1/(1−a))·R(φ)ᵀ/EI`` (a ∈ (−1, 1), φ the axis angle from the disk's x
+  axis, rad);
+* ``anisotropic_sections``: the same with its own (a, φ) per section;
+* ``capstan``: tension lost along the path of a tendon through the sections below its own
+  (a loss-only capstan law, the tendon being pulled): the tension acting in section j is
+  ``T·exp(−μ·Σ_{k<j} θ_k)`` with θ_k the bend angle of section k (a fixed point, 30 damped
+  iterations).
+
+Each is started from the selected CCKA fit (``ftdcr_v4_ccka_selected``: its tendon angles,
+pretensions and backlash kept) and fitted together with the base frame, the marker offset, E
+and the base compliance — the term's parameters start at zero (φ at 0°, μ at 0.05) — first on
+the one-tendon and one-section rows of train.csv and scored on its two-section rows (the
+selection split of ``configs/calibration/ftdcr_v4_ccka_selection.py``), then on all of
+train.csv and replayed on val.csv. ``isotropic`` is the same refit without a term.
+
+Usage: python -m experiments.ftdcr_v4_structure_probes   (aligned RMSEs in mm; ~2 min)
+"""
+
+from __future__ import annotations
+
+import re
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from cdcr_gym.calibration import Measurements, read_csv
+from cdcr_gym.calibration.backlash import play
+from cdcr_gym.calibration.drive import DriveGeometry, TendonDrive, forward_tips
+from cdcr_gym.calibration.report import load_fitted
+from cdcr_gym.calibration.simulate import drive_geometry
+from cdcr_gym.model.params import RobotParams
+from cdcr_gym.model.params_yaml import load_yaml
+from cdcr_gym.model.tendons import solve_tendon_law
+
+FIT = Path("docs/figures/calibration/ftdcr_v4_ccka_selected/params.yaml")
+DATA = Path("data/real/ftdcr_v4")
+#: parameters of every refit: frame (mm, deg), marker (mm), ln(E/E₀), compliance (1e-5 m/N)
+N_COMMON = 9
+
+
+def section_compliance(ei: float, anisotropy: np.ndarray, axes: np.ndarray) -> np.ndarray:
+    """The block-diagonal bending compliance (2S, 2S) 1/(N·m²) of S sections with bending
+    stiffness ``ei`` N·m², anisotropies a (S,) in (−1, 1) and axis angles φ (S,) rad: block j
+    is ``R(φ_j)·diag(1/(1+a_j), 1/(1−a_j))·R(φ_j)ᵀ/EI`` (a = 0: ``I/EI``)."""
+    s = len(anisotropy)
+    out = np.zeros((2 * s, 2 * s))
+    for j, (a, phi) in enumerate(zip(anisotropy, axes)):
+        c, sn = np.cos(phi), np.sin(phi)
+        rot = np.array([[c, -sn], [sn, c]])
+        out[2 * j : 2 * j + 2, 2 * j : 2 * j + 2] = (
+            rot @ np.diag([1.0 / (1.0 + a), 1.0 / (1.0 - a)]) @ rot.T / ei
+        )
+    return out
+
+
+def solve_curvatures(
+    geom: DriveGeometry, d: np.ndarray, compliance: np.ndarray, mu: float = 0.0
+) -> np.ndarray:
+    """Section curvatures (M, S, 2) 1/m of the first robot of ``geom`` under commands ``d``
+    (M, C) m (already through the drives' play) with the bending compliance (2S, 2S) and a
+    loss-only capstan coefficient ``mu`` (module docstring; 0: none). The drive law and its
+    solver are the library's (:func:`cdcr_gym.model.tendons.solve_tendon_law`); with an
+    isotropic compliance and ``mu = 0`` this is :func:`cdcr_gym.calibration.drive.solve_drive`.
+    """
+    g, lam = geom.coupling()
+    g, lam = g[0], lam[0]  # (C, 2S), (2S,)
+    rows, c = d.shape
+    s = g.shape[1] // 2
+    comp = 0.0 if geom.base_compliance is None else float(geom.base_compliance[0])
+    att = np.ones((rows, c, s))
+    for _ in range(30 if mu > 0.0 else 1):
+        geff = g[None] * np.repeat(att, 2, axis=2)  # (M, C, 2S): the tension acting per section
+        m_rows = np.einsum("cp,pq,mkq->mck", g * lam[None], compliance, geff)
+        t, _ = solve_tendon_law(
+            m_rows,
+            d,
+            geom.stiffness[0],
+            np.maximum(geom.pretension[0], 0.0),
+            None,
+            1e-12,
+            100,
+            base_compliance=comp,
+        )
+        u = np.einsum("pq,mkq,mk->mp", compliance, geff, t)
+        if mu == 0.0:
+            break
+        theta = np.hypot(u[:, 0::2], u[:, 1::2]) * lam[None, 0::2]  # (M, S) rad
+        wrap = np.concatenate([np.zeros((rows, 1)), np.cumsum(theta, axis=1)[:, :-1]], axis=1)
+        att = 0.5 * att + 0.5 * np.repeat(np.exp(-mu * wrap)[:, None, :], c, axis=1)
+    return u.reshape(rows, s, 2)
+
+
+class Probe:
+    """The selected CCKA fit with one structural term (module docstring), as a function of the
+    scaled parameters p: predicted tips (M, 3) m of a measurement file."""
+
+    TERMS = {
+        "isotropic": 0,
+        "anisotropic": 2,
+        "anisotropic_sections": 6,
+        "capstan": 1,
+        "backlash_sections": 3,
+        "backlash_tendons": 9,
+    }
+
+    def __init__(self, term: str, robot: RobotParams, drive: TendonDrive, values: dict):
+        if term not in self.TERMS:
+            raise ValueError(f"term must be one of {sorted(self.TERMS)}, got {term!r}")
+        self.term, self.robot, self.drive, self.values = term, robot, drive, values
+        self.size = N_COMMON + self.TERMS[term]
+
+    def start(self) -> np.ndarray:
+        p = np.zeros(self.size)
+        if self.term == "capstan":
+            p[N_COMMON] = 0.5  # μ = 0.05
+        return p
+
+    def __call__(self, data: Measurements, p: np.ndarray) -> np.ndarray:
+        v0, v = self.values, dict(self.values)
+        for i, key in enumerate(("base_x", "base_y", "base_z")):
+            v[key] = v0[key] + p[i] * 1e-3
+        for i, key in enumerate(("base_yaw", "base_tilt_x", "base_tilt_y")):
+            v[key] = v0.get(key, 0.0) + np.radians(p[3 + i])
+        v["marker_offset"] = v0["marker_offset"] + p[6] * 1e-3
+        v["youngs_modulus"] = self.robot.youngs_modulus * np.exp(p[7])
+        v["base_compliance"] = max(0.0, v0.get("base_compliance", 0.0) + p[8] * 1e-5)
+        geom = drive_geometry(self.robot, self.drive, [v])
+        s = self.robot.n_sections
+        a, phi, mu = np.zeros(s), np.zeros(s), 0.0
+        q = p[N_COMMON:]
+        if self.term == "anisotropic":
+            a[:], phi[:] = np.tanh(q[0]), np.radians(q[1])
+        elif self.term == "anisotropic_sections":
+            a, phi = np.tanh(q[0::2]), np.radians(q[1::2])
+        elif self.term == "capstan":
+            mu = abs(q[0]) * 0.1
+        width = np.full(self.robot.n_cables, v["drive_backlash"])
+        if self.term == "backlash_sections":
+            width = np.maximum(0.0, width + q[np.asarray(self.robot.cable_section)] * 1e-4)
+        elif self.term == "backlash_tendons":
+            width = np.maximum(0.0, width + q * 1e-4)
+        assert data.displacements is not None
+        u = solve_curvatures(
+            geom,
+            play(data.displacements, width),
+            section_compliance(float(geom.ei[0]), a, phi),
+            mu,
+        )
+        return forward_tips(geom, u[None])[0][0]
+
+    def fit(self, data: Measurements) -> np.ndarray:
+        """Least squares on the tip residuals (mm) from :meth:`start`."""
+        return least_squares(
+            lambda p: (self(data, p) - data.tip).ravel() * 1e3,
+            self.start(),
+            diff_step=1e-3,
+            max_nfev=200,
+        ).x
+
+    def describe(self, p: np.ndarray) -> str:
+        q = p[N_COMMON:]
+        if self.term == "anisotropic":
+            return f"a = {np.tanh(q[0]):+.3f}, φ = {q[1]:.1f}°"
+        if self.term == "anisotropic_sections":
+            return ", ".join(
+                f"s{j + 1}: a = {np.tanh(q[2 * j]):+.3f}, φ = {q[2 * j + 1]:.1f}°"
+                for j in range(len(q) // 2)
+            )
+        if self.term == "capstan":
+            return f"μ = {abs(q[0]) * 0.1:.4f}"
+        if self.term.startswith("backlash"):
+            w = np.maximum(0.0, self.values["drive_backlash"] + q * 1e-4) * 1e3
+            return "w = " + " / ".join(f"{x:.3f}" for x in w) + " mm"
+        return ""
+
+
+def rmse_aligned(pred: np.ndarray, tip: np.ndarray) -> float:
+    """Aligned RMSE (mm): the mean offset of the set removed."""
+    e = pred - tip
+    e = e - e.mean(axis=0)
+    return float(np.sqrt(np.mean(np.sum(e**2, axis=1))) * 1e3)
+
+
+def _is_pair(label: str) -> bool:
+    return re.sub(r"^rep\d+_", "", label).startswith("pair")
+
+
+def run(terms: list[str], report: Callable[[str], None] = print) -> dict[str, dict]:
+    """Fit every term on the selection split and on train.csv (module docstring)."""
+    robot, _ = load_fitted(FIT)
+    drive = TendonDrive.of(robot)
+    if drive is None:  # pragma: no cover - the fit has its drive
+        raise ValueError(f"{FIT}: no calibration.tendons")
+    fitted = load_yaml(FIT)["calibration"]["fitted"]
+    values = {
+        k: float(v)
+        for k, v in fitted.items()
+        if k.startswith(("base_", "marker")) or k in ("drive_backlash", "base_compliance")
+    }
+    train = read_csv(DATA / "train.csv", robot=robot, drive=drive)
+    val = read_csv(DATA / "val.csv", robot=robot, drive=drive)
+    pair = np.array([_is_pair(lab) for lab in train.labels])
+    single, pairs = train.subset(np.flatnonzero(~pair)), train.subset(np.flatnonzero(pair))
+    out = {}
+    for term in terms:
+        t0 = time.perf_counter()
+        probe = Probe(term, robot, drive, values)
+        ps, pf = probe.fit(single), probe.fit(train)
+        row = {
+            "single": rmse_aligned(probe(single, ps), single.tip),
+            "pairs": rmse_aligned(probe(pairs, ps), pairs.tip),
+            "train": rmse_aligned(probe(train, pf), train.tip),
+            "val": rmse_aligned(probe(val, pf), val.tip),
+            "selection_fit": probe.describe(ps),
+            "full_fit": probe.describe(pf),
+            "seconds": round(time.perf_counter() - t0, 1),
+        }
+        out[term] = row
+        report(
+            f"{term}: single {row['single']:.3f}, pairs {row['pairs']:.3f} | train "
+            f"{row['train']:.3f}, held-out {row['val']:.3f} mm | {row['full_fit']} "
+            f"({row['seconds']:.0f} s)"
+        )
+    return out
+
+
+def main(argv: list[str] | None = None) -> None:
+    import argparse
+
+    parser = argparse.ArgumentParser(
+        prog="python -m experiments.ftdcr_v4_structure_probes",
+        description=__doc__.splitlines()[0],
+    )
+    parser.add_argument("--terms", default=",".join(Probe.TERMS), help="comma-separated terms")
+    args = parser.parse_args(argv)
+    run(args.terms.split(","))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,68 @@
+"""The structural probes of the FTDCR v4 robot (experiments/ftdcr_v4_structure_probes.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from cdcr_gym.calibration import read_csv
+from cdcr_gym.calibration.backlash import play
+from cdcr_gym.calibration.drive import TendonDrive, solve_drive
+from cdcr_gym.calibration.report import load_fitted
+from cdcr_gym.calibration.simulate import drive_geometry
+from experiments.ftdcr_v4_structure_probes import (
+    DATA,
+    FIT,
+    Probe,
+    section_compliance,
+    solve_curvatures,
+)
+
+
+@pytest.fixture(scope="module")
+def fitted():
+    robot, _ = load_fitted(FIT)
+    drive = TendonDrive.of(robot)
+    rows = read_csv(DATA / "val.csv", robot=robot, drive=drive).subset(slice(0, 60))
+    return robot, drive, rows
+
+
+def test_isotropic_without_capstan_is_the_library_solve(fitted):
+    robot, drive, rows = fitted
+    values = {"base_compliance": 1.5e-5, "youngs_modulus": robot.youngs_modulus}
+    geom = drive_geometry(robot, drive, [values])
+    d = play(rows.displacements, 1e-4)
+    ours = solve_curvatures(
+        geom, d, section_compliance(float(geom.ei[0]), np.zeros(3), np.zeros(3))
+    )
+    np.testing.assert_allclose(ours, solve_drive(geom, d).curvature[0], rtol=1e-7, atol=1e-9)
+
+
+def test_anisotropic_compliance_has_its_axes():
+    ei, a, phi = 2.0e-3, 0.3, np.radians(25.0)
+    c = section_compliance(ei, np.array([0.0, a]), np.array([1.0, phi]))
+    np.testing.assert_allclose(c[:2, :2], np.eye(2) / ei, atol=1e-9)
+    block = c[2:, 2:]
+    axis = np.array([np.cos(phi), np.sin(phi)])
+    normal = np.array([-np.sin(phi), np.cos(phi)])
+    np.testing.assert_allclose(block @ axis, axis / ((1 + a) * ei))
+    np.testing.assert_allclose(block @ normal, normal / ((1 - a) * ei))
+
+
+def test_capstan_loss_bends_the_distal_section_less(fitted):
+    robot, drive, _ = fitted
+    geom = drive_geometry(robot, drive, [{}])
+    comp = section_compliance(float(geom.ei[0]), np.zeros(3), np.zeros(3))
+    d = np.zeros((3, 9))
+    d[:, 6] = [0.004, 0.006, 0.008]  # a distal tendon pulled: every section bends
+    bent = np.linalg.norm(solve_curvatures(geom, d, comp), axis=2)
+    lossy = np.linalg.norm(solve_curvatures(geom, d, comp, mu=0.3), axis=2)
+    assert np.all(bent > 1.0)
+    # its tension is lost on the way through the two bent sections below the distal one
+    assert np.all(lossy[:, 2] < 0.99 * bent[:, 2])
+
+
+def test_unknown_term_is_refused(fitted):
+    robot, drive, _ = fitted
+    with pytest.raises(ValueError, match="term must be one of"):
+        Probe("twisted", robot, drive, {})
