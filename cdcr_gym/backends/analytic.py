@@ -97,7 +97,7 @@ class AnalyticBackend(Backend):
 
     # -- commands -------------------------------------------------------------------------------
     def reset(self, tensions: np.ndarray, mask: np.ndarray | None = None) -> None:
-        t = validation.per_cable(tensions, "tensions", self.n_cables, 0.0, self.params.max_tension)
+        t = validation.per_cable(tensions, "tensions", self.n_cables, 0.0, self.reset_max_tension)
         if t.shape != (self.num_robots, self.n_cables):
             raise ValueError(
                 f"tensions must have shape ({self.num_robots}, {self.n_cables}), "
@@ -211,7 +211,14 @@ class AnalyticBackend(Backend):
         return self._readings
 
     def equilibrium(self, tensions: np.ndarray) -> Readings:
-        t = validation.per_cable(tensions, "tensions", self.n_cables, 0.0, self.params.max_tension)
+        return self._statics(tensions, self.params.max_tension)
+
+    def _drive_equilibrium(self, tensions: np.ndarray) -> Readings:
+        return self._statics(tensions, self.drive_max_tension)
+
+    def _statics(self, tensions: np.ndarray, limit: float) -> Readings:
+        """The CCKA shapes under tensions (..., C) N checked to lie in [0, ``limit``]."""
+        t = validation.per_cable(tensions, "tensions", self.n_cables, 0.0, limit)
         flat = t.reshape(-1, self.n_cables)
         _, (tip, direction, lengths) = self.model.forward_rows_from_tensions(flat)
         batch = t.shape[:-1]

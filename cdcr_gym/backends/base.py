@@ -161,7 +161,9 @@ class Backend(abc.ABC):
         ``mask`` (N,) bool selects the robots to reset (all if None); rows of ``tensions`` for
         the others are ignored. Zero tensions give the straight robot (with gravity, where the
         backend has it, the rest shape under its own weight). Deterministic: the same call gives
-        the same state, whatever happened before.
+        the same state, whatever happened before. Tensions lie in [0,
+        :attr:`reset_max_tension`] (above ``params.max_tension`` only for drives capped
+        higher: the rest shape of a displacement command).
         """
 
     @abc.abstractmethod
@@ -241,6 +243,13 @@ class Backend(abc.ABC):
         self._drive_cap = cap
         self._drive_cap_changed()
 
+    @property
+    def reset_max_tension(self) -> float:
+        """The largest tension (N) a :meth:`reset` takes: ``params.max_tension``, or the drives'
+        cap when it is higher (a reset to the drives' equilibrium under displacement commands,
+        e.g. an env's ``initial_displacements``)."""
+        return max(float(self.params.max_tension), self.drive_max_tension)
+
     def _drive_cap_changed(self) -> None:
         """Apply a new :attr:`drive_max_tension` (a backend whose drives keep it elsewhere)."""
 
@@ -256,8 +265,10 @@ class Backend(abc.ABC):
         """Readings of the static equilibrium under drive displacements ``displacements``
         (M, C) m of the nominal robot (like :meth:`equilibrium`), without changing the state.
 
-        The tensions T solving T = clip(T0 + k·(d − s(T)), 0, max_tension) with s(T) this
-        backend's own shortenings (:meth:`equilibrium`), by a Newton-like iteration whose
+        The tensions T solving T = clip(T0 + k·(d − s(T)), 0, T_max) with s(T) this
+        backend's own shortenings (:meth:`equilibrium`) and T_max the drives' cap
+        (:attr:`drive_max_tension`: the shape the drives settle to, also when their cap is
+        above ``params.max_tension``), by a Newton-like iteration whose
         Jacobian is the CCKA model's: each step solves the CCKA displacement statics
         (:func:`cdcr_gym.model.tendons.solve_displacement_statics`) for the commands corrected
         by the gap between this backend's shortenings and the CCKA ones at the current
@@ -266,8 +277,8 @@ class Backend(abc.ABC):
 
         Raises:
             ValueError: naming ``displacements`` for a wrong shape or non-finite values.
-            RuntimeError: if it has not converged to ``tol``·max_tension after ``max_iter``
-                steps.
+            RuntimeError: if it has not converged to ``tol``·params.max_tension after
+                ``max_iter`` steps.
         """
         p = self.params
         d = np.asarray(displacements, dtype=np.float64)
@@ -277,7 +288,7 @@ class Backend(abc.ABC):
             )
         model = PCCModel(p)
         m_s = shortening_matrix(model)
-        k, t0, t_max = p.cable_stiffness, p.cable_pretension, p.max_tension
+        k, t0, t_max = p.cable_stiffness, p.cable_pretension, self.drive_max_tension
         straight = self.straight_cable_lengths
         correction = np.zeros_like(d)
         tensions = None
@@ -286,8 +297,8 @@ class Backend(abc.ABC):
                 model, d - correction, k, t0, t_max, initial_tensions=tensions
             )
             new = state.tensions
-            readings = self.equilibrium(new)
-            if tensions is not None and np.max(np.abs(new - tensions)) <= tol * t_max:
+            readings = self._drive_equilibrium(new)
+            if tensions is not None and np.max(np.abs(new - tensions)) <= tol * p.max_tension:
                 return readings
             tensions = new
             correction = (straight - readings.cable_lengths) - new @ m_s
@@ -295,6 +306,46 @@ class Backend(abc.ABC):
             f"the displacement equilibrium did not converge in {max_iter} steps (displacements "
             f"{d.tolist()} m)"
         )
+
+    def reset_displacements(
+        self, displacements: np.ndarray, mask: np.ndarray | None = None
+    ) -> None:
+        """Put robots ``mask`` (all if None) at rest in their drives' equilibrium under
+        displacement commands ``displacements`` (N, C) m (:meth:`displacement_equilibrium`: the
+        drives' law with their own cap): the rest shape of an env's ``initial_displacements``.
+
+        This default resets under the tensions of that equilibrium (:meth:`reset`): the same
+        shape wherever the tensions alone determine it. A backend whose drives settle to a
+        shape the tensions alone do not single out (co-contracted tendons) overrides it with its
+        own drive solve.
+
+        Raises:
+            ValueError: naming ``displacements`` for a wrong shape or non-finite values.
+        """
+        d, rows = self._displacement_rows(displacements, mask)
+        t = np.zeros_like(d)
+        t[rows] = self.displacement_equilibrium(d[rows]).tensions
+        self.reset(t, mask)
+
+    def _displacement_rows(
+        self, displacements: np.ndarray, mask: np.ndarray | None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """``displacements`` checked as (N, C) finite m, and the robot indices of ``mask``."""
+        n, c = self.num_robots, self.params.n_cables
+        d = np.asarray(displacements, dtype=np.float64)
+        if d.shape != (n, c) or not np.isfinite(d).all():
+            raise ValueError(
+                f"displacements must be finite with shape ({n}, {c}) m, got {displacements!r}"
+            )
+        rows = np.arange(n) if mask is None else np.flatnonzero(np.asarray(mask).reshape(n))
+        return d, rows
+
+    def _drive_equilibrium(self, tensions: np.ndarray) -> Readings:
+        """:meth:`equilibrium` under tensions (M, C) N the drives may pull: in [0,
+        :attr:`drive_max_tension`], which may exceed ``params.max_tension`` (the range of
+        tension commands that :meth:`equilibrium` checks). Backends whose drives can be capped
+        above it override this (the same statics without that upper bound)."""
+        return self.equilibrium(tensions)
 
     @abc.abstractmethod
     def read(self) -> Readings:

@@ -22,8 +22,8 @@ under tensions as in the tension modes (zero: straight; ``initial_state="random"
 ``initial_tensions``) and then sets the drives consistently: d = s + (T − T0)/k, the
 displacement whose law gives those tensions at that shape (s the backend's shortening; at zero
 tension every tendon sits exactly at its slack point), clipped to ``displacement_range``.
-``options["initial_displacements"]`` instead starts from the equilibrium under given
-displacements (``Backend.displacement_equilibrium``, the nominal robot). ``info`` gains
+``options["initial_displacements"]`` instead starts from the drives' equilibrium under given
+displacements (``Backend.reset_displacements``: their law with their own cap). ``info`` gains
 ``displacements`` (N, C) m, ``slack`` and ``saturated`` (N, C) bool (and, with a
 ``drive_backlash``, ``tendon_displacements`` (N, C) m: what reaches the tendons through the
 play; ``drive_max_tension`` caps the drives); the observation gains the
@@ -104,7 +104,8 @@ class EnvCore:
             the robot's ``max_tension``, the range of tension actions;
             ``Backend.set_drive_max_tension``). Displacement action modes only. Above
             ``max_tension`` the observed tensions saturate at their range (``info`` has the
-            true ones); a reset's ``initial_displacements`` equilibrium keeps ``max_tension``.
+            true ones). The goals held by the drives and a reset's ``initial_displacements``
+            equilibrium are the drives' equilibria under this cap.
         drive_backlash: the play w (m, >= 0) between each drive's command and its tendon
             (``cdcr_gym.model.backlash``): every step the tendon takes y = clip(y, d − w/2,
             d + w/2) of the commanded d; a reset sets y = d. Displacement action modes only.
@@ -435,24 +436,25 @@ class EnvCore:
             displacements = self._check_displacements(m, displacements)
         if self.randomization is not None or self.imperfections is not None:
             self._draw_episode(idx, rngs)
-        if displacements is not None:  # the drives' equilibrium on this episode's robot
-            given = self.backend.displacement_equilibrium(displacements).tensions
         if given is not None:
             tensions = given
         else:
             tensions = np.zeros((m, c))
-            random = self._random_start[idx]
+            random = self._random_start[idx] & (displacements is None)
             if random.any():
                 tensions[random] = sample_tensions_each(
                     [r for r, k in zip(rngs, random) if k], self.params
                 )
-        full = np.zeros((self.num_envs, c))
-        full[idx] = tensions
-        if m == self.num_envs:
-            self.backend.reset(full)
-        else:
+        mask = None
+        if m != self.num_envs:
             mask = np.zeros(self.num_envs, dtype=bool)
             mask[idx] = True
+        full = np.zeros((self.num_envs, c))
+        if displacements is not None:  # the drives' equilibrium on this episode's robot
+            full[idx] = displacements
+            self.backend.reset_displacements(full, mask)
+        else:
+            full[idx] = tensions
             self.backend.reset(full, mask)
         self.task.reset_goals(idx, rngs, self.backend, goal)
         r = self._readings = self.backend.read()

@@ -97,6 +97,37 @@ def test_env_drive_cap():
 
 
 @pytest.mark.parametrize(
+    "env_id", ["cdcr_gym/CCKAReach-v0", "cdcr_gym/MuJoCoReach-v0", "cdcr_gym/BulletReach-v0"]
+)
+def test_reset_from_displacements_under_the_drive_cap(env_id):
+    """A reset from ``initial_displacements`` rests in the drives' equilibrium under their own
+    cap: with none, the distal tendons carry twice the robot's max_tension, and holding the same
+    commands leaves the robot where it is."""
+    kwargs = {} if "CCKA" in env_id else {"gravity": False}
+    env = gym.make(
+        env_id,
+        robot="ftdcr_v4",
+        action_mode="displacement",
+        drive_max_tension=float("inf"),
+        **kwargs,
+    )
+    try:
+        p = env.unwrapped.params
+        d = np.full(9, -0.0005)
+        d[[0, 3, 6]] = [0.002, 0.004, 0.0075]
+        _, info = env.reset(seed=0, options={"initial_displacements": d})
+        start = info["tensions"].copy()
+        assert start.max() > 2.0 * p.max_tension
+        tip = env.unwrapped.core.backend.read().tip[0].copy()
+        for _ in range(20):
+            _, _, _, _, info = env.step(_action(d, p))
+        np.testing.assert_allclose(info["tensions"], start, atol=0.02)
+        np.testing.assert_allclose(env.unwrapped.core.backend.read().tip[0], tip, atol=5e-5)
+    finally:
+        env.close()
+
+
+@pytest.mark.parametrize(
     ("kwargs", "name"),
     [
         ({"drive_backlash": -1e-4}, "drive_backlash"),

@@ -338,8 +338,10 @@ class BulletBackend(Backend):
 
     # ---------------------------------------------------------------- Backend API
 
-    def _check_tensions(self, tensions) -> np.ndarray:
+    def _check_tensions(self, tensions, limit: float | None = None) -> np.ndarray:
+        """``tensions`` as (C,) N in [0, ``limit``] (None: ``params.max_tension``)."""
         c = self.params.n_cables
+        limit = self.params.max_tension if limit is None else limit
         try:
             t = np.array(tensions, dtype=np.float64)  # a copy
         except (TypeError, ValueError):
@@ -352,10 +354,9 @@ class BulletBackend(Backend):
                 f"{tensions!r}"
             )
         lo, hi = t.min(), t.max()
-        if not (0.0 <= lo and hi <= self.params.max_tension):  # also catches NaN
+        if not (0.0 <= lo and hi <= limit):  # also catches NaN
             raise ValueError(
-                f"tensions must be finite and in [0, max_tension={self.params.max_tension}] N, "
-                f"got {tensions!r}"
+                f"tensions must be finite and in [0, max_tension={limit}] N, got {tensions!r}"
             )
         return t
 
@@ -374,7 +375,10 @@ class BulletBackend(Backend):
                 rejected at construction, see ``chain.check_span_buckling``).
         """
         self._check_open()
-        t = self._check_tensions(tensions)
+        return self._static_q(self._check_tensions(tensions))
+
+    def _static_q(self, t: np.ndarray) -> np.ndarray:
+        """:meth:`static_equilibrium` of checked tensions (C,) N."""
         q, converged = self.chain.static_equilibrium(
             t, self._integrator.gravity_bias, max_angle=MAX_JOINT_ANGLE
         )
@@ -405,12 +409,13 @@ class BulletBackend(Backend):
         tensions then leaves the chain at rest.
 
         Raises:
-            ValueError: if ``tensions`` is not C finite values in [0, max_tension].
+            ValueError: if ``tensions`` is not C finite values in [0,
+                :attr:`reset_max_tension`].
             SimulationDivergedError: if no equilibrium is found.
         """
         self._check_open()
-        t = self._check_tensions(tensions)
-        q = self.static_equilibrium(t)
+        t = self._check_tensions(tensions, self.reset_max_tension)
+        q = self._static_q(t)
         self._set_state(q, np.zeros(self.n_dof))
         self._tensions = t
         self.time = 0.0
@@ -712,6 +717,15 @@ class BulletBackend(Backend):
 
         Each is :meth:`static_equilibrium` (gravity as configured): the reachable set of this
         backend, from which the task draws its goals and the env its random starts."""
+        return self._statics(tensions, None)
+
+    def _drive_equilibrium(self, tensions: np.ndarray) -> Readings:
+        return self._statics(tensions, self.drive_max_tension)
+
+    def _statics(self, tensions: np.ndarray, limit: float | None) -> Readings:
+        """:meth:`equilibrium` with the tensions checked to lie in [0, ``limit``] (None:
+        ``params.max_tension``)."""
+        self._check_open()
         t_all = np.atleast_2d(self._as_array(tensions))
         if t_all.ndim != 2:
             raise ValueError(
@@ -719,7 +733,7 @@ class BulletBackend(Backend):
             )
         tips, dirs, lengths = [], [], []
         for t in t_all:
-            q = self.static_equilibrium(t)
+            q = self._static_q(self._check_tensions(t, limit))
             pose = self.chain.pose(q)
             tips.append(self._to_base(pose.stations[-1]))
             dirs.append(self._direction(pose.link_rot))

@@ -414,19 +414,20 @@ class MuJoCoBackend(
         if self._closed:
             raise RuntimeError("this MuJoCoBackend is closed")
 
-    def _check_tensions(self, tensions: Any, rows: int | None = None) -> np.ndarray:
+    def _check_tensions(
+        self, tensions: Any, rows: int | None = None, limit: float | None = None
+    ) -> np.ndarray:
+        """``tensions`` as (M, C) N in [0, ``limit``] (None: ``params.max_tension``)."""
         c = self.params.n_cables
+        limit = self.params.max_tension if limit is None else limit
         t = validation.real_array(tensions, "tensions")
         if t.ndim == 1:
             t = t[None]
         if t.ndim != 2 or t.shape[1] != c or (rows is not None and t.shape[0] != rows):
             want = f"({rows if rows is not None else 'M'}, {c})"
             raise ValueError(f"tensions must have shape {want} (N, one per cable), got {t.shape}")
-        if t.min() < 0.0 or t.max() > self.params.max_tension:
-            raise ValueError(
-                f"tensions must be in [0, max_tension={self.params.max_tension}] N, "
-                f"got {tensions!r}"
-            )
+        if t.min() < 0.0 or t.max() > limit:
+            raise ValueError(f"tensions must be in [0, max_tension={limit}] N, got {tensions!r}")
         return np.array(t)
 
     def _fast_tensions(self, tensions: Any) -> np.ndarray:
@@ -449,7 +450,7 @@ class MuJoCoBackend(
         stay; the static solve ignores them (the unobstructed equilibrium)."""
         self._check_open()
         n = self.num_robots
-        t = self._check_tensions(tensions, n)
+        t = self._check_tensions(tensions, n, limit=self.reset_max_tension)
         rows = range(n) if mask is None else np.flatnonzero(np.asarray(mask).reshape(n)).tolist()
         for i in rows:
             data, model = self._datas[i], self._models[i]

@@ -160,7 +160,14 @@ class StaticSolve:
         goals of N batched envs are those of N single envs, as on the analytic backend),
         without changing the state. The placed spheres are ignored."""
         self._check_open()
-        t_all = self._check_tensions(tensions)
+        return self._statics(self._check_tensions(tensions))
+
+    def _drive_equilibrium(self: Any, tensions: np.ndarray) -> Readings:
+        self._check_open()
+        return self._statics(self._check_tensions(tensions, limit=self.drive_max_tension))
+
+    def _statics(self: Any, t_all: np.ndarray) -> Readings:
+        """:meth:`equilibrium` of checked tensions (M, C) N."""
         m = t_all.shape[0]
         tip, direction = np.empty((m, 3)), np.empty((m, 3))
         lengths = np.empty((m, self.params.n_cables))
@@ -172,6 +179,46 @@ class StaticSolve:
             direction[j] = data.site_xmat[self._tip_id, 2::3]
             lengths[j] = data.ten_length[self._cable_ids]
         return Readings(tip, direction, lengths, t_all.copy())
+
+    def reset_displacements(
+        self: Any, displacements: np.ndarray, mask: np.ndarray | None = None
+    ) -> None:
+        """``Backend.reset_displacements`` by each robot's own drive solve (:meth:`_solve_drives`
+        on its model: the shape its dynamics settle to under these commands, also where
+        co-contracted tendons leave the shape under their tensions alone ambiguous); before the
+        drives exist, or for a robot whose drive solve fails, through the tensions
+        (``Backend``'s). Time 0, neutral friction slip; placed spheres stay."""
+        self._check_open()
+        if not self._drives:
+            Backend.reset_displacements(self, displacements, mask)
+            return
+        d, rows = self._displacement_rows(displacements, mask)
+        p = self.params
+        k = np.asarray(p.cable_stiffness, dtype=float)
+        t0 = np.asarray(p.cable_pretension, dtype=float)
+        for i in rows.tolist():
+            data, model = self._datas[i], self._models[i]
+            spheres = data.mocap_pos.copy()
+            self._mj.mj_resetData(model, data)
+            data.mocap_pos[:] = spheres
+            if not self._solve_drives(model, data, d[i]):
+                one = np.zeros(p.n_cables * self.num_robots).reshape(self.num_robots, -1)
+                one[i] = Backend.displacement_equilibrium(self, d[i : i + 1]).tensions[0]
+                only = np.zeros(self.num_robots, dtype=bool)
+                only[i] = True
+                self.reset(one, only)
+                continue
+            shortening = self._straight - data.ten_length[self._cable_ids]
+            t, _, _ = tendon_tensions(
+                d[i : i + 1], shortening[None], k, t0, self.drive_max_tension, p.base_compliance
+            )
+            data.qvel[:] = 0.0
+            data.time = 0.0
+            self._tensions[i] = t[0]
+            self.slip[i] = 0.0
+            self._backbone_slip[i] = 0.0
+            self.time[i] = 0.0
+            self._sense(i)
 
     def displacement_equilibrium(
         self: Any, displacements: np.ndarray, tol: float = 1e-9, max_iter: int = 50
