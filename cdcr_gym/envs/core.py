@@ -19,9 +19,10 @@ generator: their episode draws come first at a reset, their per-step noise after
 Displacement action modes (``displacement``, ``displacement_delta``; SPEC §8): the env holds the
 commanded tendon displacements d (N, C) m. A reset puts the robots at rest in the equilibrium
 under tensions as in the tension modes (zero: straight; ``initial_state="random"``;
-``initial_tensions``) and then sets the drives consistently: d = s + (T − T0)/k, the
-displacement whose law gives those tensions at that shape (s the backend's shortening; at zero
-tension every tendon sits exactly at its slack point), clipped to ``displacement_range``.
+``initial_tensions``) and then sets the drives consistently: d = s + (T − T0)/k + c·Σ(T − T0),
+the displacement whose law gives those tensions at that shape (s the backend's shortening, c the
+robot's ``base_compliance``; at zero tension every tendon sits exactly at its slack point;
+``model.tendons.holding_displacements``), clipped to ``displacement_range``.
 ``options["initial_displacements"]`` instead starts from the drives' equilibrium under given
 displacements (``Backend.reset_displacements``: their law with their own cap). ``info`` gains
 ``displacements`` (N, C) m, ``slack`` and ``saturated`` (N, C) bool (and, with a
@@ -34,7 +35,7 @@ imperfections of the tension modes (``actuator_noise``, ``tension_rate_limit``,
 ``tension_lag``, ``tension_response``) are refused (a position-controlled drive has none of
 them; a physics backend's own dynamics and the drives' compliance do the settling). Goals keep
 coming from the tension statics (``Backend.equilibrium``): a shape held by tensions T in
-[0, max_tension] is held by the displacements d = s + (T − T0)/k, so the reachable shapes are
+[0, max_tension] is held by the displacements d = s + (T − T0)/k + c·Σ(T − T0), so the reachable shapes are
 the same wherever ``displacement_range`` covers the tendons' shortenings s — on the paper and
 tdcr2 presets for every goal; on ``ftdcr_v4``, whose range is that of its recorded commands
 (−10 … +12.5 mm), about a fifth of the goals need a shortening beyond +12.5 mm (by up to 8 mm)
@@ -55,7 +56,7 @@ from cdcr_gym.envs.actuation import Actuation
 from cdcr_gym.envs.safety import SafetyFilter
 from cdcr_gym.model.backlash import play_step
 from cdcr_gym.model.params import RobotParams
-from cdcr_gym.model.tendons import tendon_tensions
+from cdcr_gym.model.tendons import holding_displacements, tendon_tensions
 from cdcr_gym.model.workspace import sample_tensions_each
 from cdcr_gym.randomization import INFO_PREFIX, DomainRandomization, Imperfections
 from cdcr_gym.tasks.base import Task
@@ -482,13 +483,16 @@ class EnvCore:
         (len(idx), C) m, or the ones that hold the reset tensions at the reset shape."""
         r = self._readings
         p = self.params
-        shortening = self.backend.straight_cable_lengths - r.cable_lengths[idx]
-        k, t0 = np.asarray(p.cable_stiffness), np.asarray(p.cable_pretension)
         if displacements is None:
             low, high = self.actuation.displacement_range
-            with np.errstate(divide="ignore", invalid="ignore"):
-                give = np.where(np.isinf(k), 0.0, (r.tensions[idx] - t0) / k)
-            displacements = np.clip(shortening + give, low, high)
+            holding = holding_displacements(
+                self.backend.straight_cable_lengths - r.cable_lengths[idx],
+                r.tensions[idx],
+                p.cable_stiffness,
+                p.cable_pretension,
+                p.base_compliance,
+            )
+            displacements = np.clip(holding, low, high)
         held = self._held_displacements.copy()
         held[idx] = displacements
         self._held_displacements = held

@@ -98,7 +98,8 @@ class CDCREnv(CoreAttributes, gym.Env):
     backend with gravity, its rest shape). ``"random"``: a shape drawn like the goals and held
     by its minimal tensions. ``reset(options=...)`` accepts ``goal`` (the task's goal; reach:
     (3,) m, projected onto the reachable set) and ``initial_tensions`` ((C,) N in
-    [0, max_tension]). In the displacement modes the drives then hold d = s + (T − T0)/k, the
+    [0, max_tension]). In the displacement modes the drives then hold
+    d = s + (T − T0)/k + c·Σ(T − T0) (c the robot's ``base_compliance``), the
     displacements whose law gives the reset tensions at the reset shape (straight: every
     tendon at its slack point, d = −T0/k), clipped to the range; ``initial_displacements``
     ((C,) m in the range) starts instead from the equilibrium under given displacements.

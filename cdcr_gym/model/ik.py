@@ -44,7 +44,11 @@ from cdcr_gym.model.arc import (
 from cdcr_gym.model.chain import PCCModel
 from cdcr_gym.model.params import RobotParams
 from cdcr_gym.model.statics import bending_limit, cached_model, minimal_tensions
-from cdcr_gym.model.tendons import shortening_matrix, solve_displacement_statics
+from cdcr_gym.model.tendons import (
+    holding_displacements,
+    shortening_matrix,
+    solve_displacement_statics,
+)
 
 __all__ = [
     "IKSolution",
@@ -365,13 +369,13 @@ def drive_displacements(tensions, bending, params: RobotParams) -> np.ndarray:
     clipped to the drives' range."""
     params = _check_params(params)
     model = cached_model(params)
-    k = np.asarray(params.cable_stiffness, dtype=np.float64)
-    t0 = np.asarray(params.cable_pretension, dtype=np.float64)
-    finite = np.isfinite(k)
-    extra = np.asarray(tensions, dtype=np.float64) - t0
-    give = np.where(finite, extra / np.where(finite, k, 1.0), 0.0)
-    give = give + params.base_compliance * np.sum(extra, axis=-1, keepdims=True)
-    return model.straight_lengths - model.lengths_from_bending(bending) + give
+    return holding_displacements(
+        model.straight_lengths - model.lengths_from_bending(bending),
+        tensions,
+        params.cable_stiffness,
+        params.cable_pretension,
+        params.base_compliance,
+    )
 
 
 def _drive_jacobian(model, h_mat, state, rows, h=1e-6):

@@ -61,6 +61,7 @@ __all__ = [
     "TendonSolveError",
     "tendon_tensions",
     "common_load",
+    "holding_displacements",
     "shortening_matrix",
     "solve_displacement_statics",
     "solve_tendon_law",
@@ -240,6 +241,23 @@ def tendon_tensions(
     saturated = raw > limit
     tensions = np.clip(raw, 0.0, limit)
     return tensions, slack, saturated
+
+
+def holding_displacements(
+    shortening, tensions, stiffness, pretension, base_compliance=0.0
+) -> np.ndarray:
+    """The drive displacements d (..., C) m that hold ``tensions`` T (..., C) N at a shape of
+    geometric shortenings ``shortening`` s (..., C) m: the tendon law solved for d,
+    d = s + (T − T0)/k + c·Σ(T − T0) (``stiffness`` k N/m, ``inf``: d = s; ``pretension`` T0 N;
+    ``base_compliance`` c m/N, a scalar or (...) per robot). A slack tendon (T = 0) sits at its
+    slack point s − T0/k (minus the base's give). Not clipped to a drive range."""
+    s = np.asarray(shortening, dtype=np.float64)
+    extra = np.asarray(tensions, dtype=np.float64) - np.asarray(pretension, dtype=np.float64)
+    k = np.asarray(stiffness, dtype=np.float64)
+    finite = np.isfinite(k)
+    give = np.where(finite, extra / np.where(finite, k, 1.0), 0.0)
+    c = np.asarray(base_compliance, dtype=np.float64)
+    return s + give + c[..., None] * np.sum(extra, axis=-1, keepdims=True)
 
 
 def common_load(free, coupling, max_tension=math.inf) -> np.ndarray:

@@ -22,6 +22,7 @@ from gymnasium import spaces
 from cdcr_gym import defaults, validation
 from cdcr_gym.backends.base import Backend, Readings
 from cdcr_gym.model.params import RobotParams
+from cdcr_gym.model.tendons import holding_displacements
 from cdcr_gym.model.workspace import sample_tensions_each
 from cdcr_gym.tasks.observation import Field, ObservationSpec
 
@@ -220,7 +221,9 @@ class Task(abc.ABC):
         backend's static equilibrium under them (``Backend.equilibrium``). In a displacement
         action mode (:attr:`goal_displacement_range` set) the goal must also be one the drives
         can hold: the displacements that hold those tensions at that shape,
-        d = s + (T − T0)/k (s the backend's shortenings; a slack tendon at its slack point),
+        d = s + (T − T0)/k + c·Σ(T − T0) (s the backend's shortenings, c the robot's
+        ``base_compliance``; a slack tendon at its slack point:
+        :func:`cdcr_gym.model.tendons.holding_displacements`),
         are clipped to ``displacement_range``, and a shape whose d was clipped is replaced by
         the drives' equilibrium under the clipped d (``Backend.displacement_equilibrium``).
         So every goal is the equilibrium of a displacement command within the range.
@@ -230,11 +233,13 @@ class Task(abc.ABC):
             return r
         low, high = self.goal_displacement_range
         p = self.params
-        k, t0 = np.asarray(p.cable_stiffness), np.asarray(p.cable_pretension)
-        shortening = backend.straight_cable_lengths - r.cable_lengths
-        with np.errstate(divide="ignore", invalid="ignore"):
-            give = np.where(np.isinf(k), 0.0, (r.tensions - t0) / k)
-        d = shortening + give
+        d = holding_displacements(
+            backend.straight_cable_lengths - r.cable_lengths,
+            r.tensions,
+            p.cable_stiffness,
+            p.cable_pretension,
+            p.base_compliance,
+        )
         out = (d < low) | (d > high)
         rows = np.flatnonzero(out.any(axis=1))
         if rows.size == 0:
