@@ -15,7 +15,12 @@ from cdcr_gym.calibration.simulate import DriveReplay, drive_geometry
 from cdcr_gym.model.ik import drive_displacements, solve_displacement_ik
 from cdcr_gym.model.params import RobotParams
 from cdcr_gym.model.statics import cached_model
-from cdcr_gym.model.tendons import common_load, solve_displacement_statics, tendon_tensions
+from cdcr_gym.model.tendons import (
+    common_load,
+    holding_displacements,
+    solve_displacement_statics,
+    tendon_tensions,
+)
 
 C = 1.4e-5  # m/N, the order the v4 measurements give
 V4 = RobotParams.preset("ftdcr_v4", base_compliance=C)
@@ -208,3 +213,46 @@ def test_bullet_settles_on_the_compliant_law_beside_mujoco():
     np.testing.assert_allclose(r.tensions, _law(V4, d, s, r.tensions), atol=1e-6)
     ref = MuJoCoBackend(params=V4, gravity=False).displacement_equilibrium(d)
     assert np.linalg.norm(r.tip - ref.tip) < 1e-3
+
+
+def test_holding_displacements_invert_the_law():
+    """d = s + (T − T0)/k + c·Σ(T − T0) is the command under which the law gives back T at the
+    shape s (every tendon taut); with c = 0 the base's give drops out."""
+    rng = np.random.default_rng(4)
+    d = rng.uniform(0.003, 0.004, (6, V4.n_cables))
+    s = rng.uniform(0.0, 0.0002, (6, V4.n_cables))
+    k, t0 = V4.cable_stiffness, V4.cable_pretension
+    for c in (C, 0.0):
+        t, slack, _ = tendon_tensions(d, s, k, t0, None, c)
+        assert not slack.any()
+        np.testing.assert_allclose(holding_displacements(s, t, k, t0, c), d, atol=1e-15)
+    t, _, _ = tendon_tensions(d, s, k, t0, None, C)
+    off = holding_displacements(s, t, k, t0, 0.0) - d  # without the give: short by c·Σ(T − T0)
+    np.testing.assert_allclose(
+        off, np.broadcast_to(-C * (t - np.asarray(t0)).sum(-1, keepdims=True), d.shape)
+    )
+
+
+@pytest.mark.parametrize("mode", ["displacement", "displacement_delta"])
+def test_env_reset_rests_with_a_compliant_base(mode):
+    """A random start in a displacement mode: the drives hold the reset shape (the base's give
+    included), so holding still leaves the robot where it is."""
+    import gymnasium as gym
+
+    import cdcr_gym  # noqa: F401  (registers the envs)
+
+    env = gym.make("cdcr_gym/CCKAReach-v0", params=V4, action_mode=mode, initial_state="random")
+    try:
+        _, info = env.reset(seed=3)
+        start, tip = info["tensions"].copy(), env.unwrapped.core.backend.read().tip[0].copy()
+        assert start.sum() > 5.0  # a loaded start: the give matters
+        if mode == "displacement":
+            low, high = V4.displacement_range
+            hold = 2.0 * (info["displacements"] - low) / (high - low) - 1.0
+        else:
+            hold = np.zeros(V4.n_cables)
+        _, _, _, _, info = env.step(hold.astype(np.float32))
+        np.testing.assert_allclose(info["tensions"], start, atol=1e-6)
+        np.testing.assert_allclose(env.unwrapped.core.backend.read().tip[0], tip, atol=1e-8)
+    finally:
+        env.close()
