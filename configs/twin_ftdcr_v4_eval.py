@@ -8,9 +8,10 @@ Usage (from the repository root; configs/twin_ftdcr_v4_reach.sh runs it)::
 
 Every episode is built exactly as a user builds the twin::
 
-    gym.make(env_id, params=PARAMS_YAML, action_mode=..., **backend_kwargs_from_yaml(PARAMS_YAML))
+    gym.make(env_id, params=PARAMS_YAML, **twin_kwargs_from_yaml(PARAMS_YAML, action_mode=...))
 
-(the action mode, displacement step and success radius are the run's ``env.kwargs``). Episode
+(the fit's backend arguments and its tendon drive's cap and backlash, on a physics backend; the
+action mode, displacement step and success radius are the run's ``env.kwargs``). Episode
 i is ``reset(seed=seed + i)``: its goal is drawn by the env's own goal sampler (in a displacement
 mode, the equilibrium of a displacement command within the drives' range, so every goal is
 reachable), its start is straight (first half of the episodes) or a random shape (second half).
@@ -39,7 +40,7 @@ import gymnasium as gym
 import numpy as np
 
 import cdcr_gym  # noqa: F401  (registers the envs)
-from cdcr_gym.calibration.report import backend_kwargs_from_yaml
+from cdcr_gym.calibration import twin_kwargs_from_yaml
 from cdcr_gym.controllers import AnalyticIKController
 from training.run.config import load_config
 from training.run.rollout import SB3Policy
@@ -49,10 +50,11 @@ ENV_KEYS = ("action_mode", "displacement_step", "tension_step", "distance_thresh
 
 def make_twin(env_id: str, params: str, run_kwargs: dict[str, Any], initial_state: str) -> Any:
     """The twin env of ``params`` with the run's action settings and, on a physics backend,
-    the fit's backend arguments (the analytic CCKA backend takes none)."""
+    everything the fit simulated (``twin_kwargs_from_yaml``: backend arguments, the drives' cap
+    and backlash); the analytic CCKA twin takes the action settings only."""
     kw = {k: run_kwargs[k] for k in ENV_KEYS if k in run_kwargs}
     if "CCKA" not in env_id:
-        kw.update(backend_kwargs_from_yaml(params))
+        kw = {**twin_kwargs_from_yaml(params, action_mode=kw["action_mode"]), **kw}
     return gym.make(env_id, params=params, initial_state=initial_state, **kw)
 
 
