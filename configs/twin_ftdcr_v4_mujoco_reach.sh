@@ -5,11 +5,11 @@
 # Outputs: docs/figures/twin_ftdcr_v4/eval_mujoco_trained.{json,md,png} (docs/sim2real.md
 # "Train on the MuJoCo twin") and docs/figures/twin_ftdcr_v4/reset_time_mujoco.json.
 #   bash configs/twin_ftdcr_v4_mujoco_reach.sh
-# The two seeds train side by side on a two-core machine.
+# The two seeds train side by side (about 80 minutes each on a shared two-core machine).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 CONFIG=configs/twin_ftdcr_v4_mujoco_reach.yaml
-PARAMS=docs/figures/calibration/ftdcr_v4_mujoco_selected/params.yaml
+PARAMS=docs/figures/calibration/ftdcr_v4_mujoco_stage0/params.yaml
 RUNS=${RUNS:-runs/twin_ftdcr_v4_mujoco}
 OUT=${OUT:-docs/figures/twin_ftdcr_v4}
 EPISODES=${EPISODES:-20}   # per starting state (straight, random)

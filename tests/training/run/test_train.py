@@ -398,7 +398,8 @@ CONFIG_DIGESTS = {
     "tqc_mujoco_pose": "083e323b72e2ac6a",
     "tqc_mujoco_reach": "3aaed0dffeb9737c",
     "tqc_mujoco_track": "3916322e6e61918c",
-    "twin_ftdcr_v4_mujoco_reach": "9b560a900cd4012f",
+    "twin_ftdcr_v4_mujoco_reach": "07bfeb9e7ed7a22f",
+    "twin_ftdcr_v4_mujoco_selected_reach": "9b61decf446d6300",
     "twin_ftdcr_v4_reach": "d75609b651e21545",
 }
 
