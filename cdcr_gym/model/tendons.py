@@ -250,13 +250,24 @@ def holding_displacements(
     geometric shortenings ``shortening`` s (..., C) m: the tendon law solved for d,
     d = s + (T − T0)/k + c·Σ(T − T0) (``stiffness`` k N/m, ``inf``: d = s; ``pretension`` T0 N;
     ``base_compliance`` c m/N, a scalar or (...) per robot). A slack tendon (T = 0) sits at its
-    slack point s − T0/k (minus the base's give). Not clipped to a drive range."""
-    s = np.asarray(shortening, dtype=np.float64)
-    extra = np.asarray(tensions, dtype=np.float64) - np.asarray(pretension, dtype=np.float64)
-    k = np.asarray(stiffness, dtype=np.float64)
+    slack point s − T0/k (minus the base's give). Not clipped to a drive range.
+
+    Raises:
+        ValueError: naming the argument for NaN/inf values (k may be inf), k ≤ 0, T0 < 0,
+            c < 0, or arrays whose last axis disagrees.
+    """
+    s = _array("shortening", shortening)
+    t = _array("tensions", tensions)
+    if s.ndim == 0 or t.ndim == 0 or s.shape[-1] != t.shape[-1]:
+        raise ValueError(
+            f"shortening and tensions must have shape (..., C), got {s.shape} and {t.shape}"
+        )
+    c_count = s.shape[-1]
+    extra = t - _pretension(pretension, c_count)
+    k = _stiffness(stiffness, c_count)
     finite = np.isfinite(k)
     give = np.where(finite, extra / np.where(finite, k, 1.0), 0.0)
-    c = np.asarray(base_compliance, dtype=np.float64)
+    c = _compliance(base_compliance)
     return s + give + c[..., None] * np.sum(extra, axis=-1, keepdims=True)
 
 

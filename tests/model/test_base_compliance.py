@@ -256,3 +256,25 @@ def test_env_reset_rests_with_a_compliant_base(mode):
         np.testing.assert_allclose(env.unwrapped.core.backend.read().tip[0], tip, atol=1e-8)
     finally:
         env.close()
+
+
+@pytest.mark.parametrize(
+    "kwargs, name",
+    [
+        ({"tensions": np.full(9, np.nan)}, "tensions"),
+        ({"shortening": np.zeros(8)}, "shortening and tensions"),
+        ({"stiffness": -1.0}, "stiffness"),
+        ({"pretension": -0.5}, "pretension"),
+        ({"base_compliance": -1e-5}, "base_compliance"),
+    ],
+)
+def test_holding_displacements_refuse_bad_input(kwargs, name):
+    args = {
+        "shortening": np.zeros(9),
+        "tensions": np.ones(9),
+        "stiffness": 7000.0,
+        "pretension": 0.5,
+        "base_compliance": C,
+    }
+    with pytest.raises(ValueError, match=name):
+        holding_displacements(**{**args, **kwargs})
