@@ -1,4 +1,4 @@
-"""Three structural terms for the FTDCR v4 robot, probed on the CCKA model before any is built
+"""Structural terms for the FTDCR v4 robot, probed on the CCKA model before any is built
 into the backends (docs/experiments/real_robot.md):
 
 * ``anisotropic``: the rod bends more stiffly about one axis of the cross-section than about
@@ -9,16 +9,27 @@ into the backends (docs/experiments/real_robot.md):
 * ``capstan``: tension lost along the path of a tendon through the sections below its own
   (a loss-only capstan law, the tendon being pulled): the tension acting in section j is
   ``T·exp(−μ·Σ_{k<j} θ_k)`` with θ_k the bend angle of section k (a fixed point, 30 damped
-  iterations).
+  iterations);
+* ``backlash_sections`` / ``backlash_tendons``: the drives' play per section / per tendon;
+* ``tension_cap``: every tendon's tension capped at one fitted T_max (N; a servo's stall
+  torque), starting at 9 N, about the largest tension of the selected fit on train.csv;
+* ``softening`` / ``softening_sections``: a drive whose pull saturates smoothly: a tendon
+  pulled in by y > 0 (after the play) is pulled by ``d_s·tanh(y/d_s)`` instead (released
+  commands unchanged), one d_s (m) for every drive / one per section, starting at 100 mm.
+
+Terms combine with ``+`` (``anisotropic_sections+softening``).
 
 Each is started from the selected CCKA fit (``ftdcr_v4_ccka_selected``: its tendon angles,
 pretensions and backlash kept) and fitted together with the base frame, the marker offset, E
-and the base compliance — the term's parameters start at zero (φ at 0°, μ at 0.05) — first on
+and the base compliance — the term's parameters start at zero (φ at 0°, μ at 0.05, the cap and d_s as above) — first on
 the one-tendon and one-section rows of train.csv and scored on its two-section rows (the
 selection split of ``configs/calibration/ftdcr_v4_ccka_selection.py``), then on all of
-train.csv and replayed on val.csv. ``isotropic`` is the same refit without a term.
+train.csv and replayed on val.csv, scored on all its rows and apart on the rows that command
+some tendon beyond its range over train.csv (``beyond``) and the others (``inside``).
+``isotropic`` is the same refit without a term.
 
-Usage: python -m experiments.ftdcr_v4_structure_probes   (aligned RMSEs in mm; ~2 min)
+Usage: python -m experiments.ftdcr_v4_structure_probes [--terms a,b+c]   (aligned RMSEs in mm;
+~3 min for every single term)
 """
 
 from __future__ import annotations
@@ -62,7 +73,11 @@ def section_compliance(ei: float, anisotropy: np.ndarray, axes: np.ndarray) -> n
 
 
 def solve_curvatures(
-    geom: DriveGeometry, d: np.ndarray, compliance: np.ndarray, mu: float = 0.0
+    geom: DriveGeometry,
+    d: np.ndarray,
+    compliance: np.ndarray,
+    mu: float = 0.0,
+    max_tension: float | None = None,
 ) -> np.ndarray:
     """Section curvatures (M, S, 2) 1/m of the first robot of ``geom`` under commands ``d``
     (M, C) m (already through the drives' play) with the bending compliance (2S, 2S) and a
@@ -84,7 +99,7 @@ def solve_curvatures(
             d,
             geom.stiffness[0],
             np.maximum(geom.pretension[0], 0.0),
-            None,
+            max_tension,
             1e-12,
             100,
             base_compliance=comp,
@@ -109,18 +124,37 @@ class Probe:
         "capstan": 1,
         "backlash_sections": 3,
         "backlash_tendons": 9,
+        "tension_cap": 1,
+        "softening": 1,
+        "softening_sections": 3,
     }
 
+    #: the start of the tension cap (N): about the largest tension of the selected fit on train.csv
+    CAP_START = 9.0
+
     def __init__(self, term: str, robot: RobotParams, drive: TendonDrive, values: dict):
-        if term not in self.TERMS:
-            raise ValueError(f"term must be one of {sorted(self.TERMS)}, got {term!r}")
+        parts = term.split("+")
+        for part in parts:
+            if part not in self.TERMS or parts.count(part) > 1:
+                raise ValueError(
+                    f"term must be one of {sorted(self.TERMS)} or several joined by '+', "
+                    f"got {term!r}"
+                )
         self.term, self.robot, self.drive, self.values = term, robot, drive, values
-        self.size = N_COMMON + self.TERMS[term]
+        self.slices: dict[str, slice] = {}
+        at = N_COMMON
+        for part in parts:
+            self.slices[part] = slice(at, at + self.TERMS[part])
+            at += self.TERMS[part]
+        self.size = at
 
     def start(self) -> np.ndarray:
         p = np.zeros(self.size)
-        if self.term == "capstan":
-            p[N_COMMON] = 0.5  # μ = 0.05
+        for part, sl in self.slices.items():
+            if part == "capstan":
+                p[sl] = 0.5  # μ = 0.05
+            elif part.startswith("softening"):
+                p[sl] = 1.0  # d_s = 100 mm
         return p
 
     def __call__(self, data: Measurements, p: np.ndarray) -> np.ndarray:
@@ -134,25 +168,32 @@ class Probe:
         v["base_compliance"] = max(0.0, v0.get("base_compliance", 0.0) + p[8] * 1e-5)
         geom = drive_geometry(self.robot, self.drive, [v])
         s = self.robot.n_sections
-        a, phi, mu = np.zeros(s), np.zeros(s), 0.0
-        q = p[N_COMMON:]
-        if self.term == "anisotropic":
-            a[:], phi[:] = np.tanh(q[0]), np.radians(q[1])
-        elif self.term == "anisotropic_sections":
-            a, phi = np.tanh(q[0::2]), np.radians(q[1::2])
-        elif self.term == "capstan":
-            mu = abs(q[0]) * 0.1
+        section_of = np.asarray(self.robot.cable_section)
+        q = {part: p[sl] for part, sl in self.slices.items()}
+        a, phi, mu, cap = np.zeros(s), np.zeros(s), 0.0, None
+        if "anisotropic" in q:
+            a[:], phi[:] = np.tanh(q["anisotropic"][0]), np.radians(q["anisotropic"][1])
+        if "anisotropic_sections" in q:
+            a = np.tanh(q["anisotropic_sections"][0::2])
+            phi = np.radians(q["anisotropic_sections"][1::2])
+        if "capstan" in q:
+            mu = abs(q["capstan"][0]) * 0.1
+        if "tension_cap" in q:
+            cap = self.CAP_START * np.exp(q["tension_cap"][0])
         width = np.full(self.robot.n_cables, v["drive_backlash"])
-        if self.term == "backlash_sections":
-            width = np.maximum(0.0, width + q[np.asarray(self.robot.cable_section)] * 1e-4)
-        elif self.term == "backlash_tendons":
-            width = np.maximum(0.0, width + q * 1e-4)
+        if "backlash_sections" in q:
+            width = np.maximum(0.0, width + q["backlash_sections"][section_of] * 1e-4)
+        if "backlash_tendons" in q:
+            width = np.maximum(0.0, width + q["backlash_tendons"] * 1e-4)
         assert data.displacements is not None
+        d = play(data.displacements, width)
+        for part in ("softening", "softening_sections"):
+            if part in q:
+                d_s = 0.1 / np.maximum(np.abs(q[part]), 1e-6)  # m
+                d_s = d_s[section_of] if len(d_s) > 1 else d_s[0]
+                d = np.where(d > 0.0, d_s * np.tanh(d / d_s), d)
         u = solve_curvatures(
-            geom,
-            play(data.displacements, width),
-            section_compliance(float(geom.ei[0]), a, phi),
-            mu,
+            geom, d, section_compliance(float(geom.ei[0]), a, phi), mu, max_tension=cap
         )
         return forward_tips(geom, u[None])[0][0]
 
@@ -166,17 +207,23 @@ class Probe:
         ).x
 
     def describe(self, p: np.ndarray) -> str:
-        q = p[N_COMMON:]
-        if self.term == "anisotropic":
+        return "; ".join(self._describe(part, p[sl]) for part, sl in self.slices.items())
+
+    def _describe(self, part: str, q: np.ndarray) -> str:
+        if part == "anisotropic":
             return f"a = {np.tanh(q[0]):+.3f}, φ = {q[1]:.1f}°"
-        if self.term == "anisotropic_sections":
+        if part == "anisotropic_sections":
             return ", ".join(
                 f"s{j + 1}: a = {np.tanh(q[2 * j]):+.3f}, φ = {q[2 * j + 1]:.1f}°"
                 for j in range(len(q) // 2)
             )
-        if self.term == "capstan":
+        if part == "capstan":
             return f"μ = {abs(q[0]) * 0.1:.4f}"
-        if self.term.startswith("backlash"):
+        if part == "tension_cap":
+            return f"T_max = {self.CAP_START * np.exp(q[0]):.2f} N"
+        if part.startswith("softening"):
+            return "d_s = " + " / ".join(f"{100 / max(abs(x), 1e-6):.1f}" for x in q) + " mm"
+        if part.startswith("backlash"):
             w = np.maximum(0.0, self.values["drive_backlash"] + q * 1e-4) * 1e3
             return "w = " + " / ".join(f"{x:.3f}" for x in w) + " mm"
         return ""
@@ -187,6 +234,14 @@ def rmse_aligned(pred: np.ndarray, tip: np.ndarray) -> float:
     e = pred - tip
     e = e - e.mean(axis=0)
     return float(np.sqrt(np.mean(np.sum(e**2, axis=1))) * 1e3)
+
+
+def rmse_aligned_split(pred: np.ndarray, tip: np.ndarray, mask: np.ndarray) -> tuple[float, float]:
+    """The aligned RMSE (mm) of the rows outside and inside ``mask`` (M,) bool, the mean offset
+    of the whole set removed (as :func:`rmse_aligned`)."""
+    e = pred - tip
+    sq = np.sum((e - e.mean(axis=0)) ** 2, axis=1)
+    return float(np.sqrt(sq[~mask].mean()) * 1e3), float(np.sqrt(sq[mask].mean()) * 1e3)
 
 
 def _is_pair(label: str) -> bool:
@@ -209,16 +264,22 @@ def run(terms: list[str], report: Callable[[str], None] = print) -> dict[str, di
     val = read_csv(DATA / "val.csv", robot=robot, drive=drive)
     pair = np.array([_is_pair(lab) for lab in train.labels])
     single, pairs = train.subset(np.flatnonzero(~pair)), train.subset(np.flatnonzero(pair))
+    assert train.displacements is not None and val.displacements is not None
+    beyond = np.any(val.displacements > train.displacements.max(axis=0), axis=1)
     out = {}
     for term in terms:
         t0 = time.perf_counter()
         probe = Probe(term, robot, drive, values)
         ps, pf = probe.fit(single), probe.fit(train)
+        val_pred = probe(val, pf)
+        inside, outside = rmse_aligned_split(val_pred, val.tip, beyond)
         row = {
             "single": rmse_aligned(probe(single, ps), single.tip),
             "pairs": rmse_aligned(probe(pairs, ps), pairs.tip),
             "train": rmse_aligned(probe(train, pf), train.tip),
-            "val": rmse_aligned(probe(val, pf), val.tip),
+            "val": rmse_aligned(val_pred, val.tip),
+            "val_inside": inside,
+            "val_beyond": outside,
             "selection_fit": probe.describe(ps),
             "full_fit": probe.describe(pf),
             "seconds": round(time.perf_counter() - t0, 1),
@@ -226,7 +287,8 @@ def run(terms: list[str], report: Callable[[str], None] = print) -> dict[str, di
         out[term] = row
         report(
             f"{term}: single {row['single']:.3f}, pairs {row['pairs']:.3f} | train "
-            f"{row['train']:.3f}, held-out {row['val']:.3f} mm | {row['full_fit']} "
+            f"{row['train']:.3f}, held-out {row['val']:.3f} (inside {row['val_inside']:.3f}, "
+            f"beyond {row['val_beyond']:.3f}) mm | {row['full_fit']} "
             f"({row['seconds']:.0f} s)"
         )
     return out

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -66,3 +68,54 @@ def test_unknown_term_is_refused(fitted):
     robot, drive, _ = fitted
     with pytest.raises(ValueError, match="term must be one of"):
         Probe("twisted", robot, drive, {})
+
+
+def _values(robot) -> dict:
+    """A frame at the origin and a drive without play: the probe's inputs reach the law as given."""
+    return {
+        "base_x": 0.0,
+        "base_y": 0.0,
+        "base_z": 0.0,
+        "marker_offset": 0.0,
+        "drive_backlash": 0.0,
+        "base_compliance": 0.0,
+    }
+
+
+def test_softening_is_the_tanh_map_of_the_pulls(fitted):
+    robot, drive, rows = fitted
+    soft = Probe("softening", robot, drive, _values(robot))
+    plain = Probe("isotropic", robot, drive, _values(robot))
+    p = np.zeros(soft.size)
+    p[-1] = 2.5  # d_s = 40 mm
+    d = rows.displacements
+    mapped = replace(rows, displacements=np.where(d > 0.0, 0.04 * np.tanh(d / 0.04), d))
+    np.testing.assert_allclose(soft(rows, p), plain(mapped, p[:-1]), atol=1e-12)
+    assert np.any(d > 0.003) and np.any(d < 0.0)  # both branches of the map are in the rows
+    # d_s far beyond every command: the plain drive
+    p[-1] = 1e-6
+    np.testing.assert_allclose(soft(rows, p), plain(rows, p[:-1]), atol=1e-9)
+
+
+def test_a_tension_cap_bends_the_robot_less(fitted):
+    robot, drive, rows = fitted
+    capped = Probe("tension_cap", robot, drive, _values(robot))
+    plain = Probe("isotropic", robot, drive, _values(robot))
+    p = np.zeros(capped.size)
+    straight = plain(replace(rows, displacements=np.zeros_like(rows.displacements)), p[:-1])
+    bend = np.linalg.norm(plain(rows, p[:-1]) - straight, axis=1)
+    p[-1] = np.log(100.0 / Probe.CAP_START)  # far above every tension: no change
+    np.testing.assert_allclose(capped(rows, p), plain(rows, p[:-1]), atol=1e-12)
+    p[-1] = np.log(1.0 / Probe.CAP_START)  # 1 N
+    capped_bend = np.linalg.norm(capped(rows, p) - straight, axis=1)
+    # (a row may bend a little more: the cap also holds back a co-contracted antagonist)
+    assert bend.max() > 0.1 and capped_bend.max() < 0.7 * bend.max()
+
+
+def test_terms_combine_with_a_plus(fitted):
+    robot, drive, _ = fitted
+    both = Probe("anisotropic+softening", robot, drive, {})
+    assert both.size == Probe("anisotropic", robot, drive, {}).size + 1
+    assert both.start()[-1] == 1.0  # the softening's start, after the anisotropy's two
+    with pytest.raises(ValueError, match="several joined by"):
+        Probe("softening+softening", robot, drive, {})
