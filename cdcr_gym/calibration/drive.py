@@ -32,6 +32,8 @@ from typing import Any
 
 import numpy as np
 
+from cdcr_gym.model.drive_softening import check_rate
+
 __all__ = ["DriveGeometry", "DriveState", "solve_drive", "forward_tips", "rotation_zyx"]
 
 
@@ -269,6 +271,9 @@ class TendonDrive:
         backlash: w, the play between each drive's command and its tendon, m (the replays
             pass the rows' commands through :func:`cdcr_gym.calibration.backlash.play`;
             0: none).
+        softening: σ, the rate at which each drive's pull saturates, 1/m (a drive at y > 0
+            after its play pulls by tanh(σy)/σ: :mod:`cdcr_gym.model.drive_softening`;
+            0: a linear drive).
     """
 
     stiffness: tuple[float, ...]
@@ -277,6 +282,7 @@ class TendonDrive:
     max_tension: float = np.inf
     base_compliance: float = 0.0
     backlash: float = 0.0
+    softening: float = 0.0
 
     def __post_init__(self) -> None:
         k = np.asarray(self.stiffness, dtype=np.float64)
@@ -302,6 +308,7 @@ class TendonDrive:
         if not (np.isfinite(w) and w >= 0.0):
             raise ValueError(f"backlash must be finite and >= 0 m, got {w!r}")
         object.__setattr__(self, "backlash", w)
+        object.__setattr__(self, "softening", check_rate(self.softening, "softening"))
         object.__setattr__(self, "stiffness", tuple(float(v) for v in k))
         object.__setattr__(self, "pretension", tuple(float(v) for v in t0))
         object.__setattr__(self, "displacement_range", (lo, hi))
@@ -337,13 +344,15 @@ class TendonDrive:
             out["base_compliance"] = self.base_compliance
         if self.backlash > 0.0:
             out["backlash"] = self.backlash
+        if self.softening > 0.0:
+            out["softening"] = self.softening
         return out
 
     @classmethod
     def from_dict(cls, data: dict, n: int, where: str) -> TendonDrive:
         """From a mapping with ``stiffness``, ``pretension`` (a number or C numbers each) and
-        optional ``displacement_range``, ``max_tension``, ``base_compliance``, ``backlash``
-        (ValueError naming ``where``)."""
+        optional ``displacement_range``, ``max_tension``, ``base_compliance``, ``backlash``,
+        ``softening`` (ValueError naming ``where``)."""
         allowed = {
             "stiffness",
             "pretension",
@@ -351,12 +360,13 @@ class TendonDrive:
             "max_tension",
             "base_compliance",
             "backlash",
+            "softening",
         }
         if not isinstance(data, dict) or set(data) - allowed or "stiffness" not in data:
             raise ValueError(
                 f"{where}: a mapping with stiffness (N/m), pretension (N) and optional "
                 f"displacement_range (m), max_tension (N), base_compliance (m/N), backlash (m), "
-                f"got {data!r}"
+                f"softening (1/m), got {data!r}"
             )
         try:
             k = np.broadcast_to(np.asarray(data["stiffness"], dtype=np.float64), (n,))
@@ -373,4 +383,5 @@ class TendonDrive:
             float(data.get("max_tension", np.inf)),
             float(data.get("base_compliance", 0.0)),
             float(data.get("backlash", 0.0)),
+            float(data.get("softening", 0.0)),
         )

@@ -214,11 +214,12 @@ def calibrate(
     )
     names, pin_notes = pin_ill_posed(names, base)
     notes += pin_notes
-    if data.displacements is None and "drive_backlash" in names:
-        raise ValueError(
-            "parameter 'drive_backlash' needs displacement data (the drives' commands in row "
-            "order); these data give tensions"
-        )
+    for name in ("drive_backlash", "drive_softening"):
+        if data.displacements is None and name in names:
+            raise ValueError(
+                f"parameter {name!r} needs displacement data (the drives' commands in row "
+                "order); these data give tensions"
+            )
     if drive is None:
         drive = TendonDrive.of(base)
     if physics_drive and drive is None:
@@ -270,6 +271,8 @@ def calibrate(
             start_values[n] = drive.base_compliance if drive is not None else 0.0
         elif n == "drive_backlash":
             start_values[n] = drive.backlash if drive is not None else 0.0
+        elif n == "drive_softening":
+            start_values[n] = drive.softening if drive is not None else 0.0
         elif n.startswith(("tendon_stiffness", "tendon_pretension")):
             if drive is None:
                 raise ValueError(
@@ -522,6 +525,7 @@ def _fitted_drive(
         drive.max_tension,
         float(comp),
         float(values.get("drive_backlash", drive.backlash)),
+        float(values.get("drive_softening", drive.softening)),
     )
 
 

@@ -50,6 +50,11 @@ drive_backlash                         m     w/(0.1 mm)             the play bet
                                                                     drive's command and its
                                                                     tendon (≥ 0, rows in order:
                                                                     ``calibration.backlash``)
+drive_softening                        1/m   σ/(10 /m)              the rate at which each
+                                                                    drive's pull saturates (≥ 0;
+                                                                    a drive at y > 0 pulls by
+                                                                    tanh(σy)/σ:
+                                                                    ``model.drive_softening``)
 ====================================== ===== ====================== =============================
 
 ``base_frame`` = the translation, the tilt and the yaw. Gravity and payload are not modelled by
@@ -171,6 +176,7 @@ DRIVE_COMMON = [
     "tendon_pretension",
     "base_compliance",
     "drive_backlash",
+    "drive_softening",
 ]
 
 
@@ -365,6 +371,7 @@ NON_NEGATIVE = (
     "base_compliance",
     "backbone_friction",
     "drive_backlash",
+    "drive_softening",
 )
 #: Names whose values must be > 0 (a --start value is checked).
 POSITIVE = ("youngs_modulus", "cable_radius", "length_s", "tendon_stiffness")
@@ -441,6 +448,8 @@ def parameter_specs(
             specs.append(ParameterSpec(n, "m/N", 1e-5, 0.0, 0.0, np.inf))
         elif n == "drive_backlash":
             specs.append(ParameterSpec(n, "m", 1e-4, 0.0, 0.0, np.inf))
+        elif n == "drive_softening":
+            specs.append(ParameterSpec(n, "1/m", 10.0, 0.0, 0.0, np.inf))
         else:  # pragma: no cover - resolve_names guards
             raise ValueError(f"unknown parameter {n!r}")
     return specs

@@ -16,8 +16,9 @@ Parameters (names of :mod:`cdcr_gym.calibration.parameters`):
 * simulated per robot: ``youngs_modulus``, ``friction_coefficient``, ``tip_payload``,
   ``backbone_friction`` (MuJoCo), the
   tendon drive's ``tendon_stiffness*`` / ``tendon_pretension*`` (the drive law of
-  ``cdcr_gym.model.tendons`` with these k and T0), ``base_compliance`` and ``drive_backlash``
-  (each robot's commands through its drives' backlash), and, with gravity,
+  ``cdcr_gym.model.tendons`` with these k and T0), ``base_compliance``, ``drive_backlash``
+  and ``drive_softening`` (each robot's commands through its drives' backlash, then their
+  softening), and, with gravity,
   the base tilt
   (``base_tilt_x``, ``base_tilt_y``): gravity acts along the measurement frame's −Z, i.e. along
   Rᵀ·(0, 0, −g) in the robot's base frame;
@@ -52,6 +53,7 @@ from cdcr_gym.calibration.backlash import play
 from cdcr_gym.calibration.data import Measurements
 from cdcr_gym.calibration.drive import TendonDrive, rotation_zyx
 from cdcr_gym.calibration.parameters import accepts
+from cdcr_gym.model.drive_softening import soften
 from cdcr_gym.model.params import STANDARD_GRAVITY, RobotParams
 
 __all__ = ["FRAME_NAMES", "PhysicsReplay", "ReplayTiming", "row_steps"]
@@ -72,7 +74,7 @@ def physics_name(name: str) -> bool:
         name in FRAME_NAMES
         or name in ROBOT_NAMES
         or name.startswith("tendon_")
-        or name in ("base_compliance", "drive_backlash")
+        or name in ("base_compliance", "drive_backlash", "drive_softening")
     )
 
 
@@ -225,12 +227,14 @@ class PhysicsReplay:
         return float(values.get("base_compliance", self.drive.base_compliance))
 
     def commands_of(self, values: dict[str, float]) -> np.ndarray:
-        """The displacements (M, C) m that reach the tendons of ``values``' robot: the rows'
-        commands through its drives' backlash (``drive_backlash``, the drive's where not
-        fitted; :func:`cdcr_gym.calibration.backlash.play`)."""
+        """The pulls (M, C) m that reach the tendons of ``values``' robot: the rows' commands
+        through its drives' backlash (``drive_backlash``; :func:`cdcr_gym.calibration.backlash.play`)
+        and softening (``drive_softening``; :func:`cdcr_gym.model.drive_softening.soften`), the
+        drive's where not fitted."""
         d = self.data.displacements
         assert d is not None
-        return play(d, float(values.get("drive_backlash", self.drive.backlash)))
+        played = play(d, float(values.get("drive_backlash", self.drive.backlash)))
+        return soften(played, float(values.get("drive_softening", self.drive.softening)))
 
     def _key(self, values: dict[str, float]) -> tuple:
         """What the simulation of ``values`` depends on (frame names excluded, except the
@@ -252,6 +256,7 @@ class PhysicsReplay:
             tuple(t0.tolist()),
             self.base_compliance_of(values),
             float(values.get("drive_backlash", self.drive.backlash)),
+            float(values.get("drive_softening", self.drive.softening)),
             extra,
         )
 

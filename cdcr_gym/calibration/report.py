@@ -12,8 +12,9 @@ plain Euclidean error.
 (friction, payload, gravity, base orientation: pass them to a physics env,
 ``gym.make("cdcr_gym/BulletReach-v0", params=path, **backend_kwargs_from_yaml(path))``), and a
 ``calibration:`` record (data, backend, values and 95 % intervals, residual medians; for
-displacement data the tendon drive under ``calibration.tendons``, with the drives' tension cap
-and backlash, which :func:`twin_kwargs_from_yaml` hands to an env driven by displacements).
+displacement data the tendon drive under ``calibration.tendons``, with the drives' tension cap,
+backlash and softening, which :func:`twin_kwargs_from_yaml` hands to an env driven by
+displacements).
 """
 
 from __future__ import annotations
@@ -59,6 +60,7 @@ _DISPLAY = {
     "tip_payload": ("g", 1e3),
     "base_compliance": ("mm/kN", 1e6),
     "drive_backlash": ("mm", 1e3),
+    "drive_softening": ("1/m", 1.0),
     "backbone_friction": ("mN·m", 1e3),
 }
 
@@ -205,10 +207,10 @@ def twin_kwargs_from_yaml(path: str | Path, action_mode: str = "displacement") -
     env: ``gym.make(id, params=path, **twin_kwargs_from_yaml(path))``.
 
     The backend arguments (:func:`backend_kwargs_from_yaml`), ``action_mode``, and in a
-    displacement action mode the fitted tendon drive's cap and backlash from
+    displacement action mode the fitted tendon drive's cap, backlash and softening from
     ``calibration.tendons`` (``drive_max_tension``: its ``max_tension``, ``inf`` — no cap — when
-    it has none, as the calibration's replays; ``drive_backlash``: its ``backlash``, m), so the
-    env's drives act as the fitted ones did. A file without ``calibration.tendons`` (a fit to
+    it has none, as the calibration's replays; ``drive_backlash``: its ``backlash``, m;
+    ``drive_softening``: its ``softening``, 1/m), so the env's drives act as the fitted ones did. A file without ``calibration.tendons`` (a fit to
     tensions, a hand-written robot) adds no drive arguments.
 
     Raises:
@@ -226,6 +228,8 @@ def twin_kwargs_from_yaml(path: str | Path, action_mode: str = "displacement") -
         kw["drive_max_tension"] = float(drive.max_tension)
         if drive.backlash > 0.0:
             kw["drive_backlash"] = float(drive.backlash)
+        if drive.softening > 0.0:
+            kw["drive_softening"] = float(drive.softening)
     return kw
 
 

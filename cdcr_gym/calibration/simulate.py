@@ -32,6 +32,7 @@ from cdcr_gym.calibration.drive import (
     solve_drive,
 )
 from cdcr_gym.calibration.parameters import accepts, robot_with, tilt_matrix, tilt_quaternion
+from cdcr_gym.model.drive_softening import soften
 from cdcr_gym.model.params import RobotParams
 
 __all__ = [
@@ -317,18 +318,25 @@ class DriveReplay:
     def _drive_curvature(self, geom: Any, batch: list[dict[str, float]]) -> np.ndarray:
         """Section curvatures (B, M, S, 2) of the B robots under the rows' commands, each
         robot's through its drives' backlash (``drive_backlash``, ``TendonDrive.backlash``;
-        :func:`cdcr_gym.calibration.backlash.play`): the robots that share a backlash are
-        solved together."""
+        :func:`cdcr_gym.calibration.backlash.play`) and softening (``drive_softening``,
+        ``TendonDrive.softening``; :func:`cdcr_gym.model.drive_softening.soften`): the robots
+        that share both are solved together."""
         d = self.data.displacements
         assert d is not None and self.drive is not None
-        widths = [float(v.get("drive_backlash", self.drive.backlash)) for v in batch]
-        if not any(w > 0.0 for w in widths):
+        drives = [
+            (
+                float(v.get("drive_backlash", self.drive.backlash)),
+                float(v.get("drive_softening", self.drive.softening)),
+            )
+            for v in batch
+        ]
+        if not any(w > 0.0 or rate > 0.0 for w, rate in drives):
             return solve_drive(geom, d).curvature
-        groups: dict[float, list[int]] = {}
-        for b, w in enumerate(widths):
-            groups.setdefault(w, []).append(b)
+        groups: dict[tuple[float, float], list[int]] = {}
+        for b, key in enumerate(drives):
+            groups.setdefault(key, []).append(b)
         out: np.ndarray | None = None
-        for w, idx in groups.items():
+        for (w, rate), idx in groups.items():
             sub = drive_geometry(
                 self.base,
                 self.drive,
@@ -336,7 +344,7 @@ class DriveReplay:
                 slack=self.slack,
                 stiffness_scale=self.stiffness_scale,
             )
-            u = solve_drive(sub, play(d, w)).curvature
+            u = solve_drive(sub, soften(play(d, w), rate)).curvature
             if out is None:
                 out = np.empty((len(batch), *u.shape[1:]))
             out[idx] = u

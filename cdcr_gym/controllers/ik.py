@@ -73,6 +73,7 @@ displacements (the observation's ``displacements`` field), scaled so the largest
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -80,6 +81,7 @@ import numpy as np
 from cdcr_gym import defaults, validation
 from cdcr_gym.envs.actuation import ACTION_MODES
 from cdcr_gym.model.chain import PCCModel
+from cdcr_gym.model.drive_softening import check_rate, command_for_pull, soften
 from cdcr_gym.model.ik import solve_displacement_ik, solve_ik
 from cdcr_gym.model.params import RobotParams
 from cdcr_gym.model.statics import minimal_tensions, reachable_scale
@@ -114,6 +116,10 @@ class AnalyticIKController:
             measured tip (resolved-rate correction with the model Jacobian, module docstring).
         gain: integrator gain per control step of the closed loop, in (0, 1]; unused open loop.
         displacement_step: the env's ``displacement_step`` (m per step, ``displacement_delta``).
+        drive_softening: the env's ``drive_softening`` σ (1/m, >= 0): the drives pull by
+            tanh(σy)/σ at a command y > 0 (``cdcr_gym.model.drive_softening``). The IK solves
+            for the pulls within the softened range and commands the displacements that give
+            them; the closed loop's model holds the pulls of the held commands.
 
     Use :meth:`from_env` to copy these from an env. :meth:`predict` follows stable-baselines3's
     signature, so the evaluation code can run this and a trained model the same way.
@@ -133,8 +139,18 @@ class AnalyticIKController:
         feedback: bool = False,
         gain: float = FEEDBACK_GAIN,
         displacement_step: float = defaults.DISPLACEMENT_STEP,
+        *,
+        drive_softening: float = 0.0,
     ) -> None:
         self.params = params
+        self.drive_softening = check_rate(drive_softening)
+        low, high = params.displacement_range
+        #: the robot with the range of the drives' pulls (softened: ``drive_softening``)
+        self._pull_params = (
+            replace(params, displacement_range=(low, float(soften(high, self.drive_softening))))
+            if self.drive_softening
+            else params
+        )
         self.spec = spec
         self.action_mode = validation.choice(action_mode, "action_mode", ACTION_MODES)
         self.tension_step = validation.positive(tension_step, "tension_step", upper=1.0)
@@ -164,6 +180,7 @@ class AnalyticIKController:
             feedback,
             gain,
             env.displacement_step,
+            drive_softening=env.drive_softening,
         )
 
     @property
@@ -305,15 +322,15 @@ class AnalyticIKController:
         return low + 0.5 * (x + 1.0) * (high - low)
 
     def drive_targets(self, goal: np.ndarray) -> np.ndarray:
-        """Displacements (..., C) m within the range whose model equilibrium puts the tip at
-        ``goal`` (..., 3) m (:func:`~cdcr_gym.model.ik.solve_displacement_ik`), cached per goal
-        (an episode's goal is fixed)."""
+        """Pulls (..., C) m within the drives' (softened) range whose model equilibrium puts the
+        tip at ``goal`` (..., 3) m (:func:`~cdcr_gym.model.ik.solve_displacement_ik`), cached
+        per goal (an episode's goal is fixed); without ``drive_softening`` the displacements."""
         goal = np.asarray(goal, dtype=np.float64)
         flat = goal.reshape(-1, 3)
         keys = [np.ascontiguousarray(g).tobytes() for g in flat]
         todo = [i for i, key in enumerate(keys) if key not in self._drive_cache]
         if todo:
-            solved = solve_displacement_ik(flat[todo], self.params).displacements
+            solved = solve_displacement_ik(flat[todo], self._pull_params).displacements
             if len(self._drive_cache) + len(todo) > _CACHE_SIZE:
                 self._drive_cache.clear()
             for i, d in zip(todo, solved):
@@ -326,9 +343,9 @@ class AnalyticIKController:
         the model's error at the held displacements ``held`` (..., C) m (module docstring)."""
         error, _, _, goal = self._feedback_terms(obs)
         measured = goal - error
-        p = self.params
+        p = self._pull_params
         c = self._model.n_cables
-        flat = held.reshape(-1, c)
+        flat = soften(held.reshape(-1, c), self.drive_softening)  # the held pulls
         state = solve_displacement_statics(
             self._model, flat, p.cable_stiffness, p.cable_pretension, p.max_tension
         )
@@ -352,10 +369,14 @@ class AnalyticIKController:
         return self._displacement_action(target, held)
 
     def _displacement_action(self, target: np.ndarray, held: np.ndarray) -> np.ndarray:
-        """The action (..., C) float32 towards the displacements ``target`` (..., C) m from the
-        ``held`` ones (absolute: normalised to the range; increments: scaled so the largest is
-        one step)."""
+        """The action (..., C) float32 towards the pulls ``target`` (..., C) m from the ``held``
+        displacements (absolute: normalised to the range; increments: scaled so the largest is
+        one step); with ``drive_softening`` the commands whose pulls they are (a pull beyond
+        the softened range: the range's end)."""
         low, high = self.params.displacement_range
+        if self.drive_softening:
+            high_pull = self._pull_params.displacement_range[1]
+            target = command_for_pull(np.minimum(target, high_pull), self.drive_softening)
         if self.action_mode == "displacement":
             action = (2.0 * target - (low + high)) / (high - low)
         else:

@@ -69,6 +69,8 @@ class TrackingIKController(AnalyticIKController):
         feedback: bool = False,
         gain: float = FEEDBACK_GAIN,
         displacement_step: float = defaults.DISPLACEMENT_STEP,
+        *,
+        drive_softening: float = 0.0,
     ) -> None:
         super().__init__(
             params,
@@ -79,6 +81,7 @@ class TrackingIKController(AnalyticIKController):
             feedback,
             gain,
             displacement_step,
+            drive_softening=drive_softening,
         )
         self.timestep = validation.positive(timestep, "timestep")
 
@@ -98,6 +101,7 @@ class TrackingIKController(AnalyticIKController):
             feedback,
             gain,
             env.displacement_step,
+            drive_softening=env.drive_softening,
         )
 
     def _feedback_terms(self, obs: Any) -> tuple[np.ndarray, np.ndarray, Any, np.ndarray]:

@@ -22,12 +22,15 @@ under tensions as in the tension modes (zero: straight; ``initial_state="random"
 ``initial_tensions``) and then sets the drives consistently: d = s + (T − T0)/k + c·Σ(T − T0),
 the displacement whose law gives those tensions at that shape (s the backend's shortening, c the
 robot's ``base_compliance``; at zero tension every tendon sits exactly at its slack point;
-``model.tendons.holding_displacements``), clipped to ``displacement_range``.
+``model.tendons.holding_displacements``). With a ``drive_softening`` d is the pull, and the
+command is the one whose pull it is. A start whose d leaves the range (softened) is not one the
+drives hold: it is rested in the drives' equilibrium under the clipped d instead.
 ``options["initial_displacements"]`` instead starts from the drives' equilibrium under given
 displacements (``Backend.reset_displacements``: their law with their own cap). ``info`` gains
 ``displacements`` (N, C) m, ``slack`` and ``saturated`` (N, C) bool (and, with a
-``drive_backlash``, ``tendon_displacements`` (N, C) m: what reaches the tendons through the
-play; ``drive_max_tension`` caps the drives); the observation gains the
+``drive_backlash`` or a ``drive_softening``, ``tendon_displacements`` (N, C) m: the pulls that
+reach the tendons through the play and the softening; ``drive_max_tension`` caps the drives);
+the observation gains the
 field ``displacements`` (the commanded d normalised to the range, [−1, 1]). Imperfections in
 these modes: ``action_delay`` delays the action (a reset fills the queue with the action that
 holds the reset displacements); sensor noise and biases act as in every mode; the actuator
@@ -55,6 +58,7 @@ from cdcr_gym.backends.base import Backend, Readings
 from cdcr_gym.envs.actuation import Actuation
 from cdcr_gym.envs.safety import SafetyFilter
 from cdcr_gym.model.backlash import play_step
+from cdcr_gym.model.drive_softening import check_rate, command_for_pull, soften
 from cdcr_gym.model.params import RobotParams
 from cdcr_gym.model.tendons import holding_displacements, tendon_tensions
 from cdcr_gym.model.workspace import sample_tensions_each
@@ -110,7 +114,12 @@ class EnvCore:
         drive_backlash: the play w (m, >= 0) between each drive's command and its tendon
             (``cdcr_gym.model.backlash``): every step the tendon takes y = clip(y, d − w/2,
             d + w/2) of the commanded d; a reset sets y = d. Displacement action modes only.
-            A calibrated robot's cap and backlash: ``twin_kwargs_from_yaml``
+        drive_softening: the rate σ (1/m, >= 0; 0: none) at which the drives' pull saturates
+            (``cdcr_gym.model.drive_softening``): a drive at y > 0 (after its play) pulls its
+            tendon by tanh(σy)/σ. Displacement action modes only. The goals the drives hold lie
+            within the softened range, and a reset commands the displacements whose pulls hold
+            its shape.
+            A calibrated robot's cap, backlash and softening: ``twin_kwargs_from_yaml``
             (``cdcr_gym.calibration``).
     """
 
@@ -134,6 +143,7 @@ class EnvCore:
         safety_penalty: float = 0.0,
         drive_max_tension: float | None = None,
         drive_backlash: float = 0.0,
+        drive_softening: float = 0.0,
     ) -> None:
         if not isinstance(backend, Backend):
             raise ValueError(f"backend must be a cdcr_gym.backends.Backend, got {backend!r}")
@@ -165,8 +175,11 @@ class EnvCore:
         self.task = task
         self.actuation = actuation
         task.bind(self.params, n)
+        #: the drives' softening rate σ (1/m; ``cdcr_gym.model.drive_softening``)
+        self.drive_softening = check_rate(drive_softening)
         if actuation.commands_displacements:  # goals the drives can hold
-            task.goal_displacement_range = actuation.displacement_range
+            low, high = actuation.displacement_range
+            task.goal_displacement_range = (low, float(soften(high, self.drive_softening)))
         states = [initial_state] * n if isinstance(initial_state, str) else list(initial_state)
         if len(states) != n:
             raise ValueError(
@@ -237,16 +250,17 @@ class EnvCore:
 
     def _init_drives(self, max_tension: float | None, backlash: float) -> None:
         """The displacement drives' cap (on the backend) and backlash (:attr:`drive_backlash` m,
-        and the tendons' displacements y (N, C) m behind it)."""
+        and the drives' displacements y (N, C) m behind it)."""
         self.drive_backlash = validation.positive(
             backlash, "drive_backlash", allow_zero=True, unit="m"
         )
         if not self.actuation.commands_displacements and (
-            max_tension is not None or self.drive_backlash
+            max_tension is not None or self.drive_backlash or self.drive_softening
         ):
             raise ValueError(
-                f"drive_max_tension={max_tension!r} and drive_backlash={backlash!r} need a "
-                f"displacement action mode ('displacement' or 'displacement_delta'), got "
+                f"drive_max_tension={max_tension!r}, drive_backlash={backlash!r} and "
+                f"drive_softening={self.drive_softening!r} need a displacement action mode "
+                f"('displacement' or 'displacement_delta'), got "
                 f"action_mode={self.actuation.mode!r}"
             )
         if max_tension is not None:
@@ -258,7 +272,7 @@ class EnvCore:
                 ) from None
         #: drives that pull beyond max_tension: the observed tensions saturate at their range
         self._saturating_sensors = self.backend.drive_max_tension > self.params.max_tension
-        #: the displacements (N, C) m that reach the tendons through the drives' backlash
+        #: the drives' displacements y (N, C) m behind their backlash (before the softening)
         self._tendon_displacements = self._held_displacements.copy()
 
     def _init_safety(self, enabled: bool, margin: float, penalty: float) -> None:
@@ -453,10 +467,12 @@ class EnvCore:
         full = np.zeros((self.num_envs, c))
         if displacements is not None:  # the drives' equilibrium on this episode's robot
             full[idx] = displacements
-            self.backend.reset_displacements(full, mask)
+            self.backend.reset_displacements(soften(full, self.drive_softening), mask)
         else:
             full[idx] = tensions
             self.backend.reset(full, mask)
+            if self.actuation.commands_displacements:
+                displacements = self._holding_commands(idx)
         self.task.reset_goals(idx, rngs, self.backend, goal)
         r = self._readings = self.backend.read()
         if m == self.num_envs:
@@ -467,7 +483,7 @@ class EnvCore:
             self._held_lengths = self._held_lengths.copy(order="K")
             self._held_tensions[idx] = r.tensions[idx]
             self._held_lengths[idx] = r.cable_lengths[idx]
-        if self.actuation.commands_displacements:
+        if displacements is not None:  # (set in every displacement action mode)
             self._reset_drives(idx, displacements)
         if self.imperfections is not None:
             self.imperfections.reset(idx, r.tensions[idx])
@@ -478,21 +494,35 @@ class EnvCore:
         if self.safety is not None:
             self.safety_correction[idx] = 0.0
 
-    def _reset_drives(self, idx: np.ndarray, displacements: np.ndarray | None) -> None:
-        """The drives of envs ``idx`` after a reset (module docstring): ``displacements``
-        (len(idx), C) m, or the ones that hold the reset tensions at the reset shape."""
-        r = self._readings
+    def _holding_commands(self, idx: np.ndarray) -> np.ndarray:
+        """The commands (len(idx), C) m that hold envs ``idx`` at the shape and tensions they
+        were reset to (module docstring). A shape whose pulls leave the drives' (softened)
+        range is not one the drives hold: those envs are rested in the drives' equilibrium
+        under the clipped pulls instead (``Backend.reset_displacements``)."""
+        r = self.backend.read()
         p = self.params
-        if displacements is None:
-            low, high = self.actuation.displacement_range
-            holding = holding_displacements(
-                self.backend.straight_cable_lengths - r.cable_lengths[idx],
-                r.tensions[idx],
-                p.cable_stiffness,
-                p.cable_pretension,
-                p.base_compliance,
-            )
-            displacements = np.clip(holding, low, high)
+        low, high = self.actuation.displacement_range
+        holding = holding_displacements(
+            self.backend.straight_cable_lengths - r.cable_lengths[idx],
+            r.tensions[idx],
+            p.cable_stiffness,
+            p.cable_pretension,
+            p.base_compliance,
+        )
+        pulls = np.clip(holding, low, float(soften(high, self.drive_softening)))
+        clipped = np.any(pulls != holding, axis=1)
+        if clipped.any():
+            full = np.zeros((self.num_envs, self.n_cables))
+            full[idx[clipped]] = pulls[clipped]
+            mask = np.zeros(self.num_envs, dtype=bool)
+            mask[idx[clipped]] = True
+            self.backend.reset_displacements(full, mask)
+        return command_for_pull(pulls, self.drive_softening)
+
+    def _reset_drives(self, idx: np.ndarray, displacements: np.ndarray) -> None:
+        """The drives of envs ``idx`` after a reset (module docstring) at the commands
+        ``displacements`` (len(idx), C) m."""
+        r = self._readings
         held = self._held_displacements.copy()
         held[idx] = displacements
         self._held_displacements = held
@@ -513,6 +543,7 @@ class EnvCore:
         if self.drive_backlash:
             d = play_step(self._tendon_displacements, d, self.drive_backlash)
         self._tendon_displacements = d
+        d = soften(d, self.drive_softening)
         self.backend.apply_displacements(d)
         self._readings = self.backend.read()
         state = self.backend.drive_state
@@ -630,8 +661,10 @@ class EnvCore:
             info["anchor_tensions"] = r.anchor_tensions
         if self.actuation.commands_displacements:
             info["displacements"] = self._held_displacements.copy()
-            if self.drive_backlash:
-                info["tendon_displacements"] = self._tendon_displacements.copy()
+            if self.drive_backlash or self.drive_softening:
+                info["tendon_displacements"] = soften(
+                    self._tendon_displacements, self.drive_softening
+                )
             info["slack"] = self._drive_flags[0].copy()
             info["saturated"] = self._drive_flags[1].copy()
         if self.randomized:
@@ -690,6 +723,12 @@ class CoreAttributes:
     def displacement_step(self) -> float:
         """Largest tendon displacement change per step in ``displacement_delta`` mode (m)."""
         return self.core.actuation.displacement_step
+
+    @property
+    def drive_softening(self) -> float:
+        """The displacement drives' softening rate σ (1/m; 0: none;
+        ``cdcr_gym.model.drive_softening``)."""
+        return self.core.drive_softening
 
     @property
     def terminate_on_success(self) -> bool:

@@ -134,6 +134,7 @@ class CDCREnv(CoreAttributes, gym.Env):
     | ``safety_penalty`` | 0.0 | reward − penalty × ``safety_correction`` (‖T_safe − T_cmd‖ / T_max) |
     | ``drive_max_tension`` | None | displacement modes: the drives' tension cap (N; ``inf``: none; None: ``max_tension``); observed tensions saturate at their range |
     | ``drive_backlash`` | 0.0 | displacement modes: the play (m) between each drive's command and its tendon; ``info`` gains ``tendon_displacements`` |
+    | ``drive_softening`` | 0.0 | displacement modes: the rate σ (1/m) at which the drives' pull saturates, tanh(σy)/σ for a drive at y > 0 (``cdcr_gym.model.drive_softening``); ``info`` gains ``tendon_displacements`` |
 
     ## Version History
     * v0: initial release (one-section reach); the n-section core keeps its layout and results.

@@ -15,6 +15,8 @@
 #   A. base frame, marker, E, tip payload, base compliance, drive backlash, 4 optimiser steps
 #      -> docs/figures/calibration/ftdcr_v4_mujoco_base_selected/
 #   B. + backbone friction (payload fixed at A's), 4 steps -> ftdcr_v4_mujoco_backbone_selected/
+#   With a drive softening (not selected: worse on the two-section rows; kept for comparison):
+#   C. the main fit's names + drive_softening (from 10 1/m), 4 steps -> ftdcr_v4_mujoco_softening/
 #
 # Wall times on 2 shared cores: in each report.md ("model evaluations in ... s"); the ablation:
 # configs/calibration/ftdcr_v4_mujoco_ablation.py.
@@ -41,3 +43,7 @@ run --robot "$A" --fit base_frame,marker,E,base_compliance,drive_backlash,backbo
   --start-from "$A" \
   --start backbone_friction=0.001 --backend-arg tip_payload="$(payload "$A")" --max-evals 4 \
   --out "$F/ftdcr_v4_mujoco_backbone_selected"
+run --robot "$S" --backend-arg gravity=false \
+  --fit base_frame,marker,E,base_compliance,drive_backlash,backbone_friction,drive_softening \
+  --start-from "$S" --start backbone_friction=0.001 --start drive_softening=10 --max-evals 4 \
+  --out "$F/ftdcr_v4_mujoco_softening"

@@ -8,7 +8,8 @@ Usage (after configs/calibration/ftdcr_v4_mujoco.sh):
 
 FULL_DIR is the full model's fit (default docs/figures/calibration/ftdcr_v4_mujoco_selected:
 the structure chosen on train.csv by configs/calibration/ftdcr_v4_mujoco_selection.py —
-compliant one-sided tendons, a compliant base, backbone friction, drive backlash, no gravity).
+compliant one-sided tendons, a compliant base, backbone friction, drive backlash, no gravity;
+and a drive softening where the full fit has one, with a variant without it).
 Every variant is a `cdcr-gym calibrate` run on train.csv (MuJoCo, rows in order with their
 recorded timing, gaps capped at 1 s) warm-started from the full fit with ONE thing changed, at
 most MAX_EVALS optimiser steps, two runs at a time; each refits what the full fit fitted (the
@@ -44,8 +45,10 @@ TIMING = ["--backend-arg", "physics_timestep=0.04", "--backend-arg", "control_ti
 MAX_EVALS = 2
 #: the stiffest tendons MuJoCo integrates stably at the 0.04 s step (x100 diverges)
 RIGID_SCALE = 10.0
-#: what the full fit fits
+#: what the full fit fits (and ``drive_softening`` where the full fit has it: :func:`full_fit`)
 FULL_FIT = ["base_frame", "marker", "E", "base_compliance", "backbone_friction", "drive_backlash"]
+#: the variant of a full fit with a drive softening
+NO_SOFTENING = ("no drive softening", [], ["drive_softening"], {})
 
 #: variant → (what, extra arguments, names removed from FULL_FIT, robot fields overridden)
 VARIANTS: dict[str, tuple[str, list[str], list[str], dict[str, float]]] = {
@@ -104,13 +107,21 @@ def _gravity(full: Path) -> bool:
     return bool(_backend(full).get("gravity", True))
 
 
+def full_fit(full: Path) -> list[str]:
+    """What the full fit in ``full`` fitted: FULL_FIT, and its drive softening if it has one."""
+    fitted = (load_yaml(full / "params.yaml").get("calibration") or {}).get("fitted") or {}
+    return FULL_FIT + (["drive_softening"] if "drive_softening" in fitted else [])
+
+
 def variants(
     full: Path,
 ) -> dict[str, tuple[str, list[str], list[str], dict[str, float], list[str]]]:
-    """The variants of ``full``: name → (what, extra arguments, names removed from FULL_FIT,
-    robot fields overridden, names added to FULL_FIT); the gravity variant follows the full
-    fit's setting (module docstring)."""
+    """The variants of ``full``: name → (what, extra arguments, names removed from its fit,
+    robot fields overridden, names added to its fit); the gravity variant follows the full
+    fit's setting (module docstring), the drive softening's where it has one."""
     out = {n: (*v, []) for n, v in VARIANTS.items()}
+    if "drive_softening" in full_fit(full):
+        out["no_softening"] = (*NO_SOFTENING, [])
     name, what, extra, added = GRAVITY_VARIANT[_gravity(full)]
     out[name] = (what, extra, [], {}, added)
     return out
@@ -123,8 +134,9 @@ def refit(full: Path, name: str) -> None:
     folder.mkdir(parents=True, exist_ok=True)
     robot = full / "params.yaml"
     # the full robot with fields changed, as a params YAML of its own (only its robot: without
-    # the fitted drive's backlash, kept in calibration.tendons, unless the variant fits it)
-    if override or "drive_backlash" in removed:
+    # the fitted drive's backlash and softening, kept in calibration.tendons, unless the
+    # variant fits them)
+    if override or {"drive_backlash", "drive_softening"} & set(removed):
         doc = load_yaml(robot)
         doc["robot"].update(override)
         robot = folder.parent / f"{name}_robot.yaml"
@@ -135,7 +147,7 @@ def refit(full: Path, name: str) -> None:
         fixed += ["--backend-arg", f"tip_payload={_backend(full).get('tip_payload', 0.0)!r}"]
     elif not _gravity(full) and "gravity=true" not in extra:
         fixed += ["--backend-arg", "gravity=false"]
-    fit = [n for n in FULL_FIT if n not in removed] + added
+    fit = [n for n in full_fit(full) if n not in removed] + added
     starts = []
     if "backbone_friction" in fit:
         starts = ["--start", f"backbone_friction={values['backbone_friction']!r}"]
@@ -254,7 +266,8 @@ def table(full: Path) -> None:
         "full": record(
             full,
             f"MuJoCo, full: {weight}, compliant one-sided tendons, compliant base, "
-            "backbone friction, drive backlash",
+            "backbone friction, drive backlash"
+            + (", drive softening" if "drive_softening" in full_fit(full) else ""),
         )
     }
     for name, (what, *_) in variants(full).items():

@@ -9,7 +9,8 @@ Every candidate is a MuJoCo fit (the rows in order with their recorded timing, g
 1 s, 0.04 s steps, at most MAX_EVALS optimiser steps) of the base frame, the marker offset, E,
 the base compliance and the drive backlash, started from the selected CCKA fit
 (``ftdcr_v4_ccka_selected/``: its geometry, pretensions and values), with or without gravity
-(and then a fitted tip payload) and with or without backbone friction. It is fitted on the
+(and then a fitted tip payload), with or without backbone friction, and without gravity with or
+without a drive softening (``drive_softening``, from 10 1/m). It is fitted on the
 training rows that move ONE tendon or ONE section and scored on the training rows that move TWO
 sections (``pair*``); the candidate with the lowest aligned RMSE on the pair rows is the
 structure of the main MuJoCo fit (configs/calibration/ftdcr_v4_mujoco.sh). val.csv is not read.
@@ -45,6 +46,8 @@ TIMING = {"physics_timestep": 0.04, "control_timestep": 0.04}
 COMMON = "base_frame,marker,E,base_compliance,drive_backlash"
 #: the start of the backbone friction (N·m), as the main fit's
 FRICTION_START = 0.001
+#: the start of the drive softening (1/m: d_s = 100 mm; at 0 its gradient vanishes)
+SOFTENING_START = 10.0
 
 #: name → (--fit list, gravity)
 CANDIDATES: dict[str, tuple[str, bool]] = {
@@ -52,6 +55,11 @@ CANDIDATES: dict[str, tuple[str, bool]] = {
     "gravity+payload+backbone_friction": (f"{COMMON},payload,backbone_friction", True),
     "no_gravity": (COMMON, False),
     "no_gravity+backbone_friction": (f"{COMMON},backbone_friction", False),
+    "no_gravity+drive_softening": (f"{COMMON},drive_softening", False),
+    "no_gravity+backbone_friction+drive_softening": (
+        f"{COMMON},backbone_friction,drive_softening",
+        False,
+    ),
 }
 
 
@@ -79,6 +87,8 @@ def _candidate(item: tuple[str, tuple[str, bool]]) -> dict:
     start = {k: float(v) for k, v in fitted.items() if k in wanted}
     if "backbone_friction" in fit:
         start["backbone_friction"] = FRICTION_START
+    if "drive_softening" in fit:
+        start["drive_softening"] = SOFTENING_START
     t0 = time.perf_counter()
     res = calibrate(
         single,

@@ -41,6 +41,8 @@ FITS = {
     "CCKA, rigid base (ftdcr_v4_ccka)": FIG / "ftdcr_v4_ccka",
     "CCKA, compliant base (ftdcr_v4_ccka_base)": FIG / "ftdcr_v4_ccka_base",
     "CCKA, selected set (compliant base, drive backlash)": FIG / "ftdcr_v4_ccka_selected",
+    "CCKA, selected set + drive softening (ftdcr_v4_ccka_softening)": FIG
+    / "ftdcr_v4_ccka_softening",
     "MuJoCo, selected: no gravity, compliant base, drive backlash, backbone friction "
     "(ftdcr_v4_mujoco_selected)": FIG / "ftdcr_v4_mujoco_selected",
     "MuJoCo A: gravity, payload, compliant base, drive backlash (ftdcr_v4_mujoco_base_selected)": (
@@ -48,6 +50,8 @@ FITS = {
     ),
     "MuJoCo B: A + backbone friction (ftdcr_v4_mujoco_backbone_selected)": FIG
     / "ftdcr_v4_mujoco_backbone_selected",
+    "MuJoCo, selected + drive softening (ftdcr_v4_mujoco_softening)": FIG
+    / "ftdcr_v4_mujoco_softening",
 }
 BINS_MM = (0.0, 20.0, 40.0, 60.0, np.inf)
 
@@ -63,11 +67,12 @@ def predict(folder: Path) -> tuple[np.ndarray, np.ndarray, Measurements]:
     val = read_csv(DATA / "val.csv", robot=robot, drive=drive)
     values = {k: float(v) for k, v in cal["fitted"].items()}
     zero = Measurements(None, np.zeros((1, 3)), None, None, displacements=np.zeros((1, 9)))
-    # the frame (and the drives' backlash: kept beside the robot, in calibration.tendons)
+    # the frame (and the drives' backlash and softening: kept beside the robot, in
+    # calibration.tendons)
     frame = {
         k: v
         for k, v in values.items()
-        if k.startswith(("base_", "marker")) or k == "drive_backlash"
+        if k.startswith(("base_", "marker")) or k in ("drive_backlash", "drive_softening")
     }
     straight = DriveReplay(zero, robot, drive)(frame).tip[0]
     if cal["backend"] == "ccka":  # the fitted robot carries the rest (angles, k, T0, E)

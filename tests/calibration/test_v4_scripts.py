@@ -65,9 +65,17 @@ def test_stiffness_sweep_starts_at_the_committed_fit():
     )
 
 
-@pytest.mark.parametrize("fit", ["ftdcr_v4_mujoco_selected", "ftdcr_v4_mujoco_backbone_selected"])
+@pytest.mark.parametrize(
+    "fit",
+    [
+        "ftdcr_v4_mujoco_selected",
+        "ftdcr_v4_mujoco_backbone_selected",
+        "ftdcr_v4_mujoco_softening",
+    ],
+)
 def test_committed_mujoco_fit_replays_to_its_reported_held_out_error(fit):
-    """A committed MuJoCo fit's params.yaml (the main one, without gravity; B, with it), replayed on val.csv as the fit replayed it (rows in
+    """A committed MuJoCo fit's params.yaml (the main one, without gravity; B, with it; the one
+    with a drive softening), replayed on val.csv as the fit replayed it (rows in
     order, recorded timing, the tendon drive's cap), gives the held-out error of its
     report.json within 0.05 mm (MuJoCo builds differ in the last digits between machines)."""
     import json
@@ -114,6 +122,22 @@ def test_ablation_gravity_variant_follows_the_full_fit(tmp_path, gravity):
         assert extra == ["--backend-arg", "gravity=true"] and added == ["payload"]
         assert "no_gravity" not in v
     assert removed == []
+
+
+def test_ablation_of_a_softened_fit_refits_without_the_softening(tmp_path):
+    """A full fit with a drive softening refits it in every variant but one, which drops it."""
+    from cdcr_gym.model.yaml_io import dump_yaml
+
+    abl = _module("ftdcr_v4_mujoco_ablation")
+    full = tmp_path / "full"
+    full.mkdir()
+    doc = {"backend": {"gravity": False}, "calibration": {"fitted": {"drive_softening": 27.0}}}
+    (full / "params.yaml").write_text(dump_yaml(doc))
+    assert abl.full_fit(full) == [*abl.FULL_FIT, "drive_softening"]
+    v = abl.variants(full)
+    assert v["no_softening"][2] == ["drive_softening"]
+    (full / "params.yaml").write_text(dump_yaml({"backend": {"gravity": False}}))
+    assert abl.full_fit(full) == abl.FULL_FIT and "no_softening" not in abl.variants(full)
 
 
 def _fake_fit(item: tuple) -> dict:
