@@ -57,6 +57,8 @@ __all__ = ["CalibrationResult", "calibrate", "DEFAULT_START"]
 
 #: Start values (SI) of parameters the robot does not carry, when fitted without a given start.
 DEFAULT_START = {"friction_coefficient": 0.1, "tip_payload": 0.01, "backbone_friction": 1e-3}
+#: The start of ``drive_softening`` (1/m: pulls saturating towards 100 mm) when the drive has none.
+SOFTENING_START = 10.0
 #: Condition number of the scaled JᵀJ above which parameters are reported not identifiable.
 SINGULAR = 1e12
 
@@ -271,8 +273,9 @@ def calibrate(
             start_values[n] = drive.base_compliance if drive is not None else 0.0
         elif n == "drive_backlash":
             start_values[n] = drive.backlash if drive is not None else 0.0
-        elif n == "drive_softening":
-            start_values[n] = drive.softening if drive is not None else 0.0
+        elif n == "drive_softening":  # at σ = 0 the tips do not move to first order in σ
+            have = drive.softening if drive is not None else 0.0
+            start_values[n] = have if have > 0.0 else SOFTENING_START
         elif n.startswith(("tendon_stiffness", "tendon_pretension")):
             if drive is None:
                 raise ValueError(

@@ -82,6 +82,16 @@ def test_ccka_fit_recovers_a_known_softening():
     assert res.drive is not None and res.drive.softening == pytest.approx(RATE, rel=0.02)
 
 
+def test_the_default_start_leaves_zero():
+    """Without a start the fit starts at 10 1/m (at 0 its gradient vanishes) and finds σ."""
+    d = _sequence(200, seed=4)
+    drive = TendonDrive.of(V4)
+    tip = DriveReplay(_data(d), V4, drive)({"drive_softening": RATE}).tip
+    res = calibrate(_data(d, tip), V4, "drive_softening,base_x", "ccka", drive=drive)
+    assert res.start["drive_softening"] == 10.0
+    assert res.values["drive_softening"] == pytest.approx(RATE, rel=0.02)
+
+
 def test_mujoco_replay_gives_each_robot_its_own_softened_commands():
     pytest.importorskip("mujoco")
     d = _sequence(12, seed=2)
