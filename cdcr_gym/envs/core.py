@@ -662,8 +662,9 @@ class EnvCore:
         if self.actuation.commands_displacements:
             info["displacements"] = self._held_displacements.copy()
             if self.drive_backlash or self.drive_softening:
+                # a copy: without softening soften() hands back the env's own array
                 info["tendon_displacements"] = soften(
-                    self._tendon_displacements, self.drive_softening
+                    self._tendon_displacements.copy(), self.drive_softening
                 )
             info["slack"] = self._drive_flags[0].copy()
             info["saturated"] = self._drive_flags[1].copy()

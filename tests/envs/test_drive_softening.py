@@ -172,3 +172,17 @@ def test_the_mujoco_twin_of_a_softened_fit_rests_and_pulls_softened():
             assert np.linalg.norm(info["tip"] - tip) < 1e-9  # measured: <= 3e-13 m
     finally:
         env.close()
+
+
+def test_info_pulls_are_a_copy_of_the_env_state():
+    """Mutating ``info["tendon_displacements"]`` (backlash only: the map is the identity) leaves
+    the drives' state alone."""
+    env = _env(drive_backlash=1e-3)
+    try:
+        env.reset(seed=0)
+        _, _, _, _, info = env.step(np.zeros(9, np.float32))
+        state = env.unwrapped.core._tendon_displacements
+        info["tendon_displacements"][:] = 1.0
+        assert not np.any(state == 1.0)
+    finally:
+        env.close()
