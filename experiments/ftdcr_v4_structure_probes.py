@@ -15,16 +15,31 @@ into the backends (docs/experiments/real_robot.md):
   torque), starting at 9 N, about the largest tension of the selected fit on train.csv;
 * ``softening`` / ``softening_sections``: a drive whose pull saturates smoothly: a tendon
   pulled in by y > 0 (after the play) is pulled by ``d_s·tanh(y/d_s)`` instead (released
-  commands unchanged), one d_s (m) for every drive / one per section, starting at 100 mm.
+  commands unchanged), one d_s (m) for every drive / one per section, starting at 100 mm;
+* ``compliance_sections``: an axial give Δc_j ≥ 0 (m/N) of each section under the load that
+  passes through it: a tendon ending in section j loses Σ_{k≤j} Δc_k·(load change through
+  section k) of its pull (the base compliance is the same give at section 1, where every
+  tendon passes);
+* ``stiffening``: a rod that stiffens with its curvature, EI·(1 + β·(κ/20 m⁻¹)²) per section
+  (a fixed point, 30 damped iterations; β may be negative down to a fivefold softening);
+* ``slack_tendons``: every tendon's length offset ℓ_i (m, either sign): it is commanded d − ℓ_i;
+* ``through_radius``: one factor on the tendons' radii in the sections they pass through
+  (not in their own);
+* ``through_pairs``: the same with one factor per (own section, section passed through);
+* ``through_angles``: the tendons passing through section 1 / 2 turned by one angle each there;
+* ``helix``: tendons wound helically at p (deg per 100 mm of backbone): a tendon passes a
+  section below its own turned by p times the distance between the two sections' midpoints;
+* ``E_sections``: the Young's moduli of sections 2 and 3 relative to section 1's.
 
 Terms combine with ``+`` (``anisotropic_sections+softening``).
 
 Each is started from the selected CCKA fit (``ftdcr_v4_ccka_selected``: its tendon angles,
 pretensions and backlash kept) and fitted together with the base frame, the marker offset, E
-and the base compliance — the term's parameters start at zero (φ at 0°, μ at 0.05, the cap and d_s as above) — first on
-the one-tendon and one-section rows of train.csv and scored on its two-section rows (the
-selection split of ``configs/calibration/ftdcr_v4_ccka_selection.py``), then on all of
-train.csv and replayed on val.csv, scored on all its rows and apart on the rows that command
+and the base compliance — the term's parameters start at zero (φ at 0°, μ at 0.05, the cap
+and d_s as above, each section's give at 1e-6 m/N) — first on the one-tendon and
+one-section rows of train.csv and scored on its two-section rows (the selection split of
+``configs/calibration/ftdcr_v4_ccka_selection.py``), then on all of train.csv and replayed
+on val.csv, scored on all its rows and apart on the rows that command
 some tendon beyond its range over train.csv (``beyond``) and the others (``inside``).
 ``isotropic`` is the same refit without a term.
 
@@ -78,34 +93,71 @@ def solve_curvatures(
     compliance: np.ndarray,
     mu: float = 0.0,
     max_tension: float | None = None,
+    section_compliance_extra: np.ndarray | None = None,
+    stiffening: float = 0.0,
+    through_scale: float | np.ndarray = 1.0,
+    through_rotation: np.ndarray | None = None,
 ) -> np.ndarray:
     """Section curvatures (M, S, 2) 1/m of the first robot of ``geom`` under commands ``d``
     (M, C) m (already through the drives' play) with the bending compliance (2S, 2S) and a
     loss-only capstan coefficient ``mu`` (module docstring; 0: none). The drive law and its
     solver are the library's (:func:`cdcr_gym.model.tendons.solve_tendon_law`); with an
     isotropic compliance and ``mu = 0`` this is :func:`cdcr_gym.calibration.drive.solve_drive`.
+    ``section_compliance_extra`` (S,) m/N ≥ 0: an axial give of each section under the load
+    that passes through it (term ``compliance_sections``; the base compliance is section 0's).
+    ``through_scale`` (a factor or (S, S) factors [own section, section passed through]) scales
+    and ``through_rotation`` ((S,) per section passed through or (S, S) as the factors) rad turns
+    the radius vectors of the tendons in the sections they
+    pass through (terms ``through_radius``, ``through_pairs``, ``through_angles``).
     """
     g, lam = geom.coupling()
     g, lam = g[0], lam[0]  # (C, 2S), (2S,)
     rows, c = d.shape
     s = g.shape[1] // 2
+    factors = np.broadcast_to(np.asarray(through_scale, dtype=float), (s, s))
+    turns = np.zeros((s, s)) if through_rotation is None else np.asarray(through_rotation)
+    turns = turns if turns.ndim == 2 else np.broadcast_to(turns[None, :], (s, s))
+    if np.any(factors != 1.0) or np.any(turns != 0.0):
+        g = g.copy()
+        section_of = np.asarray(geom.section_of)
+        for j in range(s):
+            through = section_of > j
+            turn = turns[section_of[through], j]
+            cr, sr = np.cos(turn), np.sin(turn)
+            gx, gy = g[through, 2 * j].copy(), g[through, 2 * j + 1].copy()
+            f = factors[section_of[through], j]
+            g[through, 2 * j] = f * (cr * gx - sr * gy)
+            g[through, 2 * j + 1] = f * (sr * gx + cr * gy)
     comp = 0.0 if geom.base_compliance is None else float(geom.base_compliance[0])
+    pre = np.maximum(geom.pretension[0], 0.0)
+    extra = np.zeros((c, c))
+    if section_compliance_extra is not None:
+        section_of = np.asarray(geom.section_of)
+        for j, cj in enumerate(section_compliance_extra):
+            through = (section_of >= j).astype(float)
+            extra += cj * np.outer(through, through)
+        d = d + pre @ extra
     att = np.ones((rows, c, s))
-    for _ in range(30 if mu > 0.0 else 1):
+    soft = np.ones((rows, s))  # the rows' bending compliance factors per section
+    for _ in range(30 if mu > 0.0 or stiffening != 0.0 else 1):
         geff = g[None] * np.repeat(att, 2, axis=2)  # (M, C, 2S): the tension acting per section
-        m_rows = np.einsum("cp,pq,mkq->mck", g * lam[None], compliance, geff)
+        comp_rows = compliance[None] * np.repeat(soft, 2, axis=1)[:, :, None]  # (M, 2S, 2S)
+        m_rows = np.einsum("cp,mpq,mkq->mck", g * lam[None], comp_rows, geff) + extra[None]
         t, _ = solve_tendon_law(
             m_rows,
             d,
             geom.stiffness[0],
-            np.maximum(geom.pretension[0], 0.0),
+            pre,
             max_tension,
             1e-12,
             100,
             base_compliance=comp,
         )
-        u = np.einsum("pq,mkq,mk->mp", compliance, geff, t)
-        if mu == 0.0:
+        u = np.einsum("mpq,mkq,mk->mp", comp_rows, geff, t)
+        if stiffening != 0.0:
+            kappa = np.hypot(u[:, 0::2], u[:, 1::2])  # (M, S) 1/m
+            soft = 0.5 * soft + 0.5 / np.maximum(1.0 + stiffening * (kappa / 20.0) ** 2, 0.2)
+        if mu == 0.0 and stiffening == 0.0:
             break
         theta = np.hypot(u[:, 0::2], u[:, 1::2]) * lam[None, 0::2]  # (M, S) rad
         wrap = np.concatenate([np.zeros((rows, 1)), np.cumsum(theta, axis=1)[:, :-1]], axis=1)
@@ -127,6 +179,14 @@ class Probe:
         "tension_cap": 1,
         "softening": 1,
         "softening_sections": 3,
+        "compliance_sections": 3,
+        "stiffening": 1,
+        "slack_tendons": 9,
+        "through_radius": 1,
+        "through_pairs": 3,
+        "through_angles": 2,
+        "helix": 1,
+        "E_sections": 2,
     }
 
     #: the start of the tension cap (N): about the largest tension of the selected fit on train.csv
@@ -155,6 +215,8 @@ class Probe:
                 p[sl] = 0.5  # μ = 0.05
             elif part.startswith("softening"):
                 p[sl] = 1.0  # d_s = 100 mm
+            elif part == "compliance_sections":
+                p[sl] = 0.1  # 1e-6 m/N
         return p
 
     def __call__(self, data: Measurements, p: np.ndarray) -> np.ndarray:
@@ -187,15 +249,60 @@ class Probe:
             width = np.maximum(0.0, width + q["backlash_tendons"] * 1e-4)
         assert data.displacements is not None
         d = play(data.displacements, width)
+        if "slack_tendons" in q:
+            d = d - q["slack_tendons"] * 1e-4
         for part in ("softening", "softening_sections"):
             if part in q:
                 d_s = 0.1 / np.maximum(np.abs(q[part]), 1e-6)  # m
                 d_s = d_s[section_of] if len(d_s) > 1 else d_s[0]
                 d = np.where(d > 0.0, d_s * np.tanh(d / d_s), d)
+        beta = float(q["stiffening"][0]) if "stiffening" in q else 0.0
+        extra = None
+        if "compliance_sections" in q:
+            extra = np.abs(q["compliance_sections"]) * 1e-5
+        compliance = section_compliance(float(geom.ei[0]), a, phi)
+        if "E_sections" in q:  # sections 2 and 3 relative to section 1
+            f = np.repeat(np.exp(-np.concatenate([[0.0], q["E_sections"]])), 2)
+            compliance = compliance * f[:, None]
         u = solve_curvatures(
-            geom, d, section_compliance(float(geom.ei[0]), a, phi), mu, max_tension=cap
+            geom,
+            d,
+            compliance,
+            mu,
+            max_tension=cap,
+            section_compliance_extra=extra,
+            stiffening=beta,
+            through_scale=self._through_scale(q, s),
+            through_rotation=self._through_rotation(q, s),
         )
         return forward_tips(geom, u[None])[0][0]
+
+    @staticmethod
+    def _through_scale(q: dict, s: int) -> float | np.ndarray:
+        """The through-radius factors of the terms ``through_radius`` / ``through_pairs``."""
+        factor: float | np.ndarray = 1.0
+        if "through_radius" in q:
+            factor = float(np.exp(q["through_radius"][0]))
+        if "through_pairs" in q:  # (own, through): (2, 1), (3, 1), (3, 2) of a 3-section robot
+            pairs = np.ones((s, s))
+            for (own, thr), x in zip(((1, 0), (2, 0), (2, 1)), q["through_pairs"]):
+                pairs[own, thr] = np.exp(x)
+            factor = factor * pairs
+        return factor
+
+    def _through_rotation(self, q: dict, s: int) -> np.ndarray | None:
+        """The turns (S, S) rad [own section, section passed through] of the terms
+        ``through_angles`` / ``helix``."""
+        if "through_angles" not in q and "helix" not in q:
+            return None
+        turns = np.zeros((s, s))
+        if "through_angles" in q:
+            turns += np.radians(np.append(q["through_angles"], 0.0))[None, :]
+        if "helix" in q:  # pitch p (deg per 100 mm): p·(mid(own) − mid(through))
+            lengths = np.asarray(self.robot.section_lengths)
+            mid = np.cumsum(lengths) - 0.5 * lengths
+            turns += np.radians(q["helix"][0] * 10.0) * (mid[:, None] - mid[None, :])
+        return turns
 
     def fit(self, data: Measurements) -> np.ndarray:
         """Least squares on the tip residuals (mm) from :meth:`start`."""
@@ -219,6 +326,24 @@ class Probe:
             )
         if part == "capstan":
             return f"μ = {abs(q[0]) * 0.1:.4f}"
+        if part == "E_sections":
+            return "E2/E1, E3/E1 = " + " / ".join(f"{np.exp(x):.3f}" for x in q)
+        if part == "through_pairs":
+            return "through factors (2 in 1, 3 in 1, 3 in 2) = " + " / ".join(
+                f"{np.exp(x):.3f}" for x in q
+            )
+        if part == "helix":
+            return f"helix pitch {q[0]:+.2f}°/100 mm"
+        if part == "through_angles":
+            return "through turns (in 1, in 2) = " + " / ".join(f"{x:+.1f}°" for x in q)
+        if part == "through_radius":
+            return f"through-radius factor {np.exp(q[0]):.3f}"
+        if part == "slack_tendons":
+            return "ℓ = " + " / ".join(f"{x * 0.1:+.2f}" for x in q) + " mm"
+        if part == "stiffening":
+            return f"β = {q[0]:+.3f} (EI·(1 + β·(κ/20 m⁻¹)²))"
+        if part == "compliance_sections":
+            return "Δc = " + " / ".join(f"{abs(x) * 10:.2f}" for x in q) + " (1e-6 m/N)"
         if part == "tension_cap":
             return f"T_max = {self.CAP_START * np.exp(q[0]):.2f} N"
         if part.startswith("softening"):

@@ -119,3 +119,83 @@ def test_terms_combine_with_a_plus(fitted):
     assert both.start()[-1] == 1.0  # the softening's start, after the anisotropy's two
     with pytest.raises(ValueError, match="several joined by"):
         Probe("softening+softening", robot, drive, {})
+
+
+def test_zero_new_terms_are_the_plain_model(fitted):
+    """Every later term at its neutral value reproduces the isotropic probe."""
+    robot, drive, rows = fitted
+    plain = Probe("isotropic", robot, drive, _values(robot))
+    base = plain(rows, np.zeros(plain.size))
+    neutral = {
+        "compliance_sections": np.zeros(3),
+        "stiffening": np.zeros(1),
+        "slack_tendons": np.zeros(9),
+        "through_radius": np.zeros(1),
+        "E_sections": np.zeros(2),
+    }
+    for term, q in neutral.items():
+        probe = Probe(term, robot, drive, _values(robot))
+        p = np.concatenate([np.zeros(plain.size), q])
+        np.testing.assert_allclose(probe(rows, p), base, atol=1e-9, err_msg=term)
+
+
+def test_the_first_sections_give_is_the_base_compliance(fitted):
+    """A give of section 1 under the load through it is the base compliance (every tendon runs
+    through section 1); a give of section 3 alone changes only rows that load section 3."""
+    robot, drive, rows = fitted
+    with_base = Probe("isotropic", robot, drive, {**_values(robot), "base_compliance": 2e-5})
+    sections = Probe("compliance_sections", robot, drive, _values(robot))
+    p = np.zeros(sections.size)
+    p[-3:] = [2.0, 0.0, 0.0]  # 2e-5 m/N in section 1
+    np.testing.assert_allclose(
+        sections(rows, p), with_base(rows, np.zeros(with_base.size)), atol=1e-9
+    )
+    p[-3:] = [0.0, 0.0, 2.0]
+    d = np.zeros((2, 9))
+    d[0, 0] = d[1, 6] = 0.006  # a base tendon, a distal tendon
+    pulled = replace(rows.subset(slice(0, 2)), displacements=d)
+    plain = Probe("isotropic", robot, drive, _values(robot))
+    moved = np.linalg.norm(sections(pulled, p) - plain(pulled, np.zeros(plain.size)), axis=1)
+    assert moved[1] > 1e-4 and moved[0] < 0.01 * moved[1]
+
+
+def test_stiffening_bends_the_most_bent_section_less(fitted):
+    """A rod that stiffens with its curvature holds its most bent section back (the others may
+    bend more: the drives' tendons keep their lengths)."""
+    robot, drive, rows = fitted
+    geom = drive_geometry(robot, drive, [{}])
+    comp = section_compliance(float(geom.ei[0]), np.zeros(3), np.zeros(3))
+    d = play(rows.displacements, 0.0)
+    plain = np.linalg.norm(solve_curvatures(geom, d, comp), axis=2).max(axis=1)
+    stiff = np.linalg.norm(solve_curvatures(geom, d, comp, stiffening=5.0), axis=2).max(axis=1)
+    bent = plain > 8.0  # 1/m
+    assert bent.sum() > 5 and np.all(stiff[bent] < 0.98 * plain[bent])
+    # small curvatures: almost the linear rod
+    straightish = plain < 2.0
+    np.testing.assert_allclose(stiff[straightish], plain[straightish], rtol=0.02)
+
+
+def test_slack_offsets_shift_the_commands(fitted):
+    robot, drive, rows = fitted
+    slack = Probe("slack_tendons", robot, drive, _values(robot))
+    plain = Probe("isotropic", robot, drive, _values(robot))
+    offsets = np.linspace(-2.0, 2.0, 9)  # 1e-4 m
+    p = np.concatenate([np.zeros(plain.size), offsets])
+    shifted = replace(rows, displacements=rows.displacements - offsets * 1e-4)
+    np.testing.assert_allclose(slack(rows, p), plain(shifted, p[: plain.size]), atol=1e-12)
+
+
+def test_section_moduli_scale_the_section_compliance(fitted):
+    robot, drive, rows = fitted
+    geom = drive_geometry(robot, drive, [{}])
+    comp = section_compliance(float(geom.ei[0]), np.zeros(3), np.zeros(3))
+    d = play(rows.displacements, 0.0)
+    # every section twice as stiff: E doubled
+    stiff = solve_curvatures(geom, d, comp / 2.0)
+    geom2 = drive_geometry(robot, drive, [{"youngs_modulus": 2 * robot.youngs_modulus}])
+    np.testing.assert_allclose(stiff, solve_drive(geom2, d).curvature[0], rtol=1e-7, atol=1e-9)
+    probe = Probe("E_sections", robot, drive, _values(robot))
+    p = np.zeros(probe.size)
+    p[-2:] = np.log(3.0)  # sections 2 and 3 three times as stiff as section 1
+    plain = Probe("isotropic", robot, drive, _values(robot))
+    assert not np.allclose(probe(rows, p), plain(rows, p[: plain.size]), atol=1e-4)
