@@ -455,12 +455,12 @@ def draw_scene(
     fraction = tens / params.max_tension
     colours = tension_colour(fraction)
     segments, seg_colours = [], []
-    for c, (section, r, beta) in enumerate(
-        zip(params.cable_section, params.cable_radii, params.cable_angles)
-    ):
+    angles = params.cable_angles_at_disks()  # (n_disks+1, C): helical routing turns them
+    for c, (section, r) in enumerate(zip(params.cable_section, params.cable_radii)):
         last = int(ends[section + 1])
-        local = np.array([r * math.cos(beta), r * math.sin(beta), 0.0])
-        holes = centres[: last + 1] + rots[: last + 1] @ local
+        beta = angles[: last + 1, c]
+        local = r * np.stack([np.cos(beta), np.sin(beta), np.zeros_like(beta)], axis=-1)
+        holes = centres[: last + 1] + np.einsum("kij,kj->ki", rots[: last + 1], local)
         below = holes[0] + np.array([0.0, 0.0, -0.04 * length])  # down to the actuator
         path = np.vstack([below, holes])
         segments.append(_path_segments(path))

@@ -3,10 +3,12 @@ batched over measurement rows and over parameter sets (for a one-call finite-dif
 
 Model (docs/calibration.md, robots driven by tendon displacement): section j bends with a
 constant curvature vector κ_j = (κx, κy)_j in its own frame (sections compose without torsion).
-Tendon i belongs to section m_i, sits at radius r_i and angle β_i and runs through sections 1…m_i; with g_i = r_i·(cos β_i, sin β_i) its geometric
-shortening is ``s_i = Σ_{j ≤ m_i} ℓ_j·g_i·κ_j`` (linear in κ: ``s = G·Λ·u`` with u the stacked
-curvatures, G (C, 2S) holding g_i in the blocks of the sections the tendon runs through and
-Λ = diag(ℓ_j, ℓ_j)). The drive law is ``T_i = clip(T0_i + k_i·(d_i − s_i), 0, T_max)`` (slack: a
+Tendon i belongs to section m_i, sits at radius r_i and angle β_i and runs through sections
+1…m_i; with g_ij = r_i·(cos β_i, sin β_i) (a helical tendon, pitch p: r_i·sinc(p·ℓ_j/2)·(cos, sin)
+(β_i + p·z_j) with z_j the middle of section j, ``RobotParams.section_cable_vectors``) its
+geometric shortening is ``s_i = Σ_{j ≤ m_i} ℓ_j·g_ij·κ_j`` (linear in κ: ``s = G·Λ·u`` with u the
+stacked curvatures, G (C, 2S) holding g_ij in the blocks of the sections the tendon runs through
+and Λ = diag(ℓ_j, ℓ_j)). The drive law is ``T_i = clip(T0_i + k_i·(d_i − s_i), 0, T_max)`` (slack: a
 tendon with ``T0 + k(d − s) ≤ 0`` carries nothing; ``slack=False`` drops the clip at zero: the
 linear law, an ablation) and the rod balances the tendon moments: ``EI·κ_j = Σ_{m_i ≥ j} T_i g_i``
 (``EI·u = Gᵀ·T``).
@@ -55,6 +57,7 @@ class DriveGeometry:
         base_rotation: (B, 3, 3) robot base frame in the measurement frame.
         base_translation: (B, 3) robot base origin in the measurement frame, m.
         marker: (B,) marker offset along the tip tangent, m.
+        pitch: (B,) helical routing pitch p (``RobotParams.cable_pitch``), rad/m (None: 0).
     """
 
     lengths: np.ndarray
@@ -70,6 +73,7 @@ class DriveGeometry:
     base_rotation: np.ndarray | None = None
     base_translation: np.ndarray | None = None
     marker: np.ndarray | None = None
+    pitch: np.ndarray | None = None
 
     @property
     def batch(self) -> int:
@@ -84,12 +88,16 @@ class DriveGeometry:
         b, s = self.lengths.shape
         c = self.section_of.shape[0]
         g = np.zeros((b, c, 2 * s))
-        gx = self.radii * np.cos(self.angles)
-        gy = self.radii * np.sin(self.angles)
+        pitch = np.zeros(b) if self.pitch is None else np.asarray(self.pitch, dtype=np.float64)
+        middles = np.cumsum(self.lengths, axis=1) - 0.5 * self.lengths  # (B, S)
         for j in range(s):
             through = self.section_of >= j
-            g[:, through, 2 * j] = gx[:, through]
-            g[:, through, 2 * j + 1] = gy[:, through]
+            angles = self.angles[:, through] + (pitch * middles[:, j])[:, None]
+            half = 0.5 * pitch * self.lengths[:, j]
+            sinc = np.sinc(half / np.pi)  # sin(x)/x, 1 at x = 0
+            radii = self.radii[:, through] * sinc[:, None]
+            g[:, through, 2 * j] = radii * np.cos(angles)
+            g[:, through, 2 * j + 1] = radii * np.sin(angles)
         lam = np.repeat(self.lengths, 2, axis=1)
         return g, lam
 

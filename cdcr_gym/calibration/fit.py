@@ -474,7 +474,7 @@ def calibrate(
 
 
 def _fitted_robot(base: RobotParams, values: dict[str, float]) -> RobotParams:
-    """The robot with the fitted geometry (section lengths and radii, angles, E); if the fitted
+    """The robot with the fitted geometry (section lengths and radii, angles, pitch, E); if the fitted
     robot's bend limits exceed π at the nominal ``max_tension``, that limit is lowered."""
     sections = []
     owner = np.asarray(base.cable_section)
@@ -499,6 +499,7 @@ def _fitted_robot(base: RobotParams, values: dict[str, float]) -> RobotParams:
     geometry: dict[str, Any] = dict(
         sections=tuple(sections),
         youngs_modulus=values.get("youngs_modulus", base.youngs_modulus),
+        cable_pitch=values.get("cable_pitch", base.cable_pitch),
         length=None,
         n_disks=None,
         cable_radius=None,

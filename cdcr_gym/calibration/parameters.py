@@ -7,6 +7,8 @@ name (aliases)       unit        scaled variable x          applies to
 youngs_modulus (E)   Pa          ln(E/E₀)                   ``RobotParams.youngs_modulus``
 cable_radius (r)     m           (r − r₀)/1 mm              every section's ``cable_radius``
 cable_angle_i        rad         offset/1°                  cable i's angle β_i (i = 1…C)
+cable_pitch          rad/m       p/(0.1 rad/m)              ``RobotParams.cable_pitch``: the
+                                                            cables wound helically
 friction_coefficient —           μ/0.1                      backend ``friction_coefficient``
 (mu)                                                        (physics backends)
 tip_payload          kg          m/10 g                     backend ``tip_payload`` (physics)
@@ -159,6 +161,7 @@ def _all_names(params: RobotParams) -> list[str]:
     return (
         ["youngs_modulus", "cable_radius"]
         + [f"cable_angle_{i + 1}" for i in range(params.n_cables)]
+        + ["cable_pitch"]
         + ["friction_coefficient", "tip_payload", "backbone_friction", "base_tilt_x", "base_tilt_y"]
         + DRIVE_COMMON
         + _per(params)
@@ -322,8 +325,8 @@ def resolve_names(
                 raise ValueError(
                     f"parameter {n!r} cannot be fitted by the {backend_name or 'physics'} "
                     "backend's displacement replay (it keeps the robot's geometry: start from a "
-                    "--backend ccka fit's params.yaml that holds the fitted lengths, radii and "
-                    "tendon angles)"
+                    "--backend ccka fit's params.yaml that holds the fitted lengths, radii, "
+                    "tendon angles and cable pitch)"
                 )
             if n not in PHYSICS_ONLY or accepts(backend_class, PHYSICS_ONLY[n]):
                 continue
@@ -421,6 +424,9 @@ def parameter_specs(
             )
         elif n.startswith("cable_angle_"):
             specs.append(ParameterSpec(n, "rad", math.radians(1.0), 0.0, -math.pi / 6, math.pi / 6))
+        elif n == "cable_pitch":  # at most half a turn per section
+            bound = math.pi / max(params.section_lengths)
+            specs.append(ParameterSpec(n, "rad/m", 0.1, 0.0, -bound, bound))
         elif n == "friction_coefficient":
             specs.append(ParameterSpec(n, "", 0.1, 0.0, 0.0, 1.0))
         elif n == "tip_payload":
@@ -480,6 +486,7 @@ def robot_with(params: RobotParams, values: dict[str, float]) -> RobotParams:
     return RobotParams(
         sections=tuple(sections),
         youngs_modulus=values.get("youngs_modulus", params.youngs_modulus),
+        cable_pitch=values.get("cable_pitch", params.cable_pitch),
         backbone_diameter=params.backbone_diameter,
         max_tension=params.max_tension,
         backbone_density=params.backbone_density,

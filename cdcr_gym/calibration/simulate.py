@@ -213,6 +213,7 @@ def drive_geometry(
     trans = np.zeros((b, 3))
     marker = np.zeros(b)
     comp = np.zeros(b)
+    pitch = np.zeros(b)
     k_nom = np.array(drive.stiffness) if drive is not None else np.ones(c)
     t_nom = np.array(drive.pretension) if drive is not None else np.zeros(c)
     sec_len = np.array(base.section_lengths)
@@ -247,6 +248,7 @@ def drive_geometry(
         trans[n] = [v.get("base_x", 0.0), v.get("base_y", 0.0), v.get("base_z", 0.0)]
         marker[n] = v.get("marker_offset", 0.0)
         comp[n] = v.get("base_compliance", drive.base_compliance if drive is not None else 0.0)
+        pitch[n] = v.get("cable_pitch", base.cable_pitch)
     return DriveGeometry(
         lengths=lengths,
         section_of=owner,
@@ -261,6 +263,7 @@ def drive_geometry(
         base_rotation=rotation_zyx(yaw, ty, tx),
         base_translation=trans,
         marker=marker,
+        pitch=pitch,
     )
 
 

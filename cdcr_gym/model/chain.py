@@ -6,14 +6,15 @@ batch dimensions.
 Shape state: the per-section *bending vectors* w_j = θ_j·(cos φ_j, sin φ_j) (rad), an array of
 shape (..., S, 2), proximal section first. w_j is expressed in section j's base frame (the frame
 of the previous section's end disk, whose x axis is the disks' x axis: the sections compose
-without torsion), so the cable geometry, the same in every disk, is the same vector in every
-section's frame. Nothing is singular at θ_j = 0 in this representation, and both the cable
+without torsion), so a cable parallel to the backbone is the same vector in every section's
+frame (a helical cable, ``RobotParams.cable_pitch``, turns section by section: v_ij below is
+its vector in section j, :meth:`RobotParams.section_cable_vectors`). Nothing is singular at θ_j = 0 in this representation, and both the cable
 lengths and the tension statics are linear in it:
 
 * statics (frictionless cables, pure moments, dense disks):
-  w_j = (ℓ_j/EI)·Σ_{cables i through section j} T_i·r_i·(cos β_i, sin β_i); a cable of section
-  m passes (and bends) sections 1…m;
-* cable lengths: a cable of section m at (r, β) has length Σ_{j≤m} (ℓ_j − r·(w_j·(cos β, sin β))).
+  w_j = (ℓ_j/EI)·Σ_{cables i through section j} T_i·v_ij with v_ij = r_i·(cos β_i, sin β_i)
+  for parallel cables; a cable of section m passes (and bends) sections 1…m;
+* cable lengths: a cable i of section m has length Σ_{j≤m} (ℓ_j − w_j·v_ij).
 
 Section j's transform (in its base frame) is R_j = Rz(φ_j)·Ry(θ_j)·Rz(−φ_j), written as
 R_j = I + (sin θ/θ)·[a]× + ((1 − cos θ)/θ²)·[a]×² with a = (−w_y, w_x, 0), and
@@ -74,7 +75,10 @@ class PCCModel:
         n_sections: S, number of sections.
         n_cables: C, number of cables (cable order of ``params``: section by section).
         section_lengths: ℓ_j (m), shape (S,).
-        cable_vectors: r_i·(cos β_i, sin β_i) (m), shape (C, 2), in the disks' frame.
+        cable_vectors: r_i·(cos β_i, sin β_i) (m), shape (C, 2), in the disks' frame: each
+            cable's vector in its own section (with helical routing its angle there).
+        section_cable_vectors: v_ij (m), shape (C, S, 2): cable i's vector in section j, 0
+            where it does not pass.
         cable_section: section index (0-based) each cable ends in, shape (C,).
         straight_lengths: cable lengths (m) of the straight robot, shape (C,).
         tension_to_bending: A, shape (C, 2S): w.reshape(..., 2S) = T @ A (rad/N).
@@ -90,16 +94,17 @@ class PCCModel:
         self.n_sections = S = params.n_sections
         self.n_cables = C = params.n_cables
         self.section_lengths = np.asarray(params.section_lengths, dtype=np.float64)
-        angles = np.asarray(params.cable_angles, dtype=np.float64)
-        radii = np.asarray(params.cable_radii, dtype=np.float64)
         self.cable_section = owner = np.asarray(params.cable_section, dtype=np.intp)
-        self.cable_vectors = v = radii[:, None] * np.stack([np.cos(angles), np.sin(angles)], -1)
+        #: the cables' radius vectors in every section (C, S, 2), 0 where a cable does not pass
+        #: (``RobotParams.section_cable_vectors``: helical routing turns them section by section)
+        self.section_cable_vectors = vs = params.section_cable_vectors()
+        self.cable_vectors = vs[np.arange(C), owner]  # (C, 2): each cable's in its own section
         ei = params.bending_stiffness
         through = owner[:, None] >= np.arange(S)[None, :]  # (C, S): cable i passes section j
         self.cable_through = through
-        a = through[:, :, None] * (self.section_lengths[None, :, None] / ei) * v[:, None, :]
+        a = (self.section_lengths[None, :, None] / ei) * vs
         self.tension_to_bending = a.reshape(C, 2 * S)
-        b = -(through[:, :, None] * v[:, None, :])  # (C, S, 2)
+        b = -vs  # (C, S, 2)
         self.bending_to_lengths = np.ascontiguousarray(b.reshape(C, 2 * S).T)
         self.straight_lengths = through.astype(np.float64) @ self.section_lengths
         self.lengths_to_bending = self._sequential_least_squares()
@@ -132,21 +137,22 @@ class PCCModel:
         free common offset c (a common-mode length error does not bend; exact for consistent
         lengths, and for 3 cables always exact).
         """
-        S, C, v, owner = self.n_sections, self.n_cables, self.cable_vectors, self.cable_section
+        S, C, owner = self.n_sections, self.n_cables, self.cable_section
+        v = self.section_cable_vectors  # (C, S, 2)
         maps = np.zeros((S, 2, C))  # w_j = maps[j] @ Δl
         for j in range(S):
             own = np.flatnonzero(owner == j)
-            rows = np.eye(C)[own]  # y_i = Δl_i + Σ_{k<j} v_i·w_k, as linear maps of Δl
+            rows = np.eye(C)[own]  # y_i = Δl_i + Σ_{k<j} v_ik·w_k, as linear maps of Δl
             for k in range(j):
-                rows = rows + v[own] @ maps[k]
-            design = np.concatenate([np.ones((own.size, 1)), -v[own]], axis=1)
+                rows = rows + v[own, k] @ maps[k]
+            design = np.concatenate([np.ones((own.size, 1)), -v[own, j]], axis=1)
             maps[j] = (np.linalg.pinv(design) @ rows)[1:]
         return np.ascontiguousarray(maps.transpose(2, 0, 1).reshape(C, 2 * S))
 
     def bending_from_tensions(self, tensions) -> np.ndarray:
         """Bending vectors w (..., S, 2) (rad) under cable tensions (..., C) (N) (coupled statics).
 
-        w_j = (ℓ_j/EI)·Σ_{cables i through section j} T_i r_i (cos β_i, sin β_i). Linear; negative
+        w_j = (ℓ_j/EI)·Σ_{cables i through section j} T_i v_ij (module docstring). Linear; negative
         tensions are computed as given (callers keep tensions in [0, max_tension]).
         """
         t = _finite("tensions", tensions)
@@ -163,7 +169,7 @@ class PCCModel:
     def lengths_from_bending(self, w) -> np.ndarray:
         """Cable lengths (..., C) (m) of the shape w (..., S, 2) (rad).
 
-        A cable of section m at (r, β): Σ_{j≤m} (ℓ_j − r·(w_j·(cos β, sin β))).
+        A cable i of section m: Σ_{j≤m} (ℓ_j − w_j·v_ij) (module docstring).
         """
         out = self._flat_bending(w) @ self.bending_to_lengths
         out += self._tiled_straight_lengths(out.shape)

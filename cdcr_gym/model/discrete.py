@@ -45,8 +45,9 @@ Discretisation and joint placement
     to fourth order in the joint angle), and every Jacobian column is a single cross product.
 
 Cable routing (n sections)
-    A cable of section j has one pinhole in every disk of sections 1..j, at its fixed (r, β) in
-    the disk's frame, and is anchored at section j's last disk: it runs straight from pinhole to
+    A cable of section j has one pinhole in every disk of sections 1..j, at (r, β + p·z_k) in
+    the frame of disk k at arc length z_k (p the robot's ``cable_pitch``: 0, the same pinhole
+    on every disk, unless the cables wind helically), and is anchored at section j's last disk: it runs straight from pinhole to
     pinhole across every disk span of sections 1..j and crosses no span beyond. The spans it
     crosses are :attr:`DiscreteBackbone.routed` ((n_disks, C) bool).
 
@@ -309,12 +310,16 @@ class DiscreteBackbone:
         self._half = half
         #: Joint stiffness EI/Δ_j (N·m/rad) of every joint coordinate, (2n,): [a_1, b_1, ...].
         self.stiffness = np.repeat(params.bending_stiffness / self.segment_lengths, 2)
-        beta = np.asarray(params.cable_angles)
+        beta = params.cable_angles_at_disks()  # (n_disks+1, C): β_i + pitch·z_k
         radius = np.asarray(params.cable_radii)
-        #: Pinhole positions on a disk in the disk's frame, shape (C cables, 3), m.
-        self.pinhole_local = radius[:, None] * np.stack(
-            [np.cos(beta), np.sin(beta), np.zeros(beta.size)], axis=-1
+        #: Pinhole positions of every cable on every disk in that disk's frame, shape
+        #: (n_disks+1, C cables, 3) m [disk (base first), cable, xyz]: the same on every disk
+        #: for cables parallel to the backbone, turning by the pitch along a helical one.
+        self.disk_pinholes = radius[None, :, None] * np.stack(
+            [np.cos(beta), np.sin(beta), np.zeros(beta.shape)], axis=-1
         )
+        #: Whether the pinholes differ from disk to disk (``RobotParams.cable_pitch`` != 0).
+        self.helical = params.cable_pitch != 0.0
         #: Whether cable i crosses disk span k (is routed through its pinholes), (n_disks, C).
         self.routed = self.span_section[:, None] <= np.asarray(params.cable_section)[None, :]
         self._routed_f = self.routed.astype(np.float64)
@@ -333,14 +338,14 @@ class DiscreteBackbone:
         #: 2·b_k on every disk it passes, b on its anchor): the path length is its straight
         #: segments across the spans plus this.
         self.rigid_lengths = ((b[:-1] + b[1:])[:, None] * self._routed_f).sum(axis=0)
-        #: Proximal via-points (pinhole + b_k·z) of every span k in disk k's frame, and the
-        #: distal ones (pinhole − b_{k+1}·z) in disk k+1's frame, (n_disks, C, 3) m.
-        self._via_out = np.repeat(self.pinhole_local[None], self.n_disks, axis=0)
-        self._via_in = self._via_out.copy()
-        self._via_out[:, :, 2] += b[:-1, None]
-        self._via_in[:, :, 2] -= b[1:, None]
+        #: The via-points of every span k [span, cable, xyz] m: leaving disk k (pinhole +
+        #: b_k·z, in disk k's frame) and arriving at disk k+1 (pinhole − b_{k+1}·z, in its
+        #: frame), (n_disks, C, 3); on a helix where it passes them, at β + p·(z_k ± b_k).
+        z = params.disk_arc_positions()
+        self.via_points_out = self._helix_points(params, z[:-1] + b[:-1], b[:-1])
+        self.via_points_in = self._helix_points(params, z[1:] - b[1:], -b[1:])
         self._all_routed = bool(self.routed.all())
-        self._base_pinholes = self.pinhole_local @ self.base_rotation.T
+        self._base_pinholes = self.disk_pinholes[0] @ self.base_rotation.T
         # per section: (its first span, its last span + 1, the cables crossing it, the map of
         # _cable_loads_one_link for those cables and its spacing)
         owner = np.asarray(params.cable_section)
@@ -350,7 +355,19 @@ class DiscreteBackbone:
             first, stop = int(ends[j]), int(ends[j + 1])
             cables = slice(int(np.argmax(owner >= j)), params.n_cables)  # sections j.. (contiguous)
             half_h = 0.5 * params.sections[j].disk_spacing
-            pins = self.pinhole_local[owner >= j]
+            through = owner >= j
+            if self.helical:  # every span its own map: its two disks' pinholes differ
+                for a in range(first, stop):
+                    link_map = self._build_one_link_map(
+                        self.via_points_out[a, through] - [0.0, 0.0, b[a]],
+                        half_h,
+                        b[a],
+                        b[a + 1],
+                        self.via_points_in[a, through] + [0.0, 0.0, b[a + 1]],
+                    )
+                    self._sections.append((a, a + 1, cables, link_map))
+                continue
+            pins = self.disk_pinholes[0, through]
             # a section's spans share one map, but for the first when its proximal disk (the
             # previous section's last) has another via offset
             pieces = [first] if b[first] == b[first + 1] else [first, first + 1]
@@ -366,6 +383,16 @@ class DiscreteBackbone:
         self.link_inertias = np.array([pr[2] for pr in props])
         g = np.array([0.0, 0.0, -STANDARD_GRAVITY]) if self.gravity else np.zeros(3)
         self._weights = self.link_masses[:, None] * g  # (n, 3) N
+
+    @staticmethod
+    def _helix_points(params: RobotParams, z: np.ndarray, height: np.ndarray) -> np.ndarray:
+        """Points (len(z), C, 3) m of every cable at arc lengths ``z`` (m) of its helix
+        (β + p·z; parallel cables: their pinhole), ``height`` (len(z),) m along the disk's axis
+        in the frame of the disk they belong to."""
+        beta = np.asarray(params.cable_angles)[None, :] + params.cable_pitch * z[:, None]
+        r = np.asarray(params.cable_radii)[None, :]
+        h = np.broadcast_to(np.asarray(height, dtype=np.float64)[:, None], beta.shape)
+        return np.stack([r * np.cos(beta), r * np.sin(beta), h], axis=-1)
 
     def _link_properties(self, j: int) -> tuple[float, float, tuple[float, float, float]]:
         """Mass (kg), COM offset along the link from its joint (m), principal inertias (kg·m²).
@@ -458,11 +485,10 @@ class DiscreteBackbone:
         """Pinholes (n_disks+1, C, 3) [disk (base first), cable, xyz], m, from the orientations
         (n+1, 3, 3) and stations (n+1, 3): disk k sits at station k·m, on link k·m."""
         m = self.links_per_span
-        pins = np.empty((self.n_disks + 1, self.pinhole_local.shape[0], 3))
+        pins = np.empty(self.disk_pinholes.shape)
         pins[0] = self._base_pinholes
-        pins[1:] = stations[m::m][:, None, :] + np.matmul(
-            self.pinhole_local, rot[m::m].transpose(0, 2, 1)
-        )
+        local = self.disk_pinholes[1:] if self.helical else self.disk_pinholes[0]
+        pins[1:] = stations[m::m][:, None, :] + np.matmul(local, rot[m::m].transpose(0, 2, 1))
         return pins
 
     def cable_lengths(self, q: np.ndarray) -> np.ndarray:
@@ -552,11 +578,12 @@ class DiscreteBackbone:
                 rot = np.matmul(rot, local)
             pos = points[:, i] + half * rot[:, :, 2]  # the next station
         if self._corrected:  # via-points ∓b along the disks' links
-            p_b = pos[:, None, :] + np.matmul(self._via_in, rot.transpose(0, 2, 1))
-            seg = p_b - self._via_out  # (n_span, C cables, 3)
+            p_b = pos[:, None, :] + np.matmul(self.via_points_in, rot.transpose(0, 2, 1))
+            seg = p_b - self.via_points_out  # (n_span, C cables, 3)
         else:
-            p_b = pos[:, None, :] + np.matmul(self.pinhole_local, rot.transpose(0, 2, 1))
-            seg = p_b - self.pinhole_local  # (n_span, C cables, 3)
+            distal = self.disk_pinholes[1:] if self.helical else self.disk_pinholes[0]
+            p_b = pos[:, None, :] + np.matmul(distal, rot.transpose(0, 2, 1))
+            seg = p_b - self.disk_pinholes[:-1]  # (n_span, C cables, 3)
         seg_len = np.sqrt((seg * seg).sum(axis=-1))  # (n_span, C)
         tu = seg * (tensions * self._routed_f / seg_len)[..., None]  # T_i·u_i, 0 if not routed
         force = tu.sum(axis=1)  # F (n_span, 3)
@@ -616,14 +643,20 @@ class DiscreteBackbone:
 
     @staticmethod
     def _build_one_link_map(
-        pinholes: np.ndarray, half: float, b_out: float = 0.0, b_in: float = 0.0
+        pinholes: np.ndarray,
+        half: float,
+        b_out: float = 0.0,
+        b_in: float = 0.0,
+        distal: np.ndarray | None = None,
     ) -> np.ndarray:
         """The (6k, 9) map of :meth:`_cable_loads_one_link` for one section: from the products
         u_α·v_β (row 3α + β) of one of its spans to the segments d_i (rows 0..3k−1,
         [cable, xyz], m) and the levers (o − p_i) × d_i (rows 3k..6k−1, [xyz, cable], m²) of
-        the k cables crossing it, whose pinholes are ``pinholes`` (k, 3) m; ``half`` = h/2 (m).
-        With via-points (``"corrected"`` routing) the segment starts at p_i + b_out·z on the
-        proximal disk and ends at the distal pinhole − b_in·Z (m)."""
+        the k cables crossing it, whose pinholes are ``pinholes`` (k, 3) m on the proximal disk
+        and ``distal`` (k, 3) m on the distal one (default: the same; helical routing: its
+        own span's); ``half`` = h/2 (m). With via-points (``"corrected"`` routing) the segment
+        starts at p_i + b_out·z on the proximal disk and ends at the distal pinhole − b_in·Z
+        (m)."""
         one, cos, sin = 0, 1, 2  # indices into u = (1, cos a, sin a) and v = (1, cos b, sin b)
 
         def term(alpha: int, beta: int, vector) -> np.ndarray:
@@ -639,8 +672,8 @@ class DiscreteBackbone:
         centre = half * (term(one, one, (0, 0, 1)) + col_z)  # the distal disk centre o + (h/2)·Z
         joint = np.array([0.0, 0.0, half])
         seg, lever = [], []
-        for p in pinholes:
-            d = centre + p[0] * col_x + p[1] * col_y
+        for p, q in zip(pinholes, pinholes if distal is None else distal):
+            d = centre + q[0] * col_x + q[1] * col_y
             if b_in != 0.0 or b_out != 0.0:
                 p = p + np.array([0.0, 0.0, b_out])
                 d = d - b_in * col_z

@@ -2,9 +2,10 @@
 
 A robot is a sequence of :class:`SectionParams` stacked from the base (docs/model.md). Section j has a
 length ℓ_j, ``n_disks`` spacer disks (evenly spaced, the last at the section's end) and its own
-cables, which terminate at that last disk. A cable sits at a fixed position (radius r, angle β
-from the disk's x axis) in every disk it passes: a cable of section j runs parallel to the
-backbone through every disk of sections 1…j. :class:`RobotParams` adds the backbone material,
+cables, which terminate at that last disk. A cable of section j runs through every disk of
+sections 1…j at its radius r and its angle β from the disk's x axis: parallel to the backbone,
+or wound helically about it when the robot has a ``cable_pitch`` (the angle at arc length z is
+β + pitch·z). :class:`RobotParams` adds the backbone material,
 the masses and the tension limit shared by all cables.
 
 Cable order (actions, tensions, cable lengths): section by section, proximal first; within a
@@ -239,6 +240,12 @@ class RobotParams:
         base_compliance: c (m/N), ≥ 0: the robot's base (its mount, the backbone's clamp and
             axial compression) gives way under the total tendon load, so every tendon's drive
             loses c·(ΣT − ΣT0) of its pull (:mod:`cdcr_gym.model.tendons`). 0 = a rigid base.
+        cable_pitch: p (rad/m), finite, either sign: helical routing. Every cable winds about
+            the backbone: at arc length z from the base its pinholes sit at the angle β + p·z
+            (``cable_angles`` are the angles at the base disk). 0 = cables parallel to the
+            backbone. The constant-curvature model sees cable i in section j at its angle at the
+            section's middle, with its radius scaled by sinc(p·ℓ_j/2), the mean of the helix
+            over the section (:meth:`section_cable_vectors`).
 
     Raises:
         ValueError: naming the field and the offending value, for any non-finite or
@@ -263,6 +270,7 @@ class RobotParams:
     tendon_pretension: float | tuple[float, ...] = 2.0
     displacement_range: tuple[float, float] = (-0.045, 0.045)
     base_compliance: float = 0.0
+    cable_pitch: float = 0.0
 
     def __post_init__(self) -> None:
         owner = "RobotParams"
@@ -319,9 +327,9 @@ class RobotParams:
         for f in fields(self):
             if f.name in ("sections",) + _SINGLE_SECTION_KEYS + _DRIVE_KEYS:
                 continue
-            positive = f.name != "base_compliance"
+            positive = f.name not in ("base_compliance", "cable_pitch")
             value = _real(owner, f.name, getattr(self, f.name), positive=positive)
-            if value < 0.0:
+            if value < 0.0 and f.name == "base_compliance":
                 raise ValueError(f"{owner}.{f.name} must be >= 0 (m/N), got {value!r}")
             object.__setattr__(self, f.name, value)
         n_cables = sum(s.n_cables for s in sections)
@@ -481,7 +489,44 @@ class RobotParams:
         the largest bend the tension limit allows (79.4°).
         """
         s = self.sections[-1]
-        return self.max_tension * s.cable_radius * s.length / self.bending_stiffness
+        radius = s.cable_radius
+        if self.cable_pitch != 0.0:  # the helix's mean over the section (section_cable_vectors)
+            half = 0.5 * self.cable_pitch * s.length
+            radius *= math.sin(half) / half
+        return self.max_tension * radius * s.length / self.bending_stiffness
+
+    def disk_arc_positions(self) -> np.ndarray:
+        """Arc length (m) of every disk from the base, shape (n_disks + 1,): the base disk (0)
+        first, then every spacer disk, proximal first (section j's last disk at its end)."""
+        z, start = [0.0], 0.0
+        for s in self.sections:
+            z.extend(start + s.length * k / s.n_disks for k in range(1, 1 + s.n_disks))
+            start = z[-1]
+        return np.asarray(z)
+
+    def cable_angles_at_disks(self) -> np.ndarray:
+        """Angle (rad) of every cable's pinhole on every disk, shape (n_disks + 1, C): β_i +
+        p·z_k (p the :attr:`cable_pitch`, z_k from :meth:`disk_arc_positions`); a cable's
+        pinholes exist only on the disks of its own and the proximal sections."""
+        z = self.disk_arc_positions()
+        return np.asarray(self.cable_angles)[None, :] + self.cable_pitch * z[:, None]
+
+    def section_cable_vectors(self) -> np.ndarray:
+        """The cables' radius vectors in every section, shape (C, S, 2) m: cable i in section
+        j (0 where it does not pass) at r_i·sinc(p·ℓ_j/2)·(cos, sin)(β_i + p·z_j), z_j the
+        section's middle and p the :attr:`cable_pitch` (p = 0: r_i·(cos β_i, sin β_i) in every
+        section it passes). Every moment and cable length of the constant-curvature model is
+        linear in these: a helical cable's moment and shortening averaged over the section."""
+        lengths = np.asarray(self.section_lengths)
+        middles = np.cumsum(lengths) - 0.5 * lengths
+        p = self.cable_pitch
+        angles = np.asarray(self.cable_angles)[:, None] + p * middles[None, :]  # (C, S)
+        half = 0.5 * p * lengths
+        scale = np.where(half == 0.0, 1.0, np.sin(half) / np.where(half == 0.0, 1.0, half))
+        radii = np.asarray(self.cable_radii)[:, None] * scale[None, :]
+        through = np.asarray(self.cable_section)[:, None] >= np.arange(self.n_sections)[None, :]
+        vectors = radii[..., None] * np.stack([np.cos(angles), np.sin(angles)], axis=-1)
+        return np.where(through[..., None], vectors, 0.0)
 
     @property
     def section_bend_limits(self) -> tuple[float, ...]:
@@ -493,20 +538,14 @@ class RobotParams:
         with r_i u_i·d > 0, and these sets only change where d is perpendicular to some u_i, so
         one direction inside each of those arcs gives every candidate vertex (exact).
         """
-        angles = np.asarray(self.cable_angles)
-        radii = np.asarray(self.cable_radii)
+        vectors = self.section_cable_vectors()
         owner = np.asarray(self.cable_section)
         limits = []
         for j, section in enumerate(self.sections):
-            through = owner >= j
-            gens = radii[through, None] * np.stack(
-                [np.cos(angles[through]), np.sin(angles[through])], axis=-1
-            )
+            gens = vectors[owner >= j, j]
+            angles = np.arctan2(gens[:, 1], gens[:, 0])
             crit = np.sort(
-                np.mod(
-                    np.concatenate([angles[through] + 0.5 * np.pi, angles[through] - 0.5 * np.pi]),
-                    2 * np.pi,
-                )
+                np.mod(np.concatenate([angles + 0.5 * np.pi, angles - 0.5 * np.pi]), 2 * np.pi)
             )
             mids = 0.5 * (crit + np.roll(crit, -1))
             mids[-1] += np.pi  # the arc that wraps through 2π
@@ -659,6 +698,8 @@ def params_to_dict(params: RobotParams) -> dict[str, Any]:
     for f in fields(RobotParams):
         if f.name in ("sections",) + _DERIVED:
             continue
+        if f.name == "cable_pitch" and params.cable_pitch == 0.0:
+            continue  # parallel routing: the key is written only for a helix
         out[f.name] = _plain_field(getattr(params, f.name))
     out["sections"] = [
         {

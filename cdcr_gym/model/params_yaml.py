@@ -28,6 +28,7 @@ trip: ``RobotParams.from_yaml(p.to_yaml()) == p``), in a form YAML 1.1 readers p
 
 ``tendon_stiffness`` and ``tendon_pretension`` are a number or a list of one per cable;
 ``displacement_range`` is ``[d_min, d_max]`` (m); a stiffness of ``.inf`` (inextensible) round-trips.
+``cable_pitch`` (rad/m, helical routing) is written only when it is not 0.
 A mapping with a duplicate key (say ``max_tension`` twice) is refused naming the key, and so is a
 section of the wrong type (``robot:``, ``backend:``, ``calibration:`` or a ``sections`` entry that
 is a list or a string where a mapping is expected).

@@ -287,8 +287,8 @@ def test_disk_frames_carry_every_routed_pinhole(make):
     b.reset(np.linspace(0.0, MIXED2.max_tension, MIXED2.n_cables))
     centres, rots = b.disk_frames()
     pins = b.pinhole_positions()
-    local = b.chain.pinhole_local
-    want = centres[:, None, :] + np.einsum("kij,cj->kci", rots, local)
+    local = b.chain.disk_pinholes
+    want = centres[:, None, :] + np.einsum("kij,kcj->kci", rots, local)
     np.testing.assert_allclose(pins, want, rtol=0, atol=1e-12)
     np.testing.assert_allclose(centres[-1], b.tip, rtol=0, atol=1e-15)
     assert b.backbone_points().shape == (2 * b.n_links + 1, 3)

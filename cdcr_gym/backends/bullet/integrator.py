@@ -108,7 +108,7 @@ class ImplicitIntegrator:
         self.friction_coefficient = friction_coefficient
         self.slip_length = slip_length
         #: Slip state s (C,) of every cable (+1 pulled, −1 released, between: stick).
-        self.slip = np.zeros(chain.pinhole_local.shape[0])
+        self.slip = np.zeros(chain.params.n_cables)
         self._last_lengths: np.ndarray | None = None
         #: Sliding (C,) m of each cable in its last step that moved (its sign: the direction).
         self._last_sliding = np.zeros_like(self.slip)

@@ -190,7 +190,7 @@ def _visuals(pb: ModuleType, cid: int, chain: DiscreteBackbone) -> dict:
             else:
                 holes = [
                     (sph, 0.004, (0.0, (float(x), float(y), a + 0.5 * p.disk_thickness)))
-                    for x, y, _ in chain.pinhole_local[
+                    for x, y, _ in chain.disk_pinholes[-1][
                         np.asarray(p.cable_section) == p.n_sections - 1
                     ]
                 ]

@@ -179,7 +179,7 @@ def build_mjcf(
     # the last disk (1-based) each cable reaches
     ends = np.cumsum(disks)
     anchor_disk = ends[owner]
-    pin_local = chain.pinhole_local  # (C, 3)
+    pin_local = chain.disk_pinholes  # (n_disks+1, C, 3): helical routing turns them
     rod_radius = 0.5 * params.backbone_diameter
 
     root = ET.Element("mujoco", model="cdcr")
@@ -204,7 +204,7 @@ def build_mjcf(
     def add_pinholes(body: ET.Element, disk: int, z: float) -> None:
         b = float(chain.via_offsets[disk])  # the routing geometry: DiscreteBackbone's
         for i in range(n_cables):
-            x, y = pin_local[i, 0], pin_local[i, 1]
+            x, y = pin_local[disk, i, 0], pin_local[disk, i, 1]
             name = f"pin{disk}_{i}"
             ET.SubElement(body, "site", name=name, pos=_fmt((x, y, z)), size="0.002")
             pinhole_sites[disk][i] = name  # every disk: the geometry of the wrap angles
@@ -214,15 +214,17 @@ def build_mjcf(
             if b == 0.0:
                 paths[i].append(name)
             else:
-                if disk > 0:  # arriving: the via-site before the disk
+                if disk > 0:  # arriving: the via-site before the disk (on a helix: its point there)
                     via = f"via{disk}_{i}_in"
-                    ET.SubElement(body, "site", name=via, pos=_fmt((x, y, z - b)), size="0.001")
+                    vx, vy, _ = chain.via_points_in[disk - 1, i]
+                    ET.SubElement(body, "site", name=via, pos=_fmt((vx, vy, z - b)), size="0.001")
                     paths[i].append(via)
                 if disk == 0 or last:  # the base pinhole and the anchor are on the path
                     paths[i].append(name)
                 if not last:  # leaving: the via-site after the disk
                     via = f"via{disk}_{i}_out"
-                    ET.SubElement(body, "site", name=via, pos=_fmt((x, y, z + b)), size="0.001")
+                    vx, vy, _ = chain.via_points_out[disk, i]
+                    ET.SubElement(body, "site", name=via, pos=_fmt((vx, vy, z + b)), size="0.001")
                     paths[i].append(via)
             if not last:
                 span_start[i][disk] = len(paths[i]) - 1
