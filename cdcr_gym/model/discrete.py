@@ -341,9 +341,9 @@ class DiscreteBackbone:
         #: The via-points of every span k [span, cable, xyz] m: leaving disk k (pinhole +
         #: b_k·z, in disk k's frame) and arriving at disk k+1 (pinhole − b_{k+1}·z, in its
         #: frame), (n_disks, C, 3); on a helix where it passes them, at β + p·(z_k ± b_k).
-        z = params.disk_arc_positions()
-        self.via_points_out = self._helix_points(params, z[:-1] + b[:-1], b[:-1])
-        self.via_points_in = self._helix_points(params, z[1:] - b[1:], -b[1:])
+        arc = params.disk_arc_positions()
+        self.via_points_out = self._helix_points(params, arc[:-1] + b[:-1], b[:-1])
+        self.via_points_in = self._helix_points(params, arc[1:] - b[1:], -b[1:])
         self._all_routed = bool(self.routed.all())
         self._base_pinholes = self.disk_pinholes[0] @ self.base_rotation.T
         # per section: (its first span, its last span + 1, the cables crossing it, the map of
