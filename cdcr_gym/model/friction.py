@@ -63,16 +63,18 @@ def validate_friction_coefficient(mu: Any, name: str = "friction_coefficient") -
 
 
 def pinhole_positions(
-    centres: np.ndarray, rotations: np.ndarray, radius: float, angle: float
+    centres: np.ndarray, rotations: np.ndarray, radius: float, angle: float | np.ndarray
 ) -> np.ndarray:
     """Pinholes (..., K, 3) m of a cable at (``radius`` m, ``angle`` rad) in K disks.
 
     ``centres`` (..., K, 3) m and ``rotations`` (..., K, 3, 3) are disk frames in R0 (columns:
     disk x, y axes and backbone tangent), e.g. ``PCCModel.disk_frames``; the pinhole of disk k is
-    ``centre_k + R_k @ (r cos β, r sin β, 0)``.
+    ``centre_k + R_k @ (r cos β_k, r sin β_k, 0)``. ``angle``: one β for every disk, or (K,) one
+    per disk (a helical cable: ``RobotParams.cable_angles_at_disks``).
     """
-    local = np.array([radius * np.cos(angle), radius * np.sin(angle), 0.0])
-    return np.asarray(centres) + np.asarray(rotations) @ local
+    a = np.asarray(angle, dtype=np.float64)
+    local = np.stack([radius * np.cos(a), radius * np.sin(a), np.zeros_like(a)], axis=-1)
+    return np.asarray(centres) + np.matmul(np.asarray(rotations), local[..., None])[..., 0]
 
 
 def wrap_angles(pinholes: np.ndarray, base_direction: np.ndarray | None = None) -> np.ndarray:

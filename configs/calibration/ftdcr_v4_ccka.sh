@@ -8,10 +8,14 @@
 #    backlash, and its ablation (rigid_base: without the base compliance; no_backlash: without
 #    the drive backlash).
 # 3. docs/figures/calibration/ftdcr_v4_ccka_base/: the first set with the compliant base.
-# About 5 min on 2 shared cores.
+# 4. docs/figures/calibration/ftdcr_v4_ccka_helix/: the set the selection chooses once it may wind
+#    the tendons helically (2. plus cable_pitch; selection.md there), and its ablation
+#    (parallel_routing: 2. itself).
+# About 6 min on 2 shared cores.
 set -euo pipefail
 OUT=${1:-docs/figures/calibration/ftdcr_v4_ccka}
 SELECTED=${2:-docs/figures/calibration/ftdcr_v4_ccka_selected}
+HELIX=${3:-docs/figures/calibration/ftdcr_v4_ccka_helix}
 DATA=data/real/ftdcr_v4
 FIT=base_frame,marker,k_tendons,T0_tendons,cable_angles
 run() { python -m training.studies.calibrate "$DATA/train.csv" --robot ftdcr_v4 --backend ccka \
@@ -36,3 +40,18 @@ run --fit marker,E,T0_tendons,cable_angles,base_compliance,drive_backlash \
 run --fit base_frame,marker,E,T0_tendons,cable_angles,drive_backlash --out "$SELECTED/ablation/rigid_base"
 run --fit base_frame,marker,E,T0_tendons,cable_angles,base_compliance --out "$SELECTED/ablation/no_backlash"
 python -m training.studies.calibrate --ablation-table "$SELECTED"
+
+# the set chosen once the selection may wind the tendons helically: the same plus cable_pitch
+HEL="$SEL,cable_pitch"
+run --fit "$HEL" --out "$HELIX"
+run --fit base_frame,marker,E,T0_tendons,cable_angles,drive_backlash,cable_pitch \
+  --stiffness-scale 1000 --out "$HELIX/ablation/rigid_tendons"
+run --fit "$HEL" --linear-law --out "$HELIX/ablation/no_slack"
+run --fit marker,E,T0_tendons,cable_angles,base_compliance,drive_backlash,cable_pitch \
+  --out "$HELIX/ablation/no_base_frame"
+run --fit base_frame,marker,E,T0_tendons,cable_angles,drive_backlash,cable_pitch \
+  --out "$HELIX/ablation/rigid_base"
+run --fit base_frame,marker,E,T0_tendons,cable_angles,base_compliance,cable_pitch \
+  --out "$HELIX/ablation/no_backlash"
+run --fit "$SEL" --out "$HELIX/ablation/parallel_routing"
+python -m training.studies.calibrate --ablation-table "$HELIX"

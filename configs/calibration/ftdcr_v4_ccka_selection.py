@@ -14,7 +14,8 @@ all of train.csv and replayed on val.csv (reported for every candidate, selected
 the held-out error per pattern family (``same``, ``scurve``, ``spiral``) and along X, Y, Z.
 
 Writes OUT_DIR/selection.json and OUT_DIR/selection.md (default
-docs/figures/calibration/ftdcr_v4_ccka_selected).
+docs/figures/calibration/ftdcr_v4_ccka_helix, beside the selected set's fit; the round before
+the helical candidate wrote docs/figures/calibration/ftdcr_v4_ccka_selected).
 """
 
 from __future__ import annotations
@@ -69,6 +70,10 @@ CANDIDATES = {
     ),
     "E+T0_tendons+cable_angles+base_compliance+drive_backlash": (
         "E,T0_tendons,cable_angles,base_compliance,drive_backlash"
+    ),
+    # with the tendons wound helically (one pitch for the robot)
+    "E+T0_tendons+cable_angles+base_compliance+drive_backlash+cable_pitch": (
+        "E,T0_tendons,cable_angles,base_compliance,drive_backlash,cable_pitch"
     ),
 }
 
@@ -194,7 +199,7 @@ def main(out: Path) -> None:
             )
             + " |"
         )
-    lines += ["", "Command: `python configs/calibration/ftdcr_v4_ccka_selection.py`", ""]
+    lines += ["", f"Command: `python configs/calibration/ftdcr_v4_ccka_selection.py {out}`", ""]
     (out / "selection.md").write_text("\n".join(lines))
     print("selected:", best)
 
@@ -203,5 +208,5 @@ if __name__ == "__main__":
     main(
         Path(sys.argv[1])
         if len(sys.argv) > 1
-        else Path("docs/figures/calibration/ftdcr_v4_ccka_selected")
+        else Path("docs/figures/calibration/ftdcr_v4_ccka_helix")
     )

@@ -9,8 +9,11 @@
 # friction and (under gravity) the base tilt are simulated robots of one batched MuJoCo model.
 #
 #   Main fit, the structure chosen on train.csv alone (configs/calibration/ftdcr_v4_mujoco_selection.py,
-#   ftdcr_v4_mujoco_selection/): no gravity; base frame, marker, E, base compliance, drive
-#   backlash, backbone friction, 4 optimiser steps -> ftdcr_v4_mujoco_selected/
+#   ftdcr_v4_mujoco_selection_helix/): no gravity; base frame, marker, E, base compliance, drive
+#   backlash, backbone friction, 4 optimiser steps, from the CCKA set with helically wound
+#   tendons (ftdcr_v4_ccka_helix/) -> ftdcr_v4_mujoco_helix/
+#   The same from the CCKA set with parallel tendons (ftdcr_v4_ccka_selected/; the structure chosen
+#   from there: ftdcr_v4_mujoco_selection/) -> ftdcr_v4_mujoco_selected/
 #   With gravity (not selected; kept for comparison):
 #   A. base frame, marker, E, tip payload, base compliance, drive backlash, 4 optimiser steps
 #      -> docs/figures/calibration/ftdcr_v4_mujoco_base_selected/
@@ -32,6 +35,10 @@ run() { python -m training.studies.calibrate "$DATA/train.csv" --backend mujoco 
   --backend-arg control_timestep=0.04 --max-gap 1.0 "$@"; }
 payload() { python -c "import sys, yaml; print(yaml.safe_load(open(sys.argv[1]))['calibration']['fitted']['tip_payload'])" "$1"; }
 
+H=$F/ftdcr_v4_ccka_helix/params.yaml
+run --robot "$H" --backend-arg gravity=false \
+  --fit base_frame,marker,E,base_compliance,drive_backlash,backbone_friction --start-from "$H" \
+  --start backbone_friction=0.001 --max-evals 4 --out "$F/ftdcr_v4_mujoco_helix"
 S=$F/ftdcr_v4_ccka_selected/params.yaml
 run --robot "$S" --backend-arg gravity=false \
   --fit base_frame,marker,E,base_compliance,drive_backlash,backbone_friction --start-from "$S" \

@@ -3,12 +3,14 @@ patterns: the model structure chosen on the training file only, with the split o
 selection (configs/calibration/ftdcr_v4_ccka_selection.py).
 
 Usage (after configs/calibration/ftdcr_v4_ccka.sh):
-    python configs/calibration/ftdcr_v4_mujoco_selection.py [OUT_DIR]
+    python configs/calibration/ftdcr_v4_mujoco_selection.py [OUT_DIR [START]]
 
 Every candidate is a MuJoCo fit (the rows in order with their recorded timing, gaps capped at
 1 s, 0.04 s steps, at most MAX_EVALS optimiser steps) of the base frame, the marker offset, E,
 the base compliance and the drive backlash, started from the selected CCKA fit
-(``ftdcr_v4_ccka_selected/``: its geometry, pretensions and values), with or without gravity
+(START, default ``ftdcr_v4_ccka_helix/params.yaml``: its geometry, pretensions and values;
+the round before the helical routing started from ``ftdcr_v4_ccka_selected/params.yaml`` and
+wrote ``ftdcr_v4_mujoco_selection/``), with or without gravity
 (and then a fitted tip payload), with or without backbone friction, and without gravity with or
 without a drive softening (``drive_softening``, from 10 1/m). It is fitted on the
 training rows that move ONE tendon or ONE section and scored on the training rows that move TWO
@@ -16,7 +18,7 @@ sections (``pair*``); the candidate with the lowest aligned RMSE on the pair row
 structure of the main MuJoCo fit (configs/calibration/ftdcr_v4_mujoco.sh). val.csv is not read.
 
 Writes OUT_DIR/selection.json and OUT_DIR/selection.md (default
-docs/figures/calibration/ftdcr_v4_mujoco_selection).
+docs/figures/calibration/ftdcr_v4_mujoco_selection_helix).
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from __future__ import annotations
 import sys
 import time
 from dataclasses import replace
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -40,7 +43,7 @@ from cdcr_gym.model.params import RobotParams  # noqa: E402
 from cdcr_gym.model.params_yaml import load_yaml  # noqa: E402
 
 DATA = Path("data/real/ftdcr_v4")
-START = Path("docs/figures/calibration/ftdcr_v4_ccka_selected/params.yaml")
+START = Path("docs/figures/calibration/ftdcr_v4_ccka_helix/params.yaml")
 MAX_EVALS = 4
 TIMING = {"physics_timestep": 0.04, "control_timestep": 0.04}
 COMMON = "base_frame,marker,E,base_compliance,drive_backlash"
@@ -63,26 +66,27 @@ CANDIDATES: dict[str, tuple[str, bool]] = {
 }
 
 
-def _robot_and_drive() -> tuple[RobotParams, TendonDrive]:
-    """The selected CCKA fit's robot and tendon drive (with its backlash)."""
-    robot = RobotParams.from_yaml(START)
+def _robot_and_drive(start: Path) -> tuple[RobotParams, TendonDrive]:
+    """The CCKA fit's robot and tendon drive (with its backlash) of the file ``start``."""
+    robot = RobotParams.from_yaml(start)
     drive = TendonDrive.of(robot)
     if drive is None:
-        raise ValueError(f"{START}: no tendon drive")
+        raise ValueError(f"{start}: no tendon drive")
     kept = TendonDrive.from_dict(
-        load_yaml(START)["calibration"]["tendons"], robot.n_cables, f"{START}: tendons"
+        load_yaml(start)["calibration"]["tendons"], robot.n_cables, f"{start}: tendons"
     )
     return robot, replace(drive, backlash=kept.backlash, max_tension=kept.max_tension)
 
 
-def _candidate(item: tuple[str, tuple[str, bool]]) -> dict:
-    """Fit one candidate on the single rows, score it on the pair rows (module docstring)."""
+def _candidate(item: tuple[str, tuple[str, bool]], start_from: Path = START) -> dict:
+    """Fit one candidate on the single rows, score it on the pair rows (module docstring),
+    started from the CCKA fit ``start_from``."""
     name, (fit, gravity) = item
-    robot, drive = _robot_and_drive()
+    robot, drive = _robot_and_drive(start_from)
     train = read_csv(DATA / "train.csv", robot=robot, drive=drive)
     pair = np.array([family(lab).startswith("pair") for lab in train.labels])
     single, pairs = train.subset(np.flatnonzero(~pair)), train.subset(np.flatnonzero(pair))
-    fitted = load_yaml(START)["calibration"]["fitted"]
+    fitted = load_yaml(start_from)["calibration"]["fitted"]
     wanted = set(expand_names(fit, robot))
     start = {k: float(v) for k, v in fitted.items() if k in wanted}
     if "backbone_friction" in fit:
@@ -125,10 +129,10 @@ def _candidate(item: tuple[str, tuple[str, bool]]) -> dict:
     return r
 
 
-def main(out: Path) -> None:
+def main(out: Path, start_from: Path = START) -> None:
     rows, best = select(
         CANDIDATES,
-        _candidate,
+        partial(_candidate, start_from=start_from),
         "MuJoCo fits on the one-tendon/one-section rows of train.csv, the lowest aligned "
         "RMSE on its two-section (pair) rows selected; val.csv not used",
         out,
@@ -137,7 +141,7 @@ def main(out: Path) -> None:
         "# MuJoCo model selection (FTDCR v4)",
         "",
         "MuJoCo fits (base frame, marker, E, base compliance, drive backlash; "
-        f"{MAX_EVALS} optimiser steps from the selected CCKA fit) on the one-tendon and "
+        f"{MAX_EVALS} optimiser steps from the CCKA fit `{start_from}`) on the one-tendon and "
         "one-section rows of train.csv, scored on its two-section rows (`pair*`): the "
         f"candidate with the lowest aligned RMSE there is selected (**{best}**). The held-out "
         "file is not read. Aligned RMSE in mm.",
@@ -152,7 +156,11 @@ def main(out: Path) -> None:
             f"{r['selection_single_rmse_aligned_mm']:.2f} | "
             f"{r['selection_pairs_rmse_aligned_mm']:.2f} | {r['seconds']:.0f} |"
         )
-    lines += ["", "Command: `python configs/calibration/ftdcr_v4_mujoco_selection.py`", ""]
+    lines += [
+        "",
+        f"Command: `python configs/calibration/ftdcr_v4_mujoco_selection.py {out} {start_from}`",
+        "",
+    ]
     (out / "selection.md").write_text("\n".join(lines))
     print("selected:", best)
 
@@ -161,5 +169,6 @@ if __name__ == "__main__":
     main(
         Path(sys.argv[1])
         if len(sys.argv) > 1
-        else Path("docs/figures/calibration/ftdcr_v4_mujoco_selection")
+        else Path("docs/figures/calibration/ftdcr_v4_mujoco_selection_helix"),
+        Path(sys.argv[2]) if len(sys.argv) > 2 else START,
     )

@@ -139,3 +139,54 @@ def test_pcc_lengths_and_statics_use_the_section_vectors():
     )
     # and lengths → bending inverts it (the sequential least squares with the turned vectors)
     np.testing.assert_allclose(model.bending_from_lengths(lengths), w, atol=1e-12)
+
+
+def test_a_helical_robot_is_a_gym_robot_and_its_reach_oracle_reaches(tmp_path):
+    """A params.yaml with a pitch builds the env; the reach oracle (IK on the same helical CCKA
+    model) brings the tip onto goals in the displacement mode; an oracle that solves the IK
+    for the parallel robot misses them."""
+    import gymnasium as gym
+
+    import cdcr_gym  # noqa: F401  (registers the envs)
+    from cdcr_gym.controllers import AnalyticIKController
+
+    path = tmp_path / "helix.yaml"
+    _helical().to_yaml(path)
+    env = gym.make("cdcr_gym/CCKAReach-v0", params=str(path), action_mode="displacement")
+    assert env.unwrapped.params.cable_pitch == PITCH
+    oracle = AnalyticIKController.from_env(env)
+    naive = AnalyticIKController(V4, env.unwrapped.observation_spec, "displacement")
+    try:
+        missed = []
+        for seed in range(3):
+            for controller in (oracle, naive):
+                obs, info = env.reset(seed=seed)
+                for _ in range(5):
+                    obs, _, _, _, info = env.step(controller(obs))
+                if controller is oracle:
+                    assert info["distance"] < 1e-4, seed
+                else:
+                    missed.append(info["distance"])
+        assert max(missed) > 1e-3
+    finally:
+        env.close()
+
+
+def test_friction_pinholes_take_one_angle_per_disk():
+    """``pinhole_positions`` with the helix's per-disk angles gives the discrete chain's
+    pinholes of the straight robot (frames: identity, centres on the axis)."""
+    from cdcr_gym.model.friction import pinhole_positions
+
+    helix = _helical()
+    z = helix.disk_arc_positions()
+    centres = np.stack([np.zeros_like(z), np.zeros_like(z), z], axis=-1)
+    frames = np.broadcast_to(np.eye(3), (z.size, 3, 3))
+    angles = helix.cable_angles_at_disks()
+    chain = DiscreteBackbone(helix)
+    for i in (0, 8):
+        pins = pinhole_positions(centres, frames, helix.cable_radii[i], angles[:, i])
+        np.testing.assert_allclose(pins[:, :2], chain.disk_pinholes[:, i, :2], atol=1e-15)
+        np.testing.assert_allclose(pins[:, 2], z, atol=1e-15)
+    # one angle for every disk: as before
+    one = pinhole_positions(centres, frames, 0.01, 0.5)
+    np.testing.assert_allclose(one[:, 0], 0.01 * np.cos(0.5))

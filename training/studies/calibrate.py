@@ -403,6 +403,7 @@ ABLATIONS = {
     "no_base_frame": "no base-frame fit (robot base = measurement frame)",
     "rigid_base": "rigid base (no base compliance)",
     "no_backlash": "no drive backlash",
+    "parallel_routing": "tendons parallel to the backbone (no helical pitch)",
 }
 
 
