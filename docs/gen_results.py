@@ -1,7 +1,7 @@
 """Write docs/results.md from the committed result JSONs: the benchmark
 (docs/figures/benchmark/results.json), the env speed (docs/figures/benchmark/speed.json), the
 backends' dynamics (experiments/dynamics/check.json) and the real-robot calibration
-(docs/figures/calibration/ftdcr_v4_ccka_selected/report.json, ablation.json).
+(docs/figures/calibration/ftdcr_v4_ccka_helix/report.json, ablation.json).
 
     python docs/gen_results.py            # rewrites docs/results.md
     python docs/gen_results.py --check    # exit 1 if docs/results.md differs from the output
@@ -22,7 +22,7 @@ RESULTS = DOCS / "figures" / "benchmark" / "results.json"
 SPEED = DOCS / "figures" / "benchmark" / "speed.json"
 PAGE = DOCS / "results.md"
 DYNAMICS = DOCS.parent / "experiments" / "dynamics" / "check.json"
-CALIBRATION = DOCS / "figures" / "calibration" / "ftdcr_v4_ccka_selected"
+CALIBRATION = DOCS / "figures" / "calibration" / "ftdcr_v4_ccka_helix"
 
 TASKS = ("Reach", "Track", "Pose", "Obstacle")
 BACKENDS = ("CCKA", "MuJoCo")

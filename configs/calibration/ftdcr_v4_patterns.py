@@ -8,7 +8,8 @@ Usage (after ftdcr_v4_ccka.sh and ftdcr_v4_mujoco.sh):
     python configs/calibration/ftdcr_v4_patterns.py [OUT_FILE_STEM]
 
 Replays val.csv with the CCKA fits (docs/figures/calibration/ftdcr_v4_ccka*/params.yaml) and the
-MuJoCo fits (ftdcr_v4_mujoco_selected/, the main one, and ftdcr_v4_mujoco_base_selected/,
+MuJoCo fits (ftdcr_v4_mujoco_helix/, the main one, ftdcr_v4_mujoco_selected/, the same from
+parallel tendons, and ftdcr_v4_mujoco_base_selected/,
 ftdcr_v4_mujoco_backbone_selected/ with gravity: the rows in order with their recorded timing, as
 the fit). Aligned errors: the whole set's mean offset
 removed (as the headline number), then split by family or by deflection (the distance of the
@@ -40,11 +41,16 @@ FIG = Path("docs/figures/calibration")
 FITS = {
     "CCKA, rigid base (ftdcr_v4_ccka)": FIG / "ftdcr_v4_ccka",
     "CCKA, compliant base (ftdcr_v4_ccka_base)": FIG / "ftdcr_v4_ccka_base",
-    "CCKA, selected set (compliant base, drive backlash)": FIG / "ftdcr_v4_ccka_selected",
+    "CCKA, parallel tendons: compliant base, drive backlash (ftdcr_v4_ccka_selected)": FIG
+    / "ftdcr_v4_ccka_selected",
+    "CCKA, selected: the same with helically wound tendons (ftdcr_v4_ccka_helix)": FIG
+    / "ftdcr_v4_ccka_helix",
     "CCKA, selected set + drive softening (ftdcr_v4_ccka_softening)": FIG
     / "ftdcr_v4_ccka_softening",
-    "MuJoCo, selected: no gravity, compliant base, drive backlash, backbone friction "
+    "MuJoCo, parallel tendons: no gravity, compliant base, drive backlash, backbone friction "
     "(ftdcr_v4_mujoco_selected)": FIG / "ftdcr_v4_mujoco_selected",
+    "MuJoCo, selected: the same from the helical CCKA fit (ftdcr_v4_mujoco_helix)": FIG
+    / "ftdcr_v4_mujoco_helix",
     "MuJoCo A: gravity, payload, compliant base, drive backlash (ftdcr_v4_mujoco_base_selected)": (
         FIG / "ftdcr_v4_mujoco_base_selected"
     ),
