@@ -1,8 +1,8 @@
-"""How stiff each motion family of the FTDCR v4 files looks to the selected CCKA fit: a diagnosis
+"""How stiff each motion family of the FTDCR v4 files looks to a CCKA fit: a diagnosis
 of the held-out error, not a fit (docs/experiments/real_robot.md).
 
 For every pattern family of train.csv and val.csv (``seg1``, ``pair12_same``, ``all3_same``, …;
-the label without its repetition, direction and hold tags), the selected CCKA fit
+the label without its repetition, direction and hold tags), the CCKA fit with parallel tendons
 (``ftdcr_v4_ccka_selected``) is replayed with its rod's Young's modulus E scaled by one factor,
 everything else kept, and that factor is fitted by least squares to the family's tip positions
 (aligned: the family's own mean offset removed). A family whose apparent E* lies above the fit's
@@ -24,10 +24,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from cdcr_gym.calibration import Measurements, read_csv
-from cdcr_gym.calibration.drive import TendonDrive
-from cdcr_gym.calibration.report import load_fitted
-from cdcr_gym.model.params_yaml import load_yaml
-from experiments.ftdcr_v4_structure_probes import DATA, FIT, Probe, rmse_aligned
+from experiments.ftdcr_v4_structure_probes import DATA, Probe, rmse_aligned, selected_fit
 
 #: the smallest family fitted
 MIN_ROWS = 30
@@ -60,16 +57,7 @@ def apparent_modulus(probe: Probe, data: Measurements) -> tuple[float, float, fl
 
 def run(report: Callable[[str], None] = print) -> dict:
     """E* per family of both files, then the common refit on val.csv (module docstring)."""
-    robot, _ = load_fitted(FIT)
-    drive = TendonDrive.of(robot)
-    if drive is None:  # pragma: no cover - the fit has its drive
-        raise ValueError(f"{FIT}: no calibration.tendons")
-    fitted = load_yaml(FIT)["calibration"]["fitted"]
-    values = {
-        k: float(v)
-        for k, v in fitted.items()
-        if k.startswith(("base_", "marker")) or k in ("drive_backlash", "base_compliance")
-    }
+    robot, drive, values = selected_fit()
     probe = Probe("isotropic", robot, drive, values)
     out: dict = {"fit_E_GPa": robot.youngs_modulus / 1e9, "families": {}}
     report(f"the fit's E: {robot.youngs_modulus / 1e9:.1f} GPa")

@@ -33,8 +33,9 @@ into the backends (docs/experiments/real_robot.md):
 
 Terms combine with ``+`` (``anisotropic_sections+softening``).
 
-Each is started from the selected CCKA fit (``ftdcr_v4_ccka_selected``: its tendon angles,
-pretensions and backlash kept) and fitted together with the base frame, the marker offset, E
+Each is started from the CCKA fit of the selected set with parallel tendons
+(``ftdcr_v4_ccka_selected``, the selection's choice before the helix was a candidate: its
+tendon angles, pretensions and backlash kept) and fitted together with the base frame, the marker offset, E
 and the base compliance — the term's parameters start at zero (φ at 0°, μ at 0.05, the cap
 and d_s as above, each section's give at 1e-6 m/N) — first on the one-tendon and
 one-section rows of train.csv and scored on its two-section rows (the selection split of
@@ -373,8 +374,9 @@ def _is_pair(label: str) -> bool:
     return re.sub(r"^rep\d+_", "", label).startswith("pair")
 
 
-def run(terms: list[str], report: Callable[[str], None] = print) -> dict[str, dict]:
-    """Fit every term on the selection split and on train.csv (module docstring)."""
+def selected_fit() -> tuple[RobotParams, TendonDrive, dict[str, float]]:
+    """The robot, tendon drive and the frame, marker, backlash and base-compliance values of
+    the selected CCKA fit every probe starts from (``FIT``)."""
     robot, _ = load_fitted(FIT)
     drive = TendonDrive.of(robot)
     if drive is None:  # pragma: no cover - the fit has its drive
@@ -385,6 +387,12 @@ def run(terms: list[str], report: Callable[[str], None] = print) -> dict[str, di
         for k, v in fitted.items()
         if k.startswith(("base_", "marker")) or k in ("drive_backlash", "base_compliance")
     }
+    return robot, drive, values
+
+
+def run(terms: list[str], report: Callable[[str], None] = print) -> dict[str, dict]:
+    """Fit every term on the selection split and on train.csv (module docstring)."""
+    robot, drive, values = selected_fit()
     train = read_csv(DATA / "train.csv", robot=robot, drive=drive)
     val = read_csv(DATA / "val.csv", robot=robot, drive=drive)
     pair = np.array([_is_pair(lab) for lab in train.labels])

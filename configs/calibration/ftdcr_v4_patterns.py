@@ -45,7 +45,7 @@ FITS = {
     / "ftdcr_v4_ccka_selected",
     "CCKA, selected: the same with helically wound tendons (ftdcr_v4_ccka_helix)": FIG
     / "ftdcr_v4_ccka_helix",
-    "CCKA, selected set + drive softening (ftdcr_v4_ccka_softening)": FIG
+    "CCKA, parallel tendons + drive softening (ftdcr_v4_ccka_softening)": FIG
     / "ftdcr_v4_ccka_softening",
     "MuJoCo, parallel tendons: no gravity, compliant base, drive backlash, backbone friction "
     "(ftdcr_v4_mujoco_selected)": FIG / "ftdcr_v4_mujoco_selected",
@@ -56,8 +56,10 @@ FITS = {
     ),
     "MuJoCo B: A + backbone friction (ftdcr_v4_mujoco_backbone_selected)": FIG
     / "ftdcr_v4_mujoco_backbone_selected",
-    "MuJoCo, selected + drive softening (ftdcr_v4_mujoco_softening)": FIG
+    "MuJoCo, parallel tendons + drive softening (ftdcr_v4_mujoco_softening)": FIG
     / "ftdcr_v4_mujoco_softening",
+    "MuJoCo, helical tendons + drive softening (ftdcr_v4_mujoco_helix_softening)": FIG
+    / "ftdcr_v4_mujoco_helix_softening",
 }
 BINS_MM = (0.0, 20.0, 40.0, 60.0, np.inf)
 

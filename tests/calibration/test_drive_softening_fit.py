@@ -17,23 +17,11 @@ from cdcr_gym.calibration.simulate import DriveReplay
 from cdcr_gym.model.drive_softening import soften
 from cdcr_gym.model.params import RobotParams, params_to_dict
 from cdcr_gym.model.yaml_io import dump_yaml
+from tests.calibration.synthetic_commands import back_and_forth, displacement_rows
 
 V4 = RobotParams.preset("ftdcr_v4")
 FAST = {"physics_timestep": 0.04, "control_timestep": 0.04}
 RATE = 27.0  # 1/m
-
-
-def _sequence(n: int, seed: int = 0) -> np.ndarray:
-    """Commands (n, 9) m up to ~12 mm that go back and forth (reversals on every tendon)."""
-    rng = np.random.default_rng(seed)
-    t = np.arange(n)[:, None]
-    phase = rng.uniform(0, 2 * np.pi, (1, 9))
-    return 0.002 + 0.008 * np.sin(0.3 * t + phase) + 0.0005 * rng.standard_normal((n, 9))
-
-
-def _data(d: np.ndarray, tip: np.ndarray | None = None) -> Measurements:
-    tips = np.zeros((len(d), 3)) if tip is None else tip
-    return Measurements(None, tips, None, None, displacements=d)
 
 
 def test_the_drive_keeps_its_softening():
@@ -47,29 +35,31 @@ def test_the_drive_keeps_its_softening():
 
 
 def test_ccka_replay_pulls_with_the_softened_played_commands():
-    d = _sequence(60)
+    d = back_and_forth(60)
     drive = TendonDrive.of(V4)
     w = 2e-4
-    a = DriveReplay(_data(d), V4, drive)({"drive_backlash": w, "drive_softening": RATE}).tip
-    pulled = DriveReplay(_data(soften(play(d, w), RATE)), V4, drive)({}).tip
+    a = DriveReplay(displacement_rows(d), V4, drive)(
+        {"drive_backlash": w, "drive_softening": RATE}
+    ).tip
+    pulled = DriveReplay(displacement_rows(soften(play(d, w), RATE)), V4, drive)({}).tip
     np.testing.assert_allclose(a, pulled, atol=1e-12)
     # a batch mixing drives equals the separate replays
-    both = DriveReplay(_data(d), V4, drive).batch(
+    both = DriveReplay(displacement_rows(d), V4, drive).batch(
         [{"drive_backlash": w, "drive_softening": RATE}, {"drive_backlash": w}]
     )[0]
     np.testing.assert_allclose(both[0], a, atol=1e-12)
-    plain = DriveReplay(_data(play(d, w)), V4, drive)({}).tip
+    plain = DriveReplay(displacement_rows(play(d, w)), V4, drive)({}).tip
     np.testing.assert_allclose(both[1], plain, atol=1e-12)
     assert np.abs(a - plain).max() > 1e-3  # the softening moves the tip
 
 
 def test_ccka_fit_recovers_a_known_softening():
-    d = _sequence(300, seed=1)
+    d = back_and_forth(300, seed=1)
     drive = TendonDrive.of(V4)
     truth = {"drive_softening": RATE, "youngs_modulus": 55e9, "base_x": 0.001}
-    tip = DriveReplay(_data(d), V4, drive)(truth).tip
+    tip = DriveReplay(displacement_rows(d), V4, drive)(truth).tip
     res = calibrate(
-        _data(d, tip),
+        displacement_rows(d, tip),
         V4,
         "drive_softening,E,base_x",
         "ccka",
@@ -84,25 +74,27 @@ def test_ccka_fit_recovers_a_known_softening():
 
 def test_the_default_start_leaves_zero():
     """Without a start the fit starts at 10 1/m (at 0 its gradient vanishes) and finds σ."""
-    d = _sequence(200, seed=4)
+    d = back_and_forth(200, seed=4)
     drive = TendonDrive.of(V4)
-    tip = DriveReplay(_data(d), V4, drive)({"drive_softening": RATE}).tip
-    res = calibrate(_data(d, tip), V4, "drive_softening,base_x", "ccka", drive=drive)
+    tip = DriveReplay(displacement_rows(d), V4, drive)({"drive_softening": RATE}).tip
+    res = calibrate(displacement_rows(d, tip), V4, "drive_softening,base_x", "ccka", drive=drive)
     assert res.start["drive_softening"] == 10.0
     assert res.values["drive_softening"] == pytest.approx(RATE, rel=0.02)
 
 
 def test_mujoco_replay_gives_each_robot_its_own_softened_commands():
     pytest.importorskip("mujoco")
-    d = _sequence(12, seed=2)
+    d = back_and_forth(12, seed=2)
     drive = TendonDrive.of(V4)
     kw = {"gravity": False, **FAST}
-    tips = PhysicsReplay(_data(d), V4, drive, "mujoco", kw, default_gap=0.4).batch(
+    tips = PhysicsReplay(displacement_rows(d), V4, drive, "mujoco", kw, default_gap=0.4).batch(
         [{"drive_softening": RATE}, {}]
     )[0]
-    alone = PhysicsReplay(_data(soften(d, RATE)), V4, drive, "mujoco", kw, default_gap=0.4)
+    alone = PhysicsReplay(
+        displacement_rows(soften(d, RATE)), V4, drive, "mujoco", kw, default_gap=0.4
+    )
     np.testing.assert_allclose(tips[0], alone({}).tip, atol=1e-9)
-    plain = PhysicsReplay(_data(d), V4, drive, "mujoco", kw, default_gap=0.4)({}).tip
+    plain = PhysicsReplay(displacement_rows(d), V4, drive, "mujoco", kw, default_gap=0.4)({}).tip
     np.testing.assert_allclose(tips[1], plain, atol=1e-9)
     assert np.abs(tips[0] - tips[1]).max() > 1e-4
 
