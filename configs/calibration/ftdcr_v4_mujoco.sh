@@ -19,7 +19,10 @@
 #      -> docs/figures/calibration/ftdcr_v4_mujoco_base_selected/
 #   B. + backbone friction (payload fixed at A's), 4 steps -> ftdcr_v4_mujoco_backbone_selected/
 #   With a drive softening (not selected: worse on the two-section rows; kept for comparison):
-#   C. the main fit's names + drive_softening (from 10 1/m), 4 steps -> ftdcr_v4_mujoco_softening/
+#   C. the parallel-tendon fit's names + drive_softening (from 10 1/m), 4 steps
+#      -> ftdcr_v4_mujoco_softening/
+#   D. the main fit's names + drive_softening, from the helical CCKA fit, 4 steps
+#      -> ftdcr_v4_mujoco_helix_softening/
 #
 # Wall times on 2 shared cores: in each report.md ("model evaluations in ... s"); the ablation:
 # configs/calibration/ftdcr_v4_mujoco_ablation.py.
@@ -54,3 +57,7 @@ run --robot "$S" --backend-arg gravity=false \
   --fit base_frame,marker,E,base_compliance,drive_backlash,backbone_friction,drive_softening \
   --start-from "$S" --start backbone_friction=0.001 --start drive_softening=10 --max-evals 4 \
   --out "$F/ftdcr_v4_mujoco_softening"
+run --robot "$H" --backend-arg gravity=false \
+  --fit base_frame,marker,E,base_compliance,drive_backlash,backbone_friction,drive_softening \
+  --start-from "$H" --start backbone_friction=0.001 --start drive_softening=10 --max-evals 4 \
+  --out "$F/ftdcr_v4_mujoco_helix_softening"

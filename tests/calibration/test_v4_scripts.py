@@ -72,11 +72,12 @@ def test_stiffness_sweep_starts_at_the_committed_fit():
         "ftdcr_v4_mujoco_backbone_selected",
         "ftdcr_v4_mujoco_softening",
         "ftdcr_v4_mujoco_helix",
+        "ftdcr_v4_mujoco_helix_softening",
     ],
 )
 def test_committed_mujoco_fit_replays_to_its_reported_held_out_error(fit):
     """A committed MuJoCo fit's params.yaml (the parallel-routing one, without gravity; B, with
-    it; the one with a drive softening; the helical one), replayed on val.csv as the fit replayed it (rows in
+    it; the one with a drive softening; the helical one, with and without it), replayed on val.csv as the fit replayed it (rows in
     order, recorded timing, the tendon drive's cap), gives the held-out error of its
     report.json within 0.05 mm (MuJoCo builds differ in the last digits between machines)."""
     import json
