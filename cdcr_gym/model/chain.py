@@ -8,8 +8,9 @@ shape (..., S, 2), proximal section first. w_j is expressed in section j's base 
 of the previous section's end disk, whose x axis is the disks' x axis: the sections compose
 without torsion), so a cable parallel to the backbone is the same vector in every section's
 frame (a helical cable, ``RobotParams.cable_pitch``, turns section by section: v_ij below is
-its vector in section j, :meth:`RobotParams.section_cable_vectors`). Nothing is singular at θ_j = 0 in this representation, and both the cable
-lengths and the tension statics are linear in it:
+its vector in section j, :meth:`RobotParams.section_cable_vectors`). Nothing is singular at
+θ_j = 0 in this representation, and both the cable lengths and the tension statics are linear
+in it:
 
 * statics (frictionless cables, pure moments, dense disks):
   w_j = (ℓ_j/EI)·Σ_{cables i through section j} T_i·v_ij with v_ij = r_i·(cos β_i, sin β_i)

@@ -47,8 +47,9 @@ Discretisation and joint placement
 Cable routing (n sections)
     A cable of section j has one pinhole in every disk of sections 1..j, at (r, β + p·z_k) in
     the frame of disk k at arc length z_k (p the robot's ``cable_pitch``: 0, the same pinhole
-    on every disk, unless the cables wind helically), and is anchored at section j's last disk: it runs straight from pinhole to
-    pinhole across every disk span of sections 1..j and crosses no span beyond. The spans it
+    on every disk, unless the cables wind helically), and is anchored at section j's last
+    disk: it runs straight from pinhole to pinhole across every disk span of sections 1..j and
+    crosses no span beyond. The spans it
     crosses are :attr:`DiscreteBackbone.routed` ((n_disks, C) bool).
 
     Two routings (``routing``), one geometry for both backends (the MuJoCo backend's MJCF takes
