@@ -49,8 +49,8 @@ Cable routing (n sections)
     the frame of disk k at arc length z_k (p the robot's ``cable_pitch``: 0, the same pinhole
     on every disk, unless the cables wind helically), and is anchored at section j's last
     disk: it runs straight from pinhole to pinhole across every disk span of sections 1..j and
-    crosses no span beyond. The spans it
-    crosses are :attr:`DiscreteBackbone.routed` ((n_disks, C) bool).
+    crosses no span beyond. The spans it crosses are :attr:`DiscreteBackbone.routed`
+    ((n_disks, C) bool).
 
     Two routings (``routing``), one geometry for both backends (the MuJoCo backend's MJCF takes
     its via-sites from :attr:`DiscreteBackbone.via_offsets`):
