@@ -582,9 +582,12 @@ class DiscreteBackbone:
             p_b = pos[:, None, :] + np.matmul(self.via_points_in, rot.transpose(0, 2, 1))
             seg = p_b - self.via_points_out  # (n_span, C cables, 3)
         else:
-            distal = self.disk_pinholes[1:] if self.helical else self.disk_pinholes[0]
+            # parallel cables: one pinhole set for every disk, broadcast (as before the helix)
+            flat = not self.helical
+            distal = self.disk_pinholes[0] if flat else self.disk_pinholes[1:]
+            proximal = self.disk_pinholes[0] if flat else self.disk_pinholes[:-1]
             p_b = pos[:, None, :] + np.matmul(distal, rot.transpose(0, 2, 1))
-            seg = p_b - self.disk_pinholes[:-1]  # (n_span, C cables, 3)
+            seg = p_b - proximal  # (n_span, C cables, 3)
         seg_len = np.sqrt((seg * seg).sum(axis=-1))  # (n_span, C)
         tu = seg * (tensions * self._routed_f / seg_len)[..., None]  # T_i·u_i, 0 if not routed
         force = tu.sum(axis=1)  # F (n_span, 3)
