@@ -6,23 +6,28 @@ Usage (after configs/calibration/ftdcr_v4_mujoco.sh):
     python configs/calibration/ftdcr_v4_mujoco_ablation.py [FULL_DIR] [--table-only] [--jobs N]
         [--only rigid_base,no_backbone_friction,...]
 
-FULL_DIR is the full model's fit (default docs/figures/calibration/ftdcr_v4_mujoco_selected:
+FULL_DIR is the full model's fit (default docs/figures/calibration/ftdcr_v4_mujoco_helix:
 the structure chosen on train.csv by configs/calibration/ftdcr_v4_mujoco_selection.py —
-compliant one-sided tendons, a compliant base, backbone friction, drive backlash, no gravity;
-and a drive softening where the full fit has one, with a variant without it).
+compliant one-sided tendons, a compliant base, backbone friction, drive backlash, no gravity,
+helically wound tendons; a drive softening where the full fit has one, with a variant without
+it; a variant with parallel tendons where the full fit's are helical).
 Every variant is a `cdcr-gym calibrate` run on train.csv (MuJoCo, rows in order with their
 recorded timing, gaps capped at 1 s) warm-started from the full fit with ONE thing changed, at
 most MAX_EVALS optimiser steps, two runs at a time; each refits what the full fit fitted (the
 frame, the marker, E, the base compliance, the backbone friction, the drive backlash) less what
 the variant removes, with the full fit's gravity setting. The gravity variant is the other
 setting: without gravity when the full fit has it (the payload then goes too), with gravity and
-a fitted tip payload when it has not. Writes FULL_DIR/ablation/<variant>/ (each run's report)
+a fitted tip payload when it has not. The parallel-tendon variant sets the pitch to zero and
+keeps the tendon angles and pretensions of the helical CCKA fit (it removes the helix, not
+the CCKA refit that came with it). The CCKA row of the table is the CCKA fit the full fit
+started from (its ``--start-from``). Writes FULL_DIR/ablation/<variant>/ (each run's report)
 and FULL_DIR/ablation.json, FULL_DIR/ablation.md.
 """
 
 from __future__ import annotations
 
 import json
+import shlex
 import subprocess
 import sys
 import time
@@ -49,6 +54,8 @@ RIGID_SCALE = 10.0
 FULL_FIT = ["base_frame", "marker", "E", "base_compliance", "backbone_friction", "drive_backlash"]
 #: the variant of a full fit with a drive softening
 NO_SOFTENING = ("no drive softening", [], ["drive_softening"], {})
+#: the variant of a full fit with helically wound tendons
+PARALLEL = ("parallel tendons (no helix)", [], [], {"cable_pitch": 0.0})
 
 #: variant → (what, extra arguments, names removed from FULL_FIT, robot fields overridden)
 VARIANTS: dict[str, tuple[str, list[str], list[str], dict[str, float]]] = {
@@ -122,9 +129,21 @@ def variants(
     out = {n: (*v, []) for n, v in VARIANTS.items()}
     if "drive_softening" in full_fit(full):
         out["no_softening"] = (*NO_SOFTENING, [])
+    robot = load_yaml(full / "params.yaml").get("robot") or {}
+    if float(robot.get("cable_pitch", 0.0)) != 0.0:
+        out["parallel_tendons"] = (*PARALLEL, [])
     name, what, extra, added = GRAVITY_VARIANT[_gravity(full)]
     out[name] = (what, extra, [], {}, added)
     return out
+
+
+def ccka_start(full: Path) -> Path:
+    """The CCKA fit the full fit started from: the folder of its command's ``--start-from``."""
+    command = (load_yaml(full / "params.yaml").get("calibration") or {}).get("command", "")
+    words = shlex.split(command)
+    if "--start-from" not in words:
+        raise ValueError(f"{full / 'params.yaml'}: calibration.command has no --start-from")
+    return Path(words[words.index("--start-from") + 1]).parent
 
 
 def refit(full: Path, name: str) -> None:
@@ -267,7 +286,8 @@ def table(full: Path) -> None:
             full,
             f"MuJoCo, full: {weight}, compliant one-sided tendons, compliant base, "
             "backbone friction, drive backlash"
-            + (", drive softening" if "drive_softening" in full_fit(full) else ""),
+            + (", drive softening" if "drive_softening" in full_fit(full) else "")
+            + (", helical tendons" if "parallel_tendons" in variants(full) else ""),
         )
     }
     for name, (what, *_) in variants(full).items():
@@ -277,9 +297,7 @@ def table(full: Path) -> None:
     b_row, c_row, cc = replays(full)
     rows["bullet"] = b_row
     rows["ccka_same_robot"] = c_row
-    ccka_fit = json.loads((FIG / "ftdcr_v4_ccka_selected" / "report.json").read_text())[
-        "validation"
-    ]
+    ccka_fit = json.loads((ccka_start(full) / "report.json").read_text())["validation"]
     doc = {
         "rows": rows,
         "ccka_vs_mujoco_no_gravity": cc,
@@ -315,7 +333,8 @@ def table(full: Path) -> None:
         "|---|---|---|",
         f"| CCKA vs the physics model (same robot, no gravity) | {cc['percent_of_length']:.2f} | "
         f"{PAPER['ccka_vs_physics']:.2f} |",
-        f"| CCKA fit vs measurements (held-out) | {ccka_fit['percent_of_length']:.2f} | "
+        f"| CCKA fit vs measurements (held-out; `{ccka_start(full).name}`) | "
+        f"{ccka_fit['percent_of_length']:.2f} | "
         f"{PAPER['ccka_vs_measurements']:.2f} |",
         f"| MuJoCo fit vs measurements (held-out) | {rows['full']['percent_of_length']:.2f} | "
         f"{PAPER['published_mujoco']:.1f} (the published model) |",
@@ -344,7 +363,7 @@ if __name__ == "__main__":
     import argparse
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("full", nargs="?", type=Path, default=FIG / "ftdcr_v4_mujoco_selected")
+    p.add_argument("full", nargs="?", type=Path, default=FIG / "ftdcr_v4_mujoco_helix")
     p.add_argument("--table-only", action="store_true", help="collect the table, no refits")
     p.add_argument("--jobs", type=int, default=2, help="refits at once (default 2)")
     p.add_argument("--only", default="", help="comma-separated variants (module docstring)")

@@ -51,6 +51,14 @@ COMMON = "base_frame,marker,E,base_compliance,drive_backlash"
 FRICTION_START = 0.001
 #: the start of the drive softening (1/m: d_s = 100 mm; at 0 its gradient vanishes)
 SOFTENING_START = 10.0
+#: the start of the cable–disk capstan μ (the CCKA fit has none)
+MU_START = 0.05
+#: the starts of the names a CCKA fit does not give (the rest start at the CCKA fit's values)
+STARTS = {
+    "backbone_friction": FRICTION_START,
+    "drive_softening": SOFTENING_START,
+    "friction_coefficient": MU_START,
+}
 
 #: name → (--fit list, gravity)
 CANDIDATES: dict[str, tuple[str, bool]] = {
@@ -89,10 +97,7 @@ def _candidate(item: tuple[str, tuple[str, bool]], start_from: Path = START) -> 
     fitted = load_yaml(start_from)["calibration"]["fitted"]
     wanted = set(expand_names(fit, robot))
     start = {k: float(v) for k, v in fitted.items() if k in wanted}
-    if "backbone_friction" in fit:
-        start["backbone_friction"] = FRICTION_START
-    if "drive_softening" in fit:
-        start["drive_softening"] = SOFTENING_START
+    start.update({k: v for k, v in STARTS.items() if k in wanted})
     t0 = time.perf_counter()
     res = calibrate(
         single,

@@ -142,6 +142,38 @@ def test_ablation_of_a_softened_fit_refits_without_the_softening(tmp_path):
     assert abl.full_fit(full) == abl.FULL_FIT and "no_softening" not in abl.variants(full)
 
 
+def test_ablation_of_a_helical_fit_has_a_parallel_variant(tmp_path):
+    """A full fit with helically wound tendons gets a variant with the pitch set to zero (the
+    rest refitted as in the full fit); one with parallel tendons has none."""
+    from cdcr_gym.model.yaml_io import dump_yaml
+
+    abl = _module("ftdcr_v4_mujoco_ablation")
+    full = tmp_path / "full"
+    full.mkdir()
+    doc = {"backend": {"gravity": False}, "robot": {"cable_pitch": -1.2}}
+    (full / "params.yaml").write_text(dump_yaml(doc))
+    what, extra, removed, override, added = abl.variants(full)["parallel_tendons"]
+    assert override == {"cable_pitch": 0.0} and removed == [] == added == extra
+    (full / "params.yaml").write_text(dump_yaml({"backend": {"gravity": False}, "robot": {}}))
+    assert "parallel_tendons" not in abl.variants(full)
+
+
+def test_ablation_compares_with_the_ccka_fit_the_full_fit_started_from(tmp_path):
+    """The CCKA row of the ablation is the fit named by the full fit's --start-from; a fit
+    without one is a ValueError naming the file."""
+    from cdcr_gym.model.yaml_io import dump_yaml
+
+    abl = _module("ftdcr_v4_mujoco_ablation")
+    full = tmp_path / "full"
+    full.mkdir()
+    cmd = "cdcr-gym calibrate t.csv --backend mujoco --start-from 'some dir/ccka/params.yaml'"
+    (full / "params.yaml").write_text(dump_yaml({"calibration": {"command": cmd}}))
+    assert abl.ccka_start(full) == Path("some dir/ccka")
+    (full / "params.yaml").write_text(dump_yaml({"calibration": {"command": "cdcr-gym x"}}))
+    with pytest.raises(ValueError, match="params.yaml.*--start-from"):
+        abl.ccka_start(full)
+
+
 def _fake_fit(item: tuple) -> dict:
     name, score = item
     return {"selection_pairs_rmse_aligned_mm": score, "name": name}
