@@ -14,10 +14,11 @@ two at a time)
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import json
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
+
+from experiments._config_script import load_script
 
 SCRIPT = Path("configs/calibration/ftdcr_v4_mujoco_selection.py")
 #: the probes of docs/experiments/real_robot.md: the tendon drive refitted per section on MuJoCo
@@ -31,12 +32,7 @@ TERMS = [
 
 
 def _selection_module():
-    spec = importlib.util.spec_from_file_location("ftdcr_v4_mujoco_selection", SCRIPT)
-    if spec is None or spec.loader is None:  # pragma: no cover - the script is in the checkout
-        raise ValueError(f"{SCRIPT}: not found (run from the checkout)")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script(SCRIPT)
 
 
 def candidates(terms: list[str]) -> dict[str, tuple[str, bool]]:

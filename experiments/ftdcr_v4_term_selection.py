@@ -14,10 +14,10 @@ Usage: python -m experiments.ftdcr_v4_term_selection [--add drive_softening,cabl
 from __future__ import annotations
 
 import argparse
-import importlib.util
 from pathlib import Path
 
 from cdcr_gym.calibration import calibrate
+from experiments._config_script import load_script
 
 SCRIPT = Path("configs/calibration/ftdcr_v4_ccka_selection.py")
 SELECTED = "E,T0_tendons,cable_angles,base_compliance,drive_backlash"
@@ -26,12 +26,7 @@ START = 10.0
 
 
 def _selection_module():
-    spec = importlib.util.spec_from_file_location("ftdcr_v4_ccka_selection", SCRIPT)
-    if spec is None or spec.loader is None:  # pragma: no cover - the script is in the checkout
-        raise ValueError(f"{SCRIPT}: not found (run from the checkout)")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script(SCRIPT)
 
 
 def run(additions: list[str] | None = None) -> dict[str, dict]:

@@ -30,3 +30,12 @@ def test_every_probed_name_is_a_fit_name_and_the_zero_gradient_ones_get_a_start(
     assert "friction_coefficient" in expand_names("mu", robot)
     assert all(v > 0 for v in sel.STARTS.values())
     assert set(sel.STARTS) <= set(expand_names("backbone_friction,drive_softening,mu", robot))
+
+
+def test_a_missing_script_is_a_value_error_naming_it():
+    from pathlib import Path
+
+    from experiments._config_script import load_script
+
+    with pytest.raises(ValueError, match="configs/calibration/no_such.py: not found"):
+        load_script(Path("configs/calibration/no_such.py"))
