@@ -398,6 +398,7 @@ CONFIG_DIGESTS = {
     "tqc_mujoco_pose": "083e323b72e2ac6a",
     "tqc_mujoco_reach": "3aaed0dffeb9737c",
     "tqc_mujoco_track": "3916322e6e61918c",
+    "twin_ftdcr_v4_mujoco_helix_reach": "e75ef8b12e9ac494",
     "twin_ftdcr_v4_mujoco_reach": "07bfeb9e7ed7a22f",
     "twin_ftdcr_v4_mujoco_selected_reach": "9b61decf446d6300",
     "twin_ftdcr_v4_reach": "d75609b651e21545",
@@ -414,6 +415,26 @@ def test_pinned_config_resolution() -> None:
         data = json.dumps(config_to_dict(load_config(path)), sort_keys=True, default=str)
         digests[path.stem] = hashlib.sha256(data.encode()).hexdigest()[:16]
     assert digests == CONFIG_DIGESTS
+
+
+@pytest.mark.parametrize("name", ["selected", "helix"])
+def test_twin_configs_build_the_twin_of_their_fit(name: str) -> None:
+    """The twin configs of the MuJoCo fits carry what ``twin_kwargs_from_yaml`` returns for
+    their ``params`` (the fit's backend arguments and drive), so the trained robot is the
+    calibrated one."""
+    from cdcr_gym.calibration import twin_kwargs_from_yaml
+
+    cfg = load_config(REPO / "configs" / f"twin_ftdcr_v4_mujoco_{name}_reach.yaml")
+    kwargs = cfg.env.kwargs
+    want = twin_kwargs_from_yaml(kwargs["params"])
+    assert want.pop("action_mode") == "displacement" and kwargs["action_mode"].startswith(
+        "displacement"
+    )
+    for key, value in want.items():
+        got = kwargs[key]
+        assert (list(got) if isinstance(got, (list, tuple)) else got) == (
+            list(value) if isinstance(value, tuple) else value
+        ), key
 
 
 #: every off-policy config with a PPO config of the same task: (algo, task), e.g. ("sac", "mujoco_pose")
