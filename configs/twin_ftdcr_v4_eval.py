@@ -22,9 +22,13 @@ open loop, the model's IK solution commanded) run the registered episode length 
 the same episodes; the final tip error is scored.
 
 Writes ``OUT/eval_<tag>.json`` (per controller: median, p95, mean, max final tip error in mm,
-success within 5 mm and within 1 mm, per starting state and overall; per-episode errors; a
-controller already in the file from the same episodes is kept, so the oracles and the policies
-can be run separately) and ``OUT/eval_<tag>.png`` (the errors' empirical distributions).
+success within 5 mm and within 1 mm, per starting state, overall and by the goal's height
+(``by_goal_height``: goals below the robot's base, z < 0 in the measurement frame, where the tip
+bends past 90°, and the others); per-episode errors; a controller already in the file from the
+same episodes is kept, so the oracles and the policies can be run separately) and
+``OUT/eval_<tag>.png`` (the errors' empirical distributions). ``--table-only`` rewrites the
+statistics, the Markdown table and the figure from the JSON's per-episode errors and goals
+(no episodes run).
 """
 
 from __future__ import annotations
@@ -101,6 +105,30 @@ def stats(errors_m: np.ndarray) -> dict[str, float]:
     }
 
 
+#: The goal-height groups of ``by_goal_height``: name → test on the goal's z (m).
+HEIGHTS = {
+    "below the base (z < 0)": lambda z: z < 0.0,
+    "above the base (z >= 0)": lambda z: z >= 0.0,
+}
+
+
+def summarise(result: dict[str, Any]) -> None:
+    """Fill every controller's statistics in ``result`` from its per-episode errors
+    (``final_errors_mm``, per starting state) and the episodes' goals (``goals_m``, m): overall,
+    per starting state and by the goal's height (:data:`HEIGHTS`; a group without goals is left
+    out)."""
+    goals = result["goals_m"]
+    z = np.concatenate([np.asarray(goals[s], dtype=float).reshape(-1, 3)[:, 2] for s in goals])
+    for name, r in result["controllers"].items():
+        per = {s: np.asarray(v, dtype=float) * 1e-3 for s, v in r["final_errors_mm"].items()}
+        if list(per) != list(goals) or any(per[s].size != len(goals[s]) for s in goals):
+            raise ValueError(f"controller {name!r}: its errors do not match the episodes' goals")
+        all_e = np.concatenate(list(per.values()))
+        r["all"] = stats(all_e)
+        r.update({s: stats(v) for s, v in per.items()})
+        r["by_goal_height"] = {h: stats(all_e[f(z)]) for h, f in HEIGHTS.items() if f(z).any()}
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("runs", nargs="*", type=Path)
@@ -112,7 +140,20 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=1_000_000)
     ap.add_argument("--out", type=Path, default=Path("docs/figures/twin_ftdcr_v4"))
     ap.add_argument("--tag", default="mujoco")
+    ap.add_argument(
+        "--table-only",
+        action="store_true",
+        help="rewrite OUT/eval_TAG.json's statistics, .md and .png from its episodes",
+    )
     args = ap.parse_args(argv)
+    if args.table_only:
+        out_json = args.out / f"eval_{args.tag}.json"
+        if not out_json.is_file():
+            raise ValueError(f"--table-only: {out_json} not found")
+        result = json.loads(out_json.read_text())
+        summarise(result)
+        write(result, args.out, args.tag, _command(result, args.out, args.tag))
+        return 0
     if args.episodes < 1:
         raise ValueError(f"--episodes must be >= 1, got {args.episodes}")
     import torch
@@ -172,24 +213,39 @@ def main(argv: list[str] | None = None) -> int:
             )
     result["seconds"] = time.perf_counter() - t0
     for name, per in errors.items():
-        all_e = np.concatenate([per["straight"], per["random"]])
         result["controllers"][name] = {
-            "all": stats(all_e),
-            **{s: stats(np.asarray(v)) for s, v in per.items()},
-            "final_errors_mm": {s: [round(x * 1000.0, 4) for x in v] for s, v in per.items()},
+            "final_errors_mm": {s: [round(x * 1000.0, 4) for x in v] for s, v in per.items()}
         }
-    args.out.mkdir(parents=True, exist_ok=True)
-    out_json.write_text(json.dumps(result, indent=1) + "\n")
-    _plot(result, args.out / f"eval_{args.tag}.png")
+    summarise(result)
     command = "python configs/twin_ftdcr_v4_eval.py " + " ".join(argv or sys.argv[1:])
-    (args.out / f"eval_{args.tag}.md").write_text(markdown(result, command))
+    write(result, args.out, args.tag, command)
+    return 0
+
+
+def _command(result: dict[str, Any], out: Path, tag: str) -> str:
+    """The command recorded in ``OUT/eval_TAG.md`` (kept on ``--table-only``), or a
+    reconstruction of it."""
+    md = out / f"eval_{tag}.md"
+    if md.is_file():
+        lines = md.read_text().splitlines()
+        for i, line in enumerate(lines[:-1]):
+            if line == "```" and lines[i + 1].startswith("python configs/twin_ftdcr_v4_eval.py"):
+                return lines[i + 1]
+    return f"python configs/twin_ftdcr_v4_eval.py --params {result['params']} --tag {tag}"
+
+
+def write(result: dict[str, Any], out: Path, tag: str, command: str) -> None:
+    """``OUT/eval_TAG.json``, ``.png`` and ``.md`` (with ``command``), and a summary printed."""
+    out.mkdir(parents=True, exist_ok=True)
+    (out / f"eval_{tag}.json").write_text(json.dumps(result, indent=1) + "\n")
+    _plot(result, out / f"eval_{tag}.png")
+    (out / f"eval_{tag}.md").write_text(markdown(result, command))
     for name, r in result["controllers"].items():
         a = r["all"]
         print(
             f"{name:32s} median {a['median_mm']:.3f} mm  p95 {a['p95_mm']:.3f} mm  "
             f"<=5 mm {a['success_5mm']:.1%}  <=1 mm {a['within_1mm']:.1%}"
         )
-    return 0
 
 
 def markdown(result: dict[str, Any], command: str = "") -> str:
@@ -209,13 +265,19 @@ def markdown(result: dict[str, Any], command: str = "") -> str:
         "|---|---|---|---|---|---|---|---|",
     ]
     for name, r in result["controllers"].items():
-        for part in ("all", "straight", "random"):
-            a = r[part]
+        parts = {p: r[p] for p in ("all", "straight", "random")}
+        parts.update({f"goal {h}": a for h, a in r.get("by_goal_height", {}).items()})
+        for part, a in parts.items():
             out.append(
                 f"| {name} | {part} | {a['median_mm']:.3f} | {a['p95_mm']:.3f} | "
                 f"{a['mean_mm']:.3f} | {a['max_mm']:.3f} | {a['success_5mm']:.0%} | "
                 f"{a['within_1mm']:.0%} |"
             )
+    if any("by_goal_height" in r for r in result["controllers"].values()):
+        z = np.concatenate(
+            [np.asarray(g, dtype=float).reshape(-1, 3)[:, 2] for g in result["goals_m"].values()]
+        )
+        out += ["", f"Goals below the base: {int((z < 0).sum())} of {z.size}."]
     return "\n".join(out) + "\n"
 
 

@@ -4,6 +4,7 @@ rows; the committed outputs come from the full runs)."""
 from __future__ import annotations
 
 import importlib.util
+import json
 from pathlib import Path
 
 import numpy as np
@@ -189,3 +190,83 @@ def test_selection_picks_the_lowest_pair_error_and_writes_it(tmp_path):
     assert best == "b" and rows["c"]["name"] == "c"
     doc = json.loads((tmp_path / "selection.json").read_text())
     assert doc == {"rule": "the rule", "selected": "b", "candidates": rows}
+
+
+def _twin_eval():
+    spec = importlib.util.spec_from_file_location(
+        "twin_ftdcr_v4_eval", ROOT / "configs" / "twin_ftdcr_v4_eval.py"
+    )
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_twin_evaluation_splits_the_goals_by_height_and_rewrites_its_table(tmp_path):
+    ev = _twin_eval()
+    goals = {
+        "straight": [[0.0, 0.05, 0.15], [0.0, 0.1, -0.04]],
+        "random": [[0.02, 0.0, 0.1], [0.1, 0.0, -0.07], [0.0, 0.0, 0.18]],
+    }
+    result = {
+        "env_id": "cdcr_gym/MuJoCoReach-v0",
+        "params": "p.yaml",
+        "env_kwargs": {},
+        "episodes_per_start": 2,
+        "seed": 7,
+        "goals_m": goals,
+        "controllers": {
+            "ppo": {"final_errors_mm": {"straight": [0.3, 40.0], "random": [0.5, 9.0, 0.2]}}
+        },
+    }
+    ev.summarise(result)
+    r = result["controllers"]["ppo"]
+    below = r["by_goal_height"]["below the base (z < 0)"]
+    above = r["by_goal_height"]["above the base (z >= 0)"]
+    assert below["episodes"] == 2 and below["median_mm"] == pytest.approx(24.5)
+    assert below["success_5mm"] == 0.0
+    assert above["episodes"] == 3 and above["median_mm"] == pytest.approx(0.3)
+    assert r["all"]["episodes"] == 5 and r["all"]["median_mm"] == pytest.approx(0.5)
+    assert r["random"]["max_mm"] == pytest.approx(9.0)
+    # --table-only rebuilds the statistics and keeps the recorded command
+    stripped = {"final_errors_mm": r["final_errors_mm"]}
+    (tmp_path / "eval_t.json").write_text(json.dumps({**result, "controllers": {"ppo": stripped}}))
+    (tmp_path / "eval_t.md").write_text(
+        "# x\n\n```\npython configs/twin_ftdcr_v4_eval.py A B\n```\n"
+    )
+    assert (
+        ev.main(
+            [
+                "--config",
+                "c.yaml",
+                "--params",
+                "p.yaml",
+                "--out",
+                str(tmp_path),
+                "--tag",
+                "t",
+                "--table-only",
+            ]
+        )
+        == 0
+    )
+    md = (tmp_path / "eval_t.md").read_text()
+    assert "python configs/twin_ftdcr_v4_eval.py A B" in md
+    assert "| ppo | goal below the base (z < 0) | 24.500 |" in md
+    assert "Goals below the base: 2 of 5." in md
+    # errors that do not match the goals are refused
+    result["controllers"]["ppo"]["final_errors_mm"]["random"] = [0.1]
+    with pytest.raises(ValueError, match="ppo"):
+        ev.summarise(result)
+    with pytest.raises(ValueError, match="not found"):
+        ev.main(
+            [
+                "--config",
+                "c.yaml",
+                "--params",
+                "p.yaml",
+                "--out",
+                str(tmp_path / "none"),
+                "--table-only",
+            ]
+        )
