@@ -26,7 +26,8 @@ success within 5 mm and within 1 mm, per starting state, overall and by the goal
 (``by_goal_height``: goals below the robot's base, z < 0 in the measurement frame, where the tip
 bends past 90°, and the others); per-episode errors; a controller already in the file from the
 same episodes is kept, so the oracles and the policies can be run separately) and
-``OUT/eval_<tag>.png`` (the errors' empirical distributions). ``--table-only`` rewrites the
+``OUT/eval_<tag>.png`` (the errors' empirical distributions); ``OUT/eval_<tag>.md`` lists the
+commands that evaluated its controllers. ``--table-only`` rewrites the
 statistics, the Markdown table and the figure from the JSON's per-episode errors and goals
 (no episodes run).
 """
@@ -152,7 +153,8 @@ def main(argv: list[str] | None = None) -> int:
             raise ValueError(f"--table-only: {out_json} not found")
         result = json.loads(out_json.read_text())
         summarise(result)
-        write(result, args.out, args.tag, _command(result, args.out, args.tag))
+        result.setdefault("commands", _md_commands(args.out / f"eval_{args.tag}.md"))
+        write(result, args.out, args.tag)
         return 0
     if args.episodes < 1:
         raise ValueError(f"--episodes must be >= 1, got {args.episodes}")
@@ -199,6 +201,7 @@ def main(argv: list[str] | None = None) -> int:
         "seed": args.seed,
         "controllers": {},
         "goals_m": goals,
+        "commands": [],
     }
     out_json = args.out / f"eval_{args.tag}.json"
     if out_json.exists():  # keep the controllers evaluated before on the same episodes
@@ -211,35 +214,36 @@ def main(argv: list[str] | None = None) -> int:
             result["controllers"].update(
                 {k: v for k, v in old["controllers"].items() if k not in errors}
             )
+            result["commands"] = old.get("commands", _md_commands(out_json.with_suffix(".md")))
     result["seconds"] = time.perf_counter() - t0
     for name, per in errors.items():
         result["controllers"][name] = {
             "final_errors_mm": {s: [round(x * 1000.0, 4) for x in v] for s, v in per.items()}
         }
     summarise(result)
-    command = "python configs/twin_ftdcr_v4_eval.py " + " ".join(argv or sys.argv[1:])
-    write(result, args.out, args.tag, command)
+    result["commands"].append(
+        "python configs/twin_ftdcr_v4_eval.py " + " ".join(argv or sys.argv[1:])
+    )
+    write(result, args.out, args.tag)
     return 0
 
 
-def _command(result: dict[str, Any], out: Path, tag: str) -> str:
-    """The command recorded in ``OUT/eval_TAG.md`` (kept on ``--table-only``), or a
-    reconstruction of it."""
-    md = out / f"eval_{tag}.md"
-    if md.is_file():
-        lines = md.read_text().splitlines()
-        for i, line in enumerate(lines[:-1]):
-            if line == "```" and lines[i + 1].startswith("python configs/twin_ftdcr_v4_eval.py"):
-                return lines[i + 1]
-    return f"python configs/twin_ftdcr_v4_eval.py --params {result['params']} --tag {tag}"
+def _md_commands(md: Path) -> list[str]:
+    """The commands recorded in an ``eval_TAG.md`` written before the JSON kept them (none if
+    there is no such file)."""
+    if not md.is_file():
+        return []
+    prefix = "python configs/twin_ftdcr_v4_eval.py"
+    return [line for line in md.read_text().splitlines() if line.startswith(prefix)]
 
 
-def write(result: dict[str, Any], out: Path, tag: str, command: str) -> None:
-    """``OUT/eval_TAG.json``, ``.png`` and ``.md`` (with ``command``), and a summary printed."""
+def write(result: dict[str, Any], out: Path, tag: str) -> None:
+    """``OUT/eval_TAG.json``, ``.png`` and ``.md`` (with the JSON's ``commands``), and a summary
+    printed."""
     out.mkdir(parents=True, exist_ok=True)
     (out / f"eval_{tag}.json").write_text(json.dumps(result, indent=1) + "\n")
     _plot(result, out / f"eval_{tag}.png")
-    (out / f"eval_{tag}.md").write_text(markdown(result, command))
+    (out / f"eval_{tag}.md").write_text(markdown(result, result.get("commands", [])))
     for name, r in result["controllers"].items():
         a = r["all"]
         print(
@@ -248,8 +252,9 @@ def write(result: dict[str, Any], out: Path, tag: str, command: str) -> None:
         )
 
 
-def markdown(result: dict[str, Any], command: str = "") -> str:
-    """The result as a Markdown table: per controller, all episodes and per starting state."""
+def markdown(result: dict[str, Any], commands: list[str] | None = None) -> str:
+    """The result as a Markdown table (after the ``commands`` that produced it): per
+    controller, all episodes, per starting state and by the goal's height."""
     n = result["episodes_per_start"]
     out = [
         f"# FTDCR v4 twin: {result['env_id']}",
@@ -258,8 +263,8 @@ def markdown(result: dict[str, Any], command: str = "") -> str:
         f"(reset seeds {result['seed']}…{result['seed'] + n - 1}), 100 steps; final tip error.",
         "",
     ]
-    if command:
-        out += ["```", command, "```", ""]
+    if commands:
+        out += ["```", *commands, "```", ""]
     out += [
         "| controller | start | median (mm) | p95 (mm) | mean (mm) | max (mm) | ≤ 5 mm | ≤ 1 mm |",
         "|---|---|---|---|---|---|---|---|",

@@ -252,6 +252,9 @@ def test_twin_evaluation_splits_the_goals_by_height_and_rewrites_its_table(tmp_p
     )
     md = (tmp_path / "eval_t.md").read_text()
     assert "python configs/twin_ftdcr_v4_eval.py A B" in md
+    saved = json.loads((tmp_path / "eval_t.json").read_text())
+    assert saved["commands"] == ["python configs/twin_ftdcr_v4_eval.py A B"]
+    assert saved["controllers"]["ppo"]["by_goal_height"] == r["by_goal_height"]
     assert "| ppo | goal below the base (z < 0) | 24.500 |" in md
     assert "Goals below the base: 2 of 5." in md
     # errors that do not match the goals are refused
