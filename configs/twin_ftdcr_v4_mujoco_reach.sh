@@ -12,7 +12,7 @@ CONFIG=configs/twin_ftdcr_v4_mujoco_reach.yaml
 PARAMS=docs/figures/calibration/ftdcr_v4_mujoco_stage0/params.yaml
 RUNS=${RUNS:-runs/twin_ftdcr_v4_mujoco}
 OUT=${OUT:-docs/figures/twin_ftdcr_v4}
-EPISODES=${EPISODES:-20}   # per starting state (straight, random)
+EPISODES=${EPISODES:-200}  # per starting state (straight, random): 400 goals, ~20 min with the oracles
 mkdir -p "$RUNS"
 python -m experiments.twin_mujoco_reset --config "$CONFIG" --out "$OUT/reset_time_mujoco.json"
 cdcr-gym train "$CONFIG" --seed 0 --run-dir "$RUNS/seed0" > "$RUNS/train_seed0.log" 2>&1 &
