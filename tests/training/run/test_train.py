@@ -399,6 +399,7 @@ CONFIG_DIGESTS = {
     "tqc_mujoco_reach": "3aaed0dffeb9737c",
     "tqc_mujoco_track": "3916322e6e61918c",
     "twin_ftdcr_v4_mujoco_helix_reach": "e75ef8b12e9ac494",
+    "twin_ftdcr_v4_mujoco_helix_reach_bc": "a28b7ed98022d94f",
     "twin_ftdcr_v4_mujoco_reach": "07bfeb9e7ed7a22f",
     "twin_ftdcr_v4_mujoco_selected_reach": "9b61decf446d6300",
     "twin_ftdcr_v4_reach": "d75609b651e21545",
@@ -417,14 +418,16 @@ def test_pinned_config_resolution() -> None:
     assert digests == CONFIG_DIGESTS
 
 
-@pytest.mark.parametrize("name", ["selected", "helix"])
+@pytest.mark.parametrize("name", ["selected", "helix", "helix_bc"])
 def test_twin_configs_build_the_twin_of_their_fit(name: str) -> None:
     """The twin configs of the MuJoCo fits carry what ``twin_kwargs_from_yaml`` returns for
     their ``params`` (the fit's backend arguments and drive), so the trained robot is the
     calibrated one."""
     from cdcr_gym.calibration import twin_kwargs_from_yaml
 
-    cfg = load_config(REPO / "configs" / f"twin_ftdcr_v4_mujoco_{name}_reach.yaml")
+    stem = name.replace("_bc", "")
+    suffix = "_bc" if name.endswith("_bc") else ""
+    cfg = load_config(REPO / "configs" / f"twin_ftdcr_v4_mujoco_{stem}_reach{suffix}.yaml")
     kwargs = cfg.env.kwargs
     want = twin_kwargs_from_yaml(kwargs["params"])
     assert want.pop("action_mode") == "displacement" and kwargs["action_mode"].startswith(
@@ -435,6 +438,20 @@ def test_twin_configs_build_the_twin_of_their_fit(name: str) -> None:
         assert (list(got) if isinstance(got, (list, tuple)) else got) == (
             list(value) if isinstance(value, tuple) else value
         ), key
+
+
+def test_cloned_twin_config_changes_only_the_start_and_the_schedule() -> None:
+    """The helical twin's behaviour-cloning config trains on the same env and evaluates the same
+    way as the plain recipe; it adds the oracle's demonstrations and a lower learning rate over
+    fewer steps."""
+    from training.run.config import config_to_dict
+
+    plain = config_to_dict(load_config(REPO / "configs/twin_ftdcr_v4_mujoco_helix_reach.yaml"))
+    bc = config_to_dict(load_config(REPO / "configs/twin_ftdcr_v4_mujoco_helix_reach_bc.yaml"))
+    changed = {k for k in plain if plain[k] != bc[k]}
+    assert changed == {"name", "total_timesteps", "demonstrations", "ppo"}
+    assert {k for k in plain["ppo"] if plain["ppo"][k] != bc["ppo"][k]} == {"learning_rate"}
+    assert bc["demonstrations"]["episodes"] > 0 and plain["demonstrations"]["episodes"] == 0
 
 
 #: every off-policy config with a PPO config of the same task: (algo, task), e.g. ("sac", "mujoco_pose")
