@@ -234,22 +234,8 @@ def test_twin_evaluation_splits_the_goals_by_height_and_rewrites_its_table(tmp_p
     (tmp_path / "eval_t.md").write_text(
         "# x\n\n```\npython configs/twin_ftdcr_v4_eval.py A B\n```\n"
     )
-    assert (
-        ev.main(
-            [
-                "--config",
-                "c.yaml",
-                "--params",
-                "p.yaml",
-                "--out",
-                str(tmp_path),
-                "--tag",
-                "t",
-                "--table-only",
-            ]
-        )
-        == 0
-    )
+    table_only = ["--config", "c.yaml", "--params", "p.yaml", "--table-only", "--out"]
+    assert ev.main([*table_only, str(tmp_path), "--tag", "t"]) == 0
     md = (tmp_path / "eval_t.md").read_text()
     assert "python configs/twin_ftdcr_v4_eval.py A B" in md
     saved = json.loads((tmp_path / "eval_t.json").read_text())
@@ -262,14 +248,4 @@ def test_twin_evaluation_splits_the_goals_by_height_and_rewrites_its_table(tmp_p
     with pytest.raises(ValueError, match="ppo"):
         ev.summarise(result)
     with pytest.raises(ValueError, match="not found"):
-        ev.main(
-            [
-                "--config",
-                "c.yaml",
-                "--params",
-                "p.yaml",
-                "--out",
-                str(tmp_path / "none"),
-                "--table-only",
-            ]
-        )
+        ev.main([*table_only, str(tmp_path / "none")])
