@@ -18,10 +18,8 @@ ROOT = Path(__file__).resolve().parents[2]
 V4 = RobotParams.preset("ftdcr_v4")
 
 
-def _module(name: str):
-    spec = importlib.util.spec_from_file_location(
-        name, ROOT / "configs" / "calibration" / f"{name}.py"
-    )
+def _module(name: str, folder: str = "configs/calibration"):
+    spec = importlib.util.spec_from_file_location(name, ROOT / folder / f"{name}.py")
     assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
@@ -192,18 +190,8 @@ def test_selection_picks_the_lowest_pair_error_and_writes_it(tmp_path):
     assert doc == {"rule": "the rule", "selected": "b", "candidates": rows}
 
 
-def _twin_eval():
-    spec = importlib.util.spec_from_file_location(
-        "twin_ftdcr_v4_eval", ROOT / "configs" / "twin_ftdcr_v4_eval.py"
-    )
-    assert spec is not None and spec.loader is not None
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
 def test_twin_evaluation_splits_the_goals_by_height_and_rewrites_its_table(tmp_path):
-    ev = _twin_eval()
+    ev = _module("twin_ftdcr_v4_eval", "configs")
     goals = {
         "straight": [[0.0, 0.05, 0.15], [0.0, 0.1, -0.04]],
         "random": [[0.02, 0.0, 0.1], [0.1, 0.0, -0.07], [0.0, 0.0, 0.18]],
