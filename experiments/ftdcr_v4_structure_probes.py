@@ -30,6 +30,11 @@ into the backends (docs/experiments/real_robot.md):
 * ``helix``: tendons wound helically at p (deg per 100 mm of backbone): a tendon passes a
   section below its own turned by p times the distance between the two sections' midpoints;
 * ``E_sections``: the Young's moduli of sections 2 and 3 relative to section 1's.
+* ``clearance``: the pinholes' play c (m): a taut tendon rests on the side of its hole towards
+  the centre of curvature, so in every section it runs through (its own and those below) its
+  radius vector is moved by c towards that centre: its path shortens by c·θ_j more and its
+  moment gains c·T along the bend (consistent: the same shifted radius in both; a fixed point
+  on the bend directions, iterated until they change by less than 1e-12, at most 200 times).
 
 Terms combine with ``+`` (``anisotropic_sections+softening``).
 
@@ -44,8 +49,8 @@ on val.csv, scored on all its rows and apart on the rows that command
 some tendon beyond its range over train.csv (``beyond``) and the others (``inside``).
 ``isotropic`` is the same refit without a term.
 
-Usage: python -m experiments.ftdcr_v4_structure_probes [--terms a,b+c]   (aligned RMSEs in mm;
-~3 min for every single term)
+Usage: python -m experiments.ftdcr_v4_structure_probes [--terms a,b+c] [--warm]   (aligned RMSEs
+in mm; ~3 min for every single term; ``--warm``: a combination b+c starts from the fits of b)
 """
 
 from __future__ import annotations
@@ -98,6 +103,7 @@ def solve_curvatures(
     stiffening: float = 0.0,
     through_scale: float | np.ndarray = 1.0,
     through_rotation: np.ndarray | None = None,
+    clearance: float = 0.0,
 ) -> np.ndarray:
     """Section curvatures (M, S, 2) 1/m of the first robot of ``geom`` under commands ``d``
     (M, C) m (already through the drives' play) with the bending compliance (2S, 2S) and a
@@ -110,6 +116,7 @@ def solve_curvatures(
     and ``through_rotation`` ((S,) per section passed through or (S, S) as the factors) rad turns
     the radius vectors of the tendons in the sections they
     pass through (terms ``through_radius``, ``through_pairs``, ``through_angles``).
+    ``clearance`` (m): the pinholes' play (term ``clearance``).
     """
     g, lam = geom.coupling()
     g, lam = g[0], lam[0]  # (C, 2S), (2S,)
@@ -140,10 +147,16 @@ def solve_curvatures(
         d = d + pre @ extra
     att = np.ones((rows, c, s))
     soft = np.ones((rows, s))  # the rows' bending compliance factors per section
-    for _ in range(30 if mu > 0.0 or stiffening != 0.0 else 1):
-        geff = g[None] * np.repeat(att, 2, axis=2)  # (M, C, 2S): the tension acting per section
+    # (C, S): tendon i runs through section j (its own or one below it)
+    runs = (np.asarray(geom.section_of)[:, None] >= np.arange(s)[None, :]).astype(float)
+    towards = np.zeros((rows, s, 2))  # unit bend directions (M, S, 2) of the last iterate
+    iterate = mu > 0.0 or stiffening != 0.0 or clearance != 0.0
+    for _it in range(200 if clearance != 0.0 else 30 if iterate else 1):
+        shift = clearance * runs[None, :, :, None] * towards[:, None, :, :]  # (M, C, S, 2)
+        gc = g[None] + shift.reshape(rows, c, 2 * s)
+        geff = gc * np.repeat(att, 2, axis=2)  # (M, C, 2S): the tension acting per section
         comp_rows = compliance[None] * np.repeat(soft, 2, axis=1)[:, :, None]  # (M, 2S, 2S)
-        m_rows = np.einsum("cp,mpq,mkq->mck", g * lam[None], comp_rows, geff) + extra[None]
+        m_rows = np.einsum("mcp,mpq,mkq->mck", gc * lam[None, None], comp_rows, geff) + extra[None]
         t, _ = solve_tendon_law(
             m_rows,
             d,
@@ -158,7 +171,15 @@ def solve_curvatures(
         if stiffening != 0.0:
             kappa = np.hypot(u[:, 0::2], u[:, 1::2])  # (M, S) 1/m
             soft = 0.5 * soft + 0.5 / np.maximum(1.0 + stiffening * (kappa / 20.0) ** 2, 0.2)
-        if mu == 0.0 and stiffening == 0.0:
+        if clearance != 0.0:
+            uu = u.reshape(rows, s, 2)
+            norm = np.linalg.norm(uu, axis=2, keepdims=True)
+            new = np.divide(uu, norm, out=np.zeros_like(uu), where=norm > 1e-9)
+            change = float(np.max(np.abs(new - towards)))
+            towards = new
+            if change < 1e-12 and mu == 0.0 and stiffening == 0.0:
+                break
+        if not iterate:
             break
         theta = np.hypot(u[:, 0::2], u[:, 1::2]) * lam[None, 0::2]  # (M, S) rad
         wrap = np.concatenate([np.zeros((rows, 1)), np.cumsum(theta, axis=1)[:, :-1]], axis=1)
@@ -188,6 +209,7 @@ class Probe:
         "through_angles": 2,
         "helix": 1,
         "E_sections": 2,
+        "clearance": 1,
     }
 
     #: the start of the tension cap (N): about the largest tension of the selected fit on train.csv
@@ -218,6 +240,8 @@ class Probe:
                 p[sl] = 1.0  # d_s = 100 mm
             elif part == "compliance_sections":
                 p[sl] = 0.1  # 1e-6 m/N
+            elif part == "clearance":
+                p[sl] = 0.5  # 0.05 mm
         return p
 
     def __call__(self, data: Measurements, p: np.ndarray) -> np.ndarray:
@@ -275,6 +299,7 @@ class Probe:
             stiffening=beta,
             through_scale=self._through_scale(q, s),
             through_rotation=self._through_rotation(q, s),
+            clearance=abs(float(q["clearance"][0])) * 1e-4 if "clearance" in q else 0.0,
         )
         return forward_tips(geom, u[None])[0][0]
 
@@ -305,11 +330,11 @@ class Probe:
             turns += np.radians(q["helix"][0] * 10.0) * (mid[:, None] - mid[None, :])
         return turns
 
-    def fit(self, data: Measurements) -> np.ndarray:
-        """Least squares on the tip residuals (mm) from :meth:`start`."""
+    def fit(self, data: Measurements, start: np.ndarray | None = None) -> np.ndarray:
+        """Least squares on the tip residuals (mm) from ``start`` (None: :meth:`start`)."""
         return least_squares(
             lambda p: (self(data, p) - data.tip).ravel() * 1e3,
-            self.start(),
+            self.start() if start is None else start,
             diff_step=1e-3,
             max_nfev=200,
         ).x
@@ -337,6 +362,8 @@ class Probe:
             return f"helix pitch {q[0]:+.2f}°/100 mm"
         if part == "through_angles":
             return "through turns (in 1, in 2) = " + " / ".join(f"{x:+.1f}°" for x in q)
+        if part == "clearance":
+            return f"pinhole play c = {abs(q[0]) * 0.1:.3f} mm"
         if part == "through_radius":
             return f"through-radius factor {np.exp(q[0]):.3f}"
         if part == "slack_tendons":
@@ -390,8 +417,11 @@ def selected_fit() -> tuple[RobotParams, TendonDrive, dict[str, float]]:
     return robot, drive, values
 
 
-def run(terms: list[str], report: Callable[[str], None] = print) -> dict[str, dict]:
-    """Fit every term on the selection split and on train.csv (module docstring)."""
+def run(
+    terms: list[str], report: Callable[[str], None] = print, warm: bool = False
+) -> dict[str, dict]:
+    """Fit every term on the selection split and on train.csv (module docstring). ``warm``: a
+    combination ``a+…+z`` starts from the fits of ``a+…`` (z's parameters at their start)."""
     robot, drive, values = selected_fit()
     train = read_csv(DATA / "train.csv", robot=robot, drive=drive)
     val = read_csv(DATA / "val.csv", robot=robot, drive=drive)
@@ -403,7 +433,12 @@ def run(terms: list[str], report: Callable[[str], None] = print) -> dict[str, di
     for term in terms:
         t0 = time.perf_counter()
         probe = Probe(term, robot, drive, values)
-        ps, pf = probe.fit(single), probe.fit(train)
+        starts: list[np.ndarray | None] = [None, None]
+        if warm and "+" in term:
+            first = Probe(term.rsplit("+", 1)[0], robot, drive, values)
+            tail = probe.start()[first.size :]
+            starts = [np.append(first.fit(part), tail) for part in (single, train)]
+        ps, pf = probe.fit(single, starts[0]), probe.fit(train, starts[1])
         val_pred = probe(val, pf)
         inside, outside = rmse_aligned_split(val_pred, val.tip, beyond)
         row = {
@@ -422,6 +457,7 @@ def run(terms: list[str], report: Callable[[str], None] = print) -> dict[str, di
             f"{term}: single {row['single']:.3f}, pairs {row['pairs']:.3f} | train "
             f"{row['train']:.3f}, held-out {row['val']:.3f} (inside {row['val_inside']:.3f}, "
             f"beyond {row['val_beyond']:.3f}) mm | {row['full_fit']} "
+            f"(on the single rows: {row['selection_fit']}) "
             f"({row['seconds']:.0f} s)"
         )
     return out
@@ -435,8 +471,13 @@ def main(argv: list[str] | None = None) -> None:
         description=__doc__.splitlines()[0],
     )
     parser.add_argument("--terms", default=",".join(Probe.TERMS), help="comma-separated terms")
+    parser.add_argument(
+        "--warm",
+        action="store_true",
+        help="start a combination a+b from the fits of a (b's parameters at their start)",
+    )
     args = parser.parse_args(argv)
-    run(args.terms.split(","))
+    run(args.terms.split(","), warm=args.warm)
 
 
 if __name__ == "__main__":

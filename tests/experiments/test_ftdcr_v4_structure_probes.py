@@ -12,6 +12,7 @@ from cdcr_gym.calibration.backlash import play
 from cdcr_gym.calibration.drive import TendonDrive, solve_drive
 from cdcr_gym.calibration.report import load_fitted
 from cdcr_gym.calibration.simulate import drive_geometry
+from cdcr_gym.model.tendons import solve_tendon_law
 from experiments.ftdcr_v4_structure_probes import (
     DATA,
     FIT,
@@ -132,6 +133,7 @@ def test_zero_new_terms_are_the_plain_model(fitted):
         "slack_tendons": np.zeros(9),
         "through_radius": np.zeros(1),
         "E_sections": np.zeros(2),
+        "clearance": np.zeros(1),
     }
     for term, q in neutral.items():
         probe = Probe(term, robot, drive, _values(robot))
@@ -199,3 +201,34 @@ def test_section_moduli_scale_the_section_compliance(fitted):
     p[-2:] = np.log(3.0)  # sections 2 and 3 three times as stiff as section 1
     plain = Probe("isotropic", robot, drive, _values(robot))
     assert not np.allclose(probe(rows, p), plain(rows, p[: plain.size]), atol=1e-4)
+
+
+def test_clearance_is_a_consistent_equilibrium(fitted):
+    """With pinhole play c every tendon's radius vector is moved by c towards the centre of
+    curvature of each section it runs through, in its shortening and in its moment alike: the
+    returned curvatures solve the linear drive law of that shifted geometry, and the pulled
+    robot differs from the one without play."""
+    robot, drive, rows = fitted
+    geom = drive_geometry(robot, drive, [{}])
+    comp = section_compliance(float(geom.ei[0]), np.zeros(3), np.zeros(3))
+    d = play(rows.displacements, 0.0)
+    c = 1e-4  # m
+    u = solve_curvatures(geom, d, comp, clearance=c)  # (M, S, 2)
+    g, lam = geom.coupling()
+    g, lam = g[0], lam[0]
+    norm = np.linalg.norm(u, axis=2, keepdims=True)
+    towards = np.divide(u, norm, out=np.zeros_like(u), where=norm > 1e-9)
+    runs = (np.asarray(geom.section_of)[:, None] >= np.arange(3)[None, :]).astype(float)
+    gc = g[None] + (c * runs[None, :, :, None] * towards[:, None]).reshape(len(d), 9, 6)
+    m = np.einsum("mcp,pq,mkq->mck", gc * lam[None, None], comp, gc)
+    t, _ = solve_tendon_law(
+        m,
+        d,
+        geom.stiffness[0],
+        np.maximum(geom.pretension[0], 0.0),
+        base_compliance=float(geom.base_compliance[0]),
+    )
+    again = np.einsum("pq,mkq,mk->mp", comp, gc, t).reshape(u.shape)
+    np.testing.assert_allclose(again, u, rtol=1e-8, atol=1e-8)
+    plain = solve_curvatures(geom, d, comp)
+    assert np.max(np.abs(plain - u)) > 0.05  # 1/m: the play matters at 0.1 mm
