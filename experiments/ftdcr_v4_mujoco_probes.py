@@ -21,13 +21,15 @@ from pathlib import Path
 from experiments._config_script import load_script
 
 SCRIPT = Path("configs/calibration/ftdcr_v4_mujoco_selection.py")
-#: the probes of docs/experiments/real_robot.md: the tendon drive refitted per section on MuJoCo
-#: and the cable–disk capstan friction, beside the selected backbone friction or instead of it
+#: the probes of docs/experiments/real_robot.md: the tendon drive refitted per section on MuJoCo,
+#: the cable–disk capstan friction beside the selected backbone friction or instead of it, and
+#: the per-tendon pretensions refitted on MuJoCo
 TERMS = [
     "backbone_friction+k_sections",
     "backbone_friction+T0_sections",
     "mu",
     "backbone_friction+mu",
+    "backbone_friction+T0_tendons",
 ]
 
 
