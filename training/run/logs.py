@@ -140,7 +140,7 @@ def plot_learning_curve(run_dir: str | Path, out: str | Path | None = None) -> P
     ax.set_ylim(-2, 102)
     ax.set_title("periodic evaluation (fixed goals)")
     ax.grid(alpha=0.3)
-    ax.legend(loc="lower right")
+    _legend_or_note(ax, "lower right")
     ax = axes[1]
     if ev:
         ax.semilogy(steps, ev["mean_error_mm"], "o-", ms=3, label="mean")
@@ -151,7 +151,7 @@ def plot_learning_curve(run_dir: str | Path, out: str | Path | None = None) -> P
     ax.set_ylabel("final tip error (mm)")
     ax.set_title("periodic evaluation: final error")
     ax.grid(alpha=0.3, which="both")
-    ax.legend(loc="upper right")
+    _legend_or_note(ax, "upper right")
     ax = axes[2]
     if pr and "rollout/ep_rew_mean" in pr:
         x = pr["time/total_timesteps"]
@@ -175,3 +175,12 @@ def plot_learning_curve(run_dir: str | Path, out: str | Path | None = None) -> P
     fig.savefig(out, dpi=90)
     plt.close(fig)
     return out
+
+
+def _legend_or_note(ax: Any, loc: str) -> None:
+    """A legend for the curves drawn; before the first periodic evaluation (nothing drawn) a
+    note instead of matplotlib's warning that no artist has a label."""
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(loc=loc)
+    else:
+        ax.text(0.5, 0.5, "no evaluation yet", ha="center", va="center", transform=ax.transAxes)

@@ -93,6 +93,7 @@ from training.run.rundir import (
     clear_artefacts,
     refuse_legacy,
 )
+from training.run.stop_signal import stop_signal_handler
 
 # (RunDir, Checkpoint, build_vec_env, check_env_config, fallback_env_seed: re-exported from the
 # modules they moved to, for code that imports them from here)
@@ -142,18 +143,7 @@ def train(
 
     # Ctrl-C / SIGTERM: the first asks for a stop at the next rollout boundary (after a
     # checkpoint), the second stops at once; either way exit 130 without a traceback.
-    def on_signal(signum: int, frame: Any) -> None:
-        if state["stopped"]:  # already past the last checkpoint and winding down: nothing to gain
-            return
-        if state["stop_requested"]:
-            raise KeyboardInterrupt
-        state["stop_requested"] = True
-        print(
-            f"\n{signal.Signals(signum).name}: stopping after a checkpoint at the next rollout "
-            f"boundary (again to stop now)",
-            file=sys.stderr,
-            flush=True,
-        )
+    on_signal = stop_signal_handler(state)
 
     # Signal handlers can only be installed from the main thread (a sweep may train in another).
     in_main = threading.current_thread() is threading.main_thread()
