@@ -16,10 +16,10 @@ def stop_signal_handler(state: dict[str, Any]) -> Callable[[int, Any], None]:
     * the first signal: ``state["stop_requested"] = True`` and one line on stderr saying so;
     * a later one: ``KeyboardInterrupt``, the immediate stop.
 
-    A second signal that arrives while the first one's line is being written (stderr may be
-    Python code, e.g. a progress bar's proxy, in which a nested handler can run) does not raise
-    inside that write, where it would cut the line and the proxy's state: the first handler
-    raises it once its line is out.
+    A second signal that arrives while the first one's line is being written is handled inside
+    that write (CPython's buffered writer runs pending signal handlers after each write to the
+    file). Raising there would cut the line before its newline (the next line then joined it);
+    instead it only marks the stop, and the first handler raises once its line is out.
     """
 
     def on_signal(signum: int, frame: Any) -> None:
